@@ -1,0 +1,371 @@
+// SE(3) operations; see lie.hpp for conventions. Formulas: DESIGN.md sections 3 and 4.
+#include "lie.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include <Eigen/Geometry>
+#include <Eigen/LU>
+
+namespace cosserat {
+
+namespace {
+// Taylor coefficients in theta^2 of each closed form (exact rationals from sympy, 16 terms).
+// The switch points were chosen so that, in double precision, series below and closed form above
+// are both within ~1e-15 relative error of 50-digit references on (0, 6].
+constexpr double k_a3[] = {
+    1.0 / 6.0,
+    -1.0 / 120.0,
+    1.0 / 5040.0,
+    -1.0 / 362880.0,
+    1.0 / 39916800.0,
+    -1.0 / 6227020800.0,
+    1.0 / 1307674368000.0,
+    -1.0 / 355687428096000.0,
+    1.0 / 121645100408832000.0,
+    -1.0 / 51090942171709440000.0,
+    1.0 / 25852016738884976640000.0,
+    -1.0 / 15511210043330985984000000.0,
+    1.0 / 10888869450418352160768000000.0,
+    -1.0 / 8841761993739701954543616000000.0,
+    1.0 / 8222838654177922817725562880000000.0,
+    -1.0 / 8683317618811886495518194401280000000.0};
+constexpr double k_c1[] = {
+    1.0 / 2.0,
+    0.0,
+    -1.0 / 720.0,
+    1.0 / 20160.0,
+    -1.0 / 1209600.0,
+    1.0 / 119750400.0,
+    -1.0 / 17435658240.0,
+    1.0 / 3487131648000.0,
+    -1.0 / 914624815104000.0,
+    1.0 / 304112751022080000.0,
+    -1.0 / 124888969753067520000.0,
+    1.0 / 62044840173323943936000.0,
+    -1.0 / 36662860102418694144000000.0,
+    1.0 / 25407362050976155041792000000.0,
+    -1.0 / 20404066139399312202792960000000.0,
+    1.0 / 18795059780978109297658429440000000.0};
+constexpr double k_c2[] = {
+    1.0 / 6.0,
+    0.0,
+    -1.0 / 5040.0,
+    1.0 / 181440.0,
+    -1.0 / 13305600.0,
+    1.0 / 1556755200.0,
+    -1.0 / 261534873600.0,
+    1.0 / 59281238016000.0,
+    -1.0 / 17377871486976000.0,
+    1.0 / 6386367771463680000.0,
+    -1.0 / 2872446304320552960000.0,
+    1.0 / 1551121004333098598400000.0,
+    -1.0 / 989897222765304741888000000.0,
+    1.0 / 736813499478308496211968000000.0,
+    -1.0 / 632526050321378678286581760000000.0,
+    1.0 / 620236972772277606822728171520000000.0};
+constexpr double k_c3[] = {
+    1.0 / 24.0,
+    -1.0 / 360.0,
+    1.0 / 13440.0,
+    -1.0 / 907200.0,
+    1.0 / 95800320.0,
+    -1.0 / 14529715200.0,
+    1.0 / 2988969984000.0,
+    -1.0 / 800296713216000.0,
+    1.0 / 270322445352960000.0,
+    -1.0 / 112400072777760768000.0,
+    1.0 / 56404400157567221760000.0,
+    -1.0 / 33607621760550469632000000.0,
+    1.0 / 23452949585516450807808000000.0,
+    -1.0 / 18946632843727932759736320000000.0,
+    1.0 / 17542055795579568677814534144000000.0,
+    -1.0 / 18452049939975258802976163102720000000.0};
+constexpr double k_c4[] = {
+    1.0 / 120.0,
+    -1.0 / 2520.0,
+    1.0 / 120960.0,
+    -1.0 / 9979200.0,
+    1.0 / 1245404160.0,
+    -1.0 / 217945728000.0,
+    1.0 / 50812489728000.0,
+    -1.0 / 15205637551104000.0,
+    1.0 / 5676771352412160000.0,
+    -1.0 / 2585201673888497664000.0,
+    1.0 / 1410110003939180544000000.0,
+    -1.0 / 907405787534862680064000000.0,
+    1.0 / 680135537979977073426432000000.0,
+    -1.0 / 587345618155565915551825920000000.0,
+    1.0 / 578887841254125766367879626752000000.0,
+    -1.0 / 645821747899134058104165708595200000000.0};
+constexpr double k_d3[] = {
+    -1.0 / 180.0,
+    1.0 / 3360.0,
+    -1.0 / 151200.0,
+    1.0 / 11975040.0,
+    -1.0 / 1452971520.0,
+    1.0 / 249080832000.0,
+    -1.0 / 57164050944000.0,
+    1.0 / 16895152834560000.0,
+    -1.0 / 6244448487653376000.0,
+    1.0 / 2820220007878361088000.0,
+    -1.0 / 1527619170934112256000000.0,
+    1.0 / 977206232729852116992000000.0,
+    -1.0 / 728716647835689721528320000000.0,
+    1.0 / 626501992699270309921947648000000.0,
+    -1.0 / 615068331332508626765872103424000000.0,
+    1.0 / 683811262481436061522057809100800000000.0};
+constexpr double k_d4[] = {
+    -1.0 / 1260.0,
+    1.0 / 30240.0,
+    -1.0 / 1663200.0,
+    1.0 / 155675520.0,
+    -1.0 / 21794572800.0,
+    1.0 / 4234374144000.0,
+    -1.0 / 1086116967936000.0,
+    1.0 / 354798209525760000.0,
+    -1.0 / 143622315216027648000.0,
+    1.0 / 70505500196959027200000.0,
+    -1.0 / 41245717615221030912000000.0,
+    1.0 / 28338980749165711392768000000.0,
+    -1.0 / 22590216082906381367377920000000.0,
+    1.0 / 20674565759075920227424272384000000.0,
+    -1.0 / 21527391596637801936805523619840000000.0,
+    1.0 / 25301016711813134276316138936729600000000.0};
+
+template <int N>
+double horner(const double (&c)[N], double t2) {
+  double r = c[N - 1];
+  for (int i = N - 2; i >= 0; --i) r = r * t2 + c[i];
+  return r;
+}
+}  // namespace
+
+namespace lie_coefficients {
+const double switch_a3 = 1.5, switch_c1 = 1.5, switch_c2 = 2.5, switch_c3 = 2.3, switch_c4 = 2.2,
+             switch_d3 = 3.0, switch_d4 = 3.5;
+
+// sin t / t has no cancellation; only t = 0 itself needs care (series below 1e-4: error t^4/120).
+double a1(double t) { return t < 1e-4 ? 1.0 - t * t / 6.0 : std::sin(t) / t; }
+// 2 sin^2(t/2) / t^2 avoids the cancellation of 1 - cos t entirely.
+double a2(double t) {
+  if (t < 1e-4) return 0.5 - t * t / 24.0;
+  const double s = std::sin(0.5 * t) / t;
+  return 2.0 * s * s;
+}
+double a3(double t) { return t < switch_a3 ? horner(k_a3, t * t) : (t - std::sin(t)) / (t * t * t); }
+double c1(double t) {
+  return t < switch_c1 ? horner(k_c1, t * t) : (4.0 - 4.0 * std::cos(t) - t * std::sin(t)) / (2.0 * t * t);
+}
+double c2(double t) {
+  return t < switch_c2 ? horner(k_c2, t * t)
+                       : (4.0 * t - 5.0 * std::sin(t) + t * std::cos(t)) / (2.0 * t * t * t);
+}
+double c3(double t) {
+  const double t2 = t * t;
+  return t < switch_c3 ? horner(k_c3, t2) : (2.0 - 2.0 * std::cos(t) - t * std::sin(t)) / (2.0 * t2 * t2);
+}
+double c4(double t) {
+  const double t2 = t * t;
+  return t < switch_c4 ? horner(k_c4, t2)
+                       : (2.0 * t - 3.0 * std::sin(t) + t * std::cos(t)) / (2.0 * t2 * t2 * t);
+}
+double d3(double t) {
+  const double t2 = t * t;
+  return t < switch_d3
+             ? horner(k_d3, t2)
+             : (-t2 * std::cos(t) + 5.0 * t * std::sin(t) + 8.0 * std::cos(t) - 8.0) / (2.0 * t2 * t2 * t2);
+}
+double d4(double t) {
+  const double t2 = t * t;
+  return t < switch_d4 ? horner(k_d4, t2)
+                       : (-t2 * std::sin(t) - 7.0 * t * std::cos(t) - 8.0 * t + 15.0 * std::sin(t)) /
+                             (2.0 * t2 * t2 * t2 * t);
+}
+}  // namespace lie_coefficients
+
+namespace lc = lie_coefficients;
+
+Mat4 SE3::matrix() const {
+  Mat4 m = Mat4::Identity();
+  m.topLeftCorner<3, 3>() = R;
+  m.topRightCorner<3, 1>() = u;
+  return m;
+}
+
+Mat3 skew(const Vec3& a) {
+  Mat3 m;
+  m << 0.0, -a.z(), a.y(), a.z(), 0.0, -a.x(), -a.y(), a.x(), 0.0;
+  return m;
+}
+
+Vec3 unskew(const Mat3& A) {
+  return 0.5 * Vec3(A(2, 1) - A(1, 2), A(0, 2) - A(2, 0), A(1, 0) - A(0, 1));
+}
+
+Mat4 hat(const Vec6& xi) {
+  Mat4 m = Mat4::Zero();
+  m.topLeftCorner<3, 3>() = skew(xi.head<3>());
+  m.topRightCorner<3, 1>() = xi.tail<3>();
+  return m;
+}
+
+Vec6 vee(const Mat4& X) {
+  Vec6 v;
+  v << unskew(X.topLeftCorner<3, 3>()), X.topRightCorner<3, 1>();
+  return v;
+}
+
+Mat3 exp_so3(const Vec3& k) {
+  const double t = k.norm();
+  const Mat3 K = skew(k);
+  return Mat3::Identity() + lc::a1(t) * K + lc::a2(t) * K * K;
+}
+
+// e^{Omega^} = I + Omega^ + a2 Omega^2 + a3 Omega^3 (DESIGN.md section 4, X = 1), i.e.
+// R = I + a1 k~ + a2 k~^2 and u = (I + a2 k~ + a3 k~^2) p.
+SE3 exp_se3(const Vec6& Om) {
+  const Vec3 k = Om.head<3>(), p = Om.tail<3>();
+  const double t = k.norm();
+  const double A1 = lc::a1(t), A2 = lc::a2(t), A3 = lc::a3(t);
+  const Vec3 kp = k.cross(p), kkp = k.cross(kp);
+  SE3 g;
+  const Mat3 K = skew(k);
+  g.R = Mat3::Identity() + A1 * K + A2 * K * K;
+  g.u = p + A2 * kp + A3 * kkp;
+  return g;
+}
+
+Eigen::Vector4d quat_from_matrix(const Mat3& R) {
+  Eigen::Quaterniond q(R);
+  q.normalize();
+  if (q.w() < 0) q.coeffs() *= -1.0;
+  return Eigen::Vector4d(q.w(), q.x(), q.y(), q.z());
+}
+
+Vec6 log_se3(const SE3& g) {
+  // Rotation: angle from the trace, axis from the antisymmetric part, or near pi from the
+  // symmetric part (where the antisymmetric part vanishes).
+  const Mat3& R = g.R;
+  const double c = std::clamp(0.5 * (R.trace() - 1.0), -1.0, 1.0);
+  const double t = std::acos(c);
+  Vec3 k;
+  if (t < 1e-4) {
+    k = unskew(R) * (1.0 + t * t / 6.0);  // t / sin t
+  } else if (t < M_PI - 1e-3) {
+    k = unskew(R) * (t / std::sin(t));
+  } else {
+    // R = I + 2 n n^T - ... near pi: (R + I)/2 ~ n n^T; take the largest column, fix its sign
+    // from the antisymmetric part, then refine the angle with atan2.
+    const Mat3 B = 0.5 * (R + Mat3::Identity());
+    int i = 0;
+    B.diagonal().maxCoeff(&i);
+    Vec3 n = B.col(i) / std::sqrt(std::max(B(i, i), 1e-300));
+    n.normalize();
+    const Vec3 s = unskew(R);  // = sin t n
+    if (n.dot(s) < 0) n = -n;
+    const double tt = std::atan2(s.norm(), c);
+    k = tt * n;
+  }
+  // u = V p with V = I + a2 k~ + a3 k~^2; solve V p = u (V is invertible for t < 2 pi).
+  const double tk = k.norm();
+  const Mat3 K = skew(k);
+  const Mat3 V = Mat3::Identity() + lc::a2(tk) * K + lc::a3(tk) * K * K;
+  Vec6 out;
+  out << k, V.partialPivLu().solve(g.u);
+  return out;
+}
+
+Mat6 Ad(const SE3& g) {
+  Mat6 m;
+  m << g.R, Mat3::Zero(), skew(g.u) * g.R, g.R;
+  return m;
+}
+
+Mat6 Ad_inv(const SE3& g) {
+  const Mat3 Rt = g.R.transpose();
+  Mat6 m;
+  m << Rt, Mat3::Zero(), -Rt * skew(g.u), Rt;
+  return m;
+}
+
+Mat6 coAd(const SE3& g) {
+  Mat6 m;
+  m << g.R, skew(g.u) * g.R, Mat3::Zero(), g.R;
+  return m;
+}
+
+Mat6 ad(const Vec6& e) {
+  const Mat3 W = skew(e.head<3>());
+  Mat6 m;
+  m << W, Mat3::Zero(), skew(e.tail<3>()), W;
+  return m;
+}
+
+Mat6 coad(const Vec6& e) {
+  const Mat3 W = skew(e.head<3>());
+  Mat6 m;
+  m << W, skew(e.tail<3>()), Mat3::Zero(), W;
+  return m;
+}
+
+Vec6 Ad_inv_apply(const SE3& g, const Vec6& e) {
+  const Vec3 w = e.head<3>(), v = e.tail<3>();
+  Vec6 r;
+  r.head<3>() = g.R.transpose() * w;
+  r.tail<3>() = g.R.transpose() * (v - g.u.cross(w));
+  return r;
+}
+
+Vec6 coAd_apply(const SE3& g, const Vec6& F) {
+  const Vec3 n = g.R * F.tail<3>();
+  Vec6 r;
+  r.head<3>() = g.R * F.head<3>() + g.u.cross(n);
+  r.tail<3>() = n;
+  return r;
+}
+
+Vec6 ad_apply(const Vec6& a, const Vec6& b) {
+  Vec6 r;
+  r.head<3>() = a.head<3>().cross(b.head<3>());
+  r.tail<3>() = a.tail<3>().cross(b.head<3>()) + a.head<3>().cross(b.tail<3>());
+  return r;
+}
+
+Vec6 coad_apply(const Vec6& a, const Vec6& F) {
+  Vec6 r;
+  r.head<3>() = a.head<3>().cross(F.head<3>()) + a.tail<3>().cross(F.tail<3>());
+  r.tail<3>() = a.head<3>().cross(F.tail<3>());
+  return r;
+}
+
+Mat6 dexp(const Vec6& Om) {
+  const double t = Om.head<3>().norm();
+  const Mat6 A = ad(Om);
+  const Mat6 A2 = A * A;
+  const Mat6 A3 = A2 * A;
+  const Mat6 A4 = A2 * A2;
+  return Mat6::Identity() + lc::c1(t) * A + lc::c2(t) * A2 + lc::c3(t) * A3 + lc::c4(t) * A4;
+}
+
+// d/de sum_k c_k(theta) ad^k: the coefficients change with theta (d theta = k.dk / theta, so
+// dc_k = (c_k'/theta)(k.dk), with c1'/t = t^2 d3 and c2'/t = t^2 d4), and each power ad^k
+// changes as sum_j ad^j ad_delta ad^{k-1-j}.
+Mat6 ddexp(const Vec6& Om, const Vec6& de) {
+  const double t = Om.head<3>().norm();
+  const double kdk = Om.head<3>().dot(de.head<3>());
+  const double C1 = lc::c1(t), C2 = lc::c2(t), C3 = lc::c3(t), C4 = lc::c4(t);
+  const double D3 = lc::d3(t), D4 = lc::d4(t), D1 = t * t * D3, D2 = t * t * D4;
+  const Mat6 A = ad(Om), B = ad(de);
+  const Mat6 A2 = A * A, A3 = A2 * A;
+  const Mat6 BA = B * A, AB = A * B;
+  const Mat6 AB_A = AB * A;  // A B A
+  Mat6 out = kdk * (D1 * A + D2 * A2 + D3 * A3 + D4 * A2 * A2);
+  out += C1 * B;
+  out += C2 * (BA + AB);
+  out += C3 * (B * A2 + AB_A + A * AB);
+  out += C4 * (B * A3 + AB_A * A + A * AB_A + A2 * AB);
+  return out;
+}
+
+}  // namespace cosserat
