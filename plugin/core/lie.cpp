@@ -244,28 +244,23 @@ Eigen::Vector4d quat_from_matrix(const Mat3& R) {
 }
 
 Vec6 log_se3(const SE3& g) {
-  // Rotation: angle from the trace, axis from the antisymmetric part, or near pi from the
-  // symmetric part (where the antisymmetric part vanishes).
+  // Angle from atan2 (accurate everywhere, unlike acos near 0 and pi); axis from the
+  // antisymmetric part, or near pi from the symmetric part n n^T = (sym(R) - c I) / (1 - c).
   const Mat3& R = g.R;
-  const double c = std::clamp(0.5 * (R.trace() - 1.0), -1.0, 1.0);
-  const double t = std::acos(c);
+  const Vec3 s = unskew(R);  // = sin t n
+  const double c = 0.5 * (R.trace() - 1.0);
+  const double t = std::atan2(s.norm(), c);
   Vec3 k;
-  if (t < 1e-4) {
-    k = unskew(R) * (1.0 + t * t / 6.0);  // t / sin t
-  } else if (t < M_PI - 1e-3) {
-    k = unskew(R) * (t / std::sin(t));
+  if (t < M_PI - 1e-3) {
+    k = s / lc::a1(t);  // t / sin t, finite for t < pi
   } else {
-    // R = I + 2 n n^T - ... near pi: (R + I)/2 ~ n n^T; take the largest column, fix its sign
-    // from the antisymmetric part, then refine the angle with atan2.
-    const Mat3 B = 0.5 * (R + Mat3::Identity());
+    const Mat3 nn = (0.5 * (R + R.transpose()) - c * Mat3::Identity()) / (1.0 - c);
     int i = 0;
-    B.diagonal().maxCoeff(&i);
-    Vec3 n = B.col(i) / std::sqrt(std::max(B(i, i), 1e-300));
+    nn.diagonal().maxCoeff(&i);
+    Vec3 n = nn.col(i) / std::sqrt(std::max(nn(i, i), 1e-300));
     n.normalize();
-    const Vec3 s = unskew(R);  // = sin t n
     if (n.dot(s) < 0) n = -n;
-    const double tt = std::atan2(s.norm(), c);
-    k = tt * n;
+    k = t * n;
   }
   // u = V p with V = I + a2 k~ + a3 k~^2; solve V p = u (V is invertible for t < 2 pi).
   const double tk = k.norm();

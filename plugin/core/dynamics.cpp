@@ -1,0 +1,195 @@
+#include "dynamics.hpp"
+
+#include <cmath>
+
+#include "kinematics.hpp"
+
+namespace cosserat {
+
+namespace {
+// Children of node p (p = -1: the base) as a range in m.children.
+struct ChildRange {
+  const int *b, *e;
+  const int* begin() const { return b; }
+  const int* end() const { return e; }
+};
+ChildRange children_of(const Model& m, int p) {
+  return {m.children.data() + m.children_begin[p + 1], m.children.data() + m.children_begin[p + 2]};
+}
+}  // namespace
+
+void crba(const Model& m, Data& d) {
+  const int nn = static_cast<int>(m.nodes.size());
+  // composite inertia in each node frame: Ic_i = M_i + sum_c Ad*_{g_ic} Ic_c Ad^-1_{g_ic}
+  for (int i = nn - 1; i >= 0; --i) {
+    Mat6 I = m.nodes[i].inertia;
+    for (int c : children_of(m, i)) {
+      const Mat6 X = Ad_inv(d.g_rel[c]);
+      I.noalias() += X.transpose() * d.Ic[c] * X;
+    }
+    d.Ic[i] = I;
+  }
+  d.M.setZero();
+  // M = sum_a [S_a^T Ic_a S_a + sum_{b ancestor of a} (S_a^T Ic_a X_{b->a} S_b + transpose)]
+  for (int a = 0; a < nn; ++a) {
+    const Node& na = m.nodes[a];
+    if (na.ndof == 0) continue;
+    auto Fa = d.Fs.leftCols(na.ndof);
+    Fa.noalias() = d.Ic[a] * d.S[a];
+    d.M.block(na.dof0, na.dof0, na.ndof, na.ndof).noalias() += d.S[a].transpose() * Fa;
+    for (int j = a; m.nodes[j].parent >= 0; j = m.nodes[j].parent) {
+      const int b = m.nodes[j].parent;
+      Fa = coAd(d.g_rel[j]) * Fa;  // force subspace transported to the parent frame
+      const Node& nb = m.nodes[b];
+      if (nb.ndof == 0) continue;
+      auto blk = d.M.block(na.dof0, nb.dof0, na.ndof, nb.ndof);
+      blk.noalias() += Fa.transpose() * d.S[b];
+      d.M.block(nb.dof0, na.dof0, nb.ndof, na.ndof).noalias() += d.S[b].transpose() * Fa;
+    }
+  }
+}
+
+void rnea(const Model& m, Data& d, const Eigen::Ref<const VecX>& qacc, bool gravity, bool external,
+          Eigen::Ref<VecX> tau) {
+  const int nn = static_cast<int>(m.nodes.size());
+  // the base accelerates by base_accel; gravity enters as an upward base acceleration
+  Vec6 a0 = d.base_accel;
+  if (gravity) a0.tail<3>() -= d.base_pose.R.transpose() * m.gravity;
+  for (int i = 0; i < nn; ++i) {
+    const Node& n = m.nodes[i];
+    Vec6 a = Ad_inv_apply(d.g_rel[i], n.parent < 0 ? a0 : d.acc[n.parent]) + d.cbias[i];
+    if (n.ndof > 0) a.noalias() += d.S[i] * qacc.segment(n.dof0, n.ndof);
+    d.acc[i] = a;
+    // Newton-Euler in the body frame: f = M acc + ad*_eta M eta - f_ext
+    const Vec6 h = n.inertia * d.eta[i];
+    Vec6 f = n.inertia * a + coad_apply(d.eta[i], h);
+    if (external) {
+      const Mat3 Rt = d.g[i].R.transpose();
+      f -= d.f_ext_body[i];
+      f.head<3>() -= Rt * d.f_ext_world[i].head<3>();
+      f.tail<3>() -= Rt * d.f_ext_world[i].tail<3>();
+    }
+    d.F[i] = f;
+  }
+  tau.setZero();
+  for (int i = nn - 1; i >= 0; --i) {
+    const Node& n = m.nodes[i];
+    if (n.ndof > 0) tau.segment(n.dof0, n.ndof).noalias() += d.S[i].transpose() * d.F[i];
+    if (n.parent >= 0) d.F[n.parent] += coAd_apply(d.g_rel[i], d.F[i]);
+  }
+}
+
+void passive(const Model& m, Data& d) {
+  d.tmp = d.q - m.q_ref;
+  d.qfrc_passive.noalias() = -m.K * d.tmp;
+  d.qfrc_passive.noalias() -= m.D * d.v;
+}
+
+namespace {
+// Generalised force of cable c per unit tension, -dl/dq, accumulated into out with factor s;
+// returns the cable length. The cable's local tangent in the cross-section frame is
+// p + k x d + d' (the material derivative of the point at offset d): t = that / |that|.
+// dl = int t . (dp + dk x d) dX = int [d x t; t]^T Phi dq dX.
+double cable_integral(const Model& m, const Data& d, int c, double s, Eigen::Ref<VecX>* out) {
+  const Cable& cab = m.cables[c];
+  const Vec3 dd = (cab.d_end - cab.d_begin) / (cab.X_end - cab.X_begin);  // d'(X)
+  double len = 0.0;
+  double P[32];
+  for (const Cable::Point& pt : cab.points) {
+    const Section& sec = m.sections[pt.section];
+    const int nb = sec.order + 1;
+    legendre01(sec.order, (pt.X - sec.X0) / sec.length, P);
+    Vec6 xi = sec.rest_strain;  // strain at X: B (x) P q + xi*
+    for (int col = 0; col < sec.B.cols(); ++col) {
+      double coef = 0.0;
+      for (int k = 0; k < nb; ++k) coef += d.q(sec.dof0 + col * nb + k) * P[k];
+      xi += sec.B.col(col) * coef;
+    }
+    const Vec3 dX = cab.d_begin + (pt.X - cab.X_begin) * dd;
+    const Vec3 tv = xi.tail<3>() + xi.head<3>().cross(dX) + dd;
+    const double tn = tv.norm();
+    len += pt.w * tn;
+    if (out && tn > 0) {
+      const Vec3 t = tv / tn;
+      Vec6 Fa;  // DESIGN.md section 5: F_a = [d~ t; t] per unit tension
+      Fa << dX.cross(t), t;
+      for (int col = 0; col < sec.B.cols(); ++col) {
+        const double bf = sec.B.col(col).dot(Fa);
+        for (int k = 0; k < nb; ++k) (*out)(sec.dof0 + col * nb + k) += s * pt.w * bf * P[k];
+      }
+    }
+  }
+  return len;
+}
+}  // namespace
+
+double cable_length(const Model& m, const Data& d, int c, VecX* grad) {
+  if (!grad) return cable_integral(m, d, c, 0.0, nullptr);
+  grad->setZero(m.nv);
+  Eigen::Ref<VecX> g(*grad);
+  return cable_integral(m, d, c, 1.0, &g);
+}
+
+void actuation(const Model& m, Data& d) {
+  d.qfrc_actuator.setZero();
+  Eigen::Ref<VecX> out(d.qfrc_actuator);
+  for (int k = 0; k < m.nu(); ++k) {
+    const Actuator& act = m.actuators[k];
+    if (act.kind == Actuator::DofForce) {
+      d.qfrc_actuator(act.index) += d.ctrl(k);
+    } else if (d.ctrl(k) != 0.0) {
+      cable_integral(m, d, act.index, -d.ctrl(k), &out);  // tau = -T dl/dq
+    }
+  }
+}
+
+void forward(const Model& m, Data& d) {
+  fwd_position(m, d);
+  fwd_velocity(m, d);
+  crba(m, d);
+  d.rhs.setZero();
+  rnea(m, d, d.rhs, true, true, d.qfrc_bias);
+  passive(m, d);
+  actuation(m, d);
+  d.rhs = d.qfrc_passive + d.qfrc_actuator - d.qfrc_bias;
+  d.ldlt.compute(d.M);
+  d.qacc = d.ldlt.solve(d.rhs);
+}
+
+Energy energy(const Model& m, const Data& d) {
+  Energy e;
+  for (size_t i = 0; i < m.nodes.size(); ++i) {
+    const Mat6& I = m.nodes[i].inertia;
+    e.kinetic += 0.5 * d.eta[i].dot(I * d.eta[i]);
+    const double mass = I(3, 3);
+    if (mass > 0) {
+      const Vec3 c = unskew(I.topRightCorner<3, 3>()) / mass;  // I_tr = m c~
+      e.gravity -= mass * m.gravity.dot(d.g[i].act(c));
+    }
+  }
+  const VecX dq = d.q - m.q_ref;
+  e.elastic = 0.5 * dq.dot(m.K * dq);
+  return e;
+}
+
+Vec6 momentum(const Model& m, const Data& d) {
+  Vec6 h = Vec6::Zero();
+  for (size_t i = 0; i < m.nodes.size(); ++i) h += coAd_apply(d.g[i], m.nodes[i].inertia * d.eta[i]);
+  return h;
+}
+
+Vec3 center_of_mass(const Model& m, const Data& d, double* total) {
+  double mt = 0.0;
+  Vec3 c = Vec3::Zero();
+  for (size_t i = 0; i < m.nodes.size(); ++i) {
+    const Mat6& I = m.nodes[i].inertia;
+    const double mass = I(3, 3);
+    if (mass <= 0) continue;
+    mt += mass;
+    c += mass * d.g[i].act(unskew(I.topRightCorner<3, 3>()) / mass);
+  }
+  if (total) *total = mt;
+  return mt > 0 ? Vec3(c / mt) : c;
+}
+
+}  // namespace cosserat

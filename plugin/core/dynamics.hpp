@@ -1,0 +1,38 @@
+// Generalised dynamics (DESIGN.md section 5):
+//   M(q) qacc + bias(q, v) = qfrc_passive + qfrc_actuator,
+// bias = Coriolis/centrifugal + gravity - external loads (recursive Newton-Euler),
+// qfrc_passive = -K (q - q_ref) - D v, qfrc_actuator from cable tensions and dof forces.
+#pragma once
+
+#include "model.hpp"
+
+namespace cosserat {
+
+// Mass matrix by the composite-rigid-body algorithm into d.M. After fwd_position.
+void crba(const Model& m, Data& d);
+// Recursive Newton-Euler: tau = M qacc + C v + gravity - external loads. After fwd_velocity.
+// `gravity` and `external` switch those contributions on; the base moves as d.base_twist/accel.
+void rnea(const Model& m, Data& d, const Eigen::Ref<const VecX>& qacc, bool gravity, bool external,
+          Eigen::Ref<VecX> tau);
+// -K (q - q_ref) - D v into d.qfrc_passive.
+void passive(const Model& m, Data& d);
+// Generalised force of the actuators for d.ctrl into d.qfrc_actuator. After fwd_position.
+void actuation(const Model& m, Data& d);
+// Everything above and the accelerations d.qacc (explicit forward dynamics).
+void forward(const Model& m, Data& d);
+
+// Length of a cable and its gradient dl/dq (the cable's generalised force is -T dl/dq).
+double cable_length(const Model& m, const Data& d, int cable, VecX* grad = nullptr);
+
+struct Energy {
+  double kinetic = 0, gravity = 0, elastic = 0;
+  double total() const { return kinetic + gravity + elastic; }
+};
+// After fwd_velocity (kinetic energy from node twists; gravity relative to the world origin).
+Energy energy(const Model& m, const Data& d);
+// Total spatial momentum [angular about the world origin; linear] in world axes. After fwd_velocity.
+Vec6 momentum(const Model& m, const Data& d);
+// World position of the centre of mass of everything, and the total mass.
+Vec3 center_of_mass(const Model& m, const Data& d, double* total_mass = nullptr);
+
+}  // namespace cosserat

@@ -1,0 +1,78 @@
+#include "integrators.hpp"
+
+#include "dynamics.hpp"
+#include "kinematics.hpp"
+
+namespace cosserat {
+
+std::optional<Integrator> integrator_from_name(std::string_view n) {
+  if (n == "euler") return Integrator::Euler;
+  if (n == "implicit") return Integrator::Implicit;
+  if (n == "rk4") return Integrator::RK4;
+  return std::nullopt;
+}
+
+namespace {
+// Semi-implicit step; `stiffness_implicit` selects Implicit over Euler.
+void step_semi_implicit(const Model& m, Data& d, double h, bool stiffness_implicit) {
+  fwd_position(m, d);
+  fwd_velocity(m, d);
+  crba(m, d);
+  d.rhs.setZero();
+  rnea(m, d, d.rhs, true, true, d.qfrc_bias);
+  actuation(m, d);
+  passive(m, d);  // for the outputs; the force used below splits it
+  d.tmp = d.q - m.q_ref;
+  d.rhs = d.qfrc_actuator - d.qfrc_bias;
+  d.rhs.noalias() -= m.K * d.tmp;
+  d.rhs *= h;
+  d.rhs.noalias() += d.M * d.v;
+  d.A = d.M + h * m.D;
+  if (stiffness_implicit) d.A += (h * h) * m.K;
+  d.ldlt.compute(d.A);
+  d.tmp = d.ldlt.solve(d.rhs);  // v+
+  d.qacc = (d.tmp - d.v) / h;
+  d.v = d.tmp;
+  d.q.noalias() += h * d.v;
+}
+
+void step_rk4(const Model& m, Data& d, double h) {
+  d.q0 = d.q;
+  d.v0 = d.v;
+  static constexpr double a[3] = {0.5, 0.5, 1.0};
+  for (int s = 0; s < 4; ++s) {
+    if (s > 0) {
+      d.q = d.q0 + (a[s - 1] * h) * d.kq[s - 1];
+      d.v = d.v0 + (a[s - 1] * h) * d.kv[s - 1];
+    }
+    forward(m, d);
+    d.kq[s] = d.v;
+    d.kv[s] = d.qacc;
+  }
+  d.q = d.q0 + (h / 6.0) * (d.kq[0] + 2.0 * d.kq[1] + 2.0 * d.kq[2] + d.kq[3]);
+  d.v = d.v0 + (h / 6.0) * (d.kv[0] + 2.0 * d.kv[1] + 2.0 * d.kv[2] + d.kv[3]);
+  d.qacc = (1.0 / 6.0) * (d.kv[0] + 2.0 * d.kv[1] + 2.0 * d.kv[2] + d.kv[3]);
+}
+}  // namespace
+
+Status step(const Model& m, Data& d, double h, Integrator method) {
+  d.q0 = d.q;
+  d.v0 = d.v;
+  switch (method) {
+    case Integrator::Euler: step_semi_implicit(m, d, h, false); break;
+    case Integrator::Implicit: step_semi_implicit(m, d, h, true); break;
+    case Integrator::RK4: step_rk4(m, d, h); break;
+  }
+  if (!d.q.allFinite() || !d.v.allFinite()) {
+    // our own divergence check: restore the last good state and report
+    d.q = d.q0;
+    d.v = d.v0;
+    d.status = Status::Diverged;
+    return d.status;
+  }
+  d.time += h;
+  d.status = Status::Ok;
+  return d.status;
+}
+
+}  // namespace cosserat

@@ -1,0 +1,32 @@
+// Kinematics of the node tree: poses, twists, Jacobians, and poses/Jacobians at any material
+// abscissa of a rod.
+#pragma once
+
+#include "model.hpp"
+
+namespace cosserat {
+
+// From d.q: Omega, g_rel, g (world), G = dOmega/dq and the motion subspaces S = dexp(-Omega) G.
+void fwd_position(const Model& m, Data& d);
+// From d.v (after fwd_position): Omega_dot, body twists eta and the velocity-product
+// accelerations cbias (so that acc_i = Ad^-1 acc_parent + cbias_i + S_i qacc_i).
+void fwd_velocity(const Model& m, Data& d);
+
+// Body Jacobian of node i (6 x nv): eta_i = J v (with a fixed base). After fwd_position.
+void node_jacobian(const Model& m, const Data& d, int node, MatX& J);
+// J-dot v of node i: its body acceleration at qacc = 0 with a fixed base. After fwd_velocity.
+Vec6 node_jdot_v(const Model& m, const Data& d, int node);
+
+// World pose of the cross-section of rod r at abscissa X in [0, L]. After fwd_position.
+// Exact for PCS; one 4th-order Magnus step from the previous node for GVS.
+SE3 rod_pose(const Model& m, const Data& d, int rod, double X);
+// Body Jacobian (6 x nv) of the cross-section at X. After fwd_position.
+void rod_jacobian(const Model& m, const Data& d, int rod, double X, MatX& J);
+// Strain xi(X) = Phi(X) q + xi* of rod r.
+Vec6 rod_strain(const Model& m, const Data& d, int rod, double X);
+
+// The Magnus step of a node evaluated for an arbitrary q block (used by the functions above):
+// Omega, and optionally G = dOmega/dq_block.
+Vec6 step_twist(const Node& n, const Eigen::Ref<const VecX>& qi, Mat6X* G);
+
+}  // namespace cosserat

@@ -1,0 +1,60 @@
+#include "linearize.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include <Eigen/Eigenvalues>
+#include <Eigen/LU>
+
+#include "dynamics.hpp"
+#include "kinematics.hpp"
+#include "statics.hpp"
+
+namespace cosserat {
+
+Linearization linearize(const Model& m, Data& d) {
+  const int n = m.nv, nu = m.nu();
+  Linearization L;
+  tangent_stiffness(m, d, 1.0, L.Kt);
+  d.v.setZero();
+  fwd_position(m, d);
+  crba(m, d);
+  L.M = d.M;
+  L.D = m.D;
+  // actuation is linear in u at fixed q: one column per unit input
+  L.Bu = MatX::Zero(n, nu);
+  const VecX u0 = d.ctrl;
+  for (int k = 0; k < nu; ++k) {
+    d.ctrl.setZero();
+    d.ctrl(k) = 1.0;
+    actuation(m, d);
+    L.Bu.col(k) = d.qfrc_actuator;
+  }
+  d.ctrl = u0;
+  actuation(m, d);
+
+  Eigen::PartialPivLU<MatX> lu(L.M);
+  L.A = MatX::Zero(2 * n, 2 * n);
+  L.A.topRightCorner(n, n).setIdentity();
+  L.A.bottomLeftCorner(n, n) = -lu.solve(L.Kt);
+  L.A.bottomRightCorner(n, n) = -lu.solve(L.D);
+  L.B = MatX::Zero(2 * n, nu);
+  L.B.bottomRows(n) = lu.solve(L.Bu);
+
+  // Kt is symmetric for conservative loads; follower loads make it slightly unsymmetric.
+  const MatX Ks = 0.5 * (L.Kt + L.Kt.transpose());
+  std::vector<double> w2;
+  if ((L.Kt - Ks).norm() <= 1e-6 * Ks.norm()) {
+    Eigen::GeneralizedSelfAdjointEigenSolver<MatX> es(Ks, L.M);
+    for (int i = 0; i < n; ++i) w2.push_back(es.eigenvalues()(i));
+  } else {
+    Eigen::EigenSolver<MatX> es(lu.solve(L.Kt));
+    for (int i = 0; i < n; ++i) w2.push_back(es.eigenvalues()(i).real());
+  }
+  std::sort(w2.begin(), w2.end());
+  L.frequencies_hz.resize(n);
+  for (int i = 0; i < n; ++i) L.frequencies_hz(i) = std::sqrt(std::max(w2[i], 0.0)) / (2.0 * M_PI);
+  return L;
+}
+
+}  // namespace cosserat

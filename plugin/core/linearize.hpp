@@ -1,0 +1,20 @@
+// Linearisation about an equilibrium (q0, v = 0, u0):
+//   M dqacc + D dv + Kt dq = Bu du,   x = [dq; dv],   x_dot = A x + B du,
+//   A = [[0, I], [-M^-1 Kt, -M^-1 D]],   B = [[0], [M^-1 Bu]],
+// with Kt the tangent stiffness (elastic + geometric stiffness of gravity, loads and actuation).
+#pragma once
+
+#include "model.hpp"
+
+namespace cosserat {
+
+struct Linearization {
+  MatX A, B;            // state-space matrices (2 nv x 2 nv, 2 nv x nu)
+  MatX M, D, Kt, Bu;    // second-order form
+  VecX frequencies_hz;  // undamped natural frequencies, ascending (from Kt x = w^2 M x)
+};
+
+// Linearises at d.q (call equilibrium() first) and d.ctrl.
+Linearization linearize(const Model& m, Data& d);
+
+}  // namespace cosserat

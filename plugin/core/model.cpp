@@ -1,0 +1,294 @@
+// Building the node tree of a soft-rigid model (see model.hpp for the structure).
+#include "model.hpp"
+
+#include <cmath>
+#include <stdexcept>
+
+namespace cosserat {
+
+namespace {
+constexpr double kSqrt3 = 1.7320508075688772;
+
+void require(bool ok, const std::string& what) {
+  if (!ok) throw std::invalid_argument(what);
+}
+}  // namespace
+
+Mat6 spatial_inertia(double m, const Vec3& c, const Mat3& Ic) {
+  const Mat3 C = skew(c);
+  Mat6 I;
+  I << Ic - m * C * C, m * C, -m * C, m * Mat3::Identity();
+  return I;
+}
+
+Vec6 section_stiffness(const RodMaterial& mat, double r) {
+  const double A = M_PI * r * r, I = M_PI * r * r * r * r / 4.0, J = 2.0 * I;
+  const double G = mat.young / (2.0 * (1.0 + mat.poisson));
+  Vec6 s;
+  s << G * J, mat.young * I, mat.young * I, mat.young * A, G * A, G * A;
+  return s;
+}
+
+Vec6 section_inertia_density(const RodMaterial& mat, double r) {
+  const double A = M_PI * r * r, I = M_PI * r * r * r * r / 4.0, J = 2.0 * I;
+  return mat.density * (Vec6() << J, I, I, A, A, A).finished();
+}
+
+Vec6 section_damping(const RodMaterial& mat, double r) {
+  const double A = M_PI * r * r, I = M_PI * r * r * r * r / 4.0, J = 2.0 * I;
+  return mat.viscosity * (Vec6() << J, 3 * I, 3 * I, 3 * A, A, A).finished();
+}
+
+void Section::basis(double X, Mat6X& Phi) const {
+  const int nb = order + 1;
+  double P[32];
+  legendre01(order, (X - X0) / length, P);
+  Phi.setZero(6, ndof);
+  for (int c = 0; c < B.cols(); ++c)
+    for (int k = 0; k < nb; ++k) Phi.col(c * nb + k) = B.col(c) * P[k];
+}
+
+int Model::add_joint(int parent, const SE3& placement, JointType type, const Vec3& axis, double pitch,
+                     double stiffness, double damping) {
+  require(!finalized, "add_joint after finalize");
+  require(parent >= -1 && parent < static_cast<int>(nodes.size()), "add_joint: bad parent node");
+  require(axis.norm() > 0, "add_joint: zero axis");
+  Node n;
+  n.parent = parent;
+  n.offset = placement;
+  n.dof0 = nv;
+  n.ndof = joint_dofs(type);
+  n.h = 1.0;
+  n.Phi_a = n.Phi_b = joint_basis(type, axis, pitch);
+  for (int k = 0; k < n.ndof; ++k) {
+    joint_dof_.push_back(nv + k);
+    joint_stiffness_.push_back(stiffness);
+    joint_damping_.push_back(damping);
+  }
+  nv += n.ndof;
+  nodes.push_back(n);
+  return static_cast<int>(nodes.size()) - 1;
+}
+
+int Model::add_frame(int parent, const SE3& placement) {
+  require(!finalized, "add_frame after finalize");
+  require(parent >= -1 && parent < static_cast<int>(nodes.size()), "add_frame: bad parent node");
+  Node n;
+  n.parent = parent;
+  n.offset = placement;
+  n.dof0 = nv;
+  n.ndof = 0;
+  n.Phi_a = n.Phi_b = Mat6X(6, 0);
+  nodes.push_back(n);
+  return static_cast<int>(nodes.size()) - 1;
+}
+
+void Model::add_body(int node, double mass, const Vec3& com, const Mat3& inertia_at_com) {
+  require(node >= 0 && node < static_cast<int>(nodes.size()), "add_body: bad node");
+  require(mass >= 0, "add_body: negative mass");
+  nodes[node].inertia += spatial_inertia(mass, com, inertia_at_com);
+}
+
+int Model::add_rod(int parent, const SE3& placement, const RodSpec& spec) {
+  require(!finalized, "add_rod after finalize");
+  require(parent >= -1 && parent < static_cast<int>(nodes.size()), "add_rod: bad parent node");
+  require(spec.length > 0, "rod '" + spec.name + "': length must be positive");
+  require(spec.radius_base > 0, "rod '" + spec.name + "': radius must be positive");
+  require(spec.sections >= 1, "rod '" + spec.name + "': sections must be >= 1");
+  Rod rod;
+  rod.name = spec.name;
+  rod.length = spec.length;
+  rod.radius_base = spec.radius_base;
+  rod.radius_tip = spec.radius_tip > 0 ? spec.radius_tip : spec.radius_base;
+  rod.parent = parent;
+  rod.placement = placement;
+  rod.first_section = static_cast<int>(sections.size());
+  const int rod_id = static_cast<int>(rods.size());
+
+  std::vector<SectionSpec> specs = spec.overrides;
+  if (specs.empty()) specs.assign(spec.sections, spec.section);
+  double given = 0.0;
+  int unsized = 0;
+  for (const auto& s : specs) {
+    require(s.length >= 0, "rod '" + spec.name + "': negative section length");
+    given += s.length;
+    unsized += s.length == 0.0;
+  }
+  require(unsized > 0 ? given < spec.length : std::abs(given - spec.length) < 1e-9 * spec.length,
+          "rod '" + spec.name + "': section lengths do not add up to the rod length");
+  const double fill = unsized > 0 ? (spec.length - given) / unsized : 0.0;
+
+  int prev = parent;
+  double X0 = 0.0;
+  std::vector<double> gx, gw;
+  for (const auto& ss : specs) {
+    require(ss.order >= 0 && ss.order <= 20, "rod '" + spec.name + "': order must be in [0, 20]");
+    require(ss.material.density > 0 && ss.material.young > 0,
+            "rod '" + spec.name + "': density and Young's modulus must be positive");
+    require(ss.material.poisson > -1.0 && ss.material.poisson <= 0.5,
+            "rod '" + spec.name + "': Poisson ratio must be in (-1, 0.5]");
+    require(ss.material.viscosity >= 0, "rod '" + spec.name + "': negative viscosity");
+    Section sec;
+    sec.rod = rod_id;
+    sec.X0 = X0;
+    sec.length = ss.length > 0 ? ss.length : fill;
+    sec.order = ss.order;
+    sec.B = basis_from_mask(ss.dofs);
+    sec.ndof = static_cast<int>(sec.B.cols()) * (ss.order + 1);
+    sec.dof0 = nv;
+    sec.rest_strain = ss.rest_strain;
+    sec.material = ss.material;
+    sec.start_node = prev;
+    nv += sec.ndof;
+
+    const int nq = ss.quadrature > 0 ? ss.quadrature : ss.order + 2;
+    gauss_legendre01(nq, gx, gw);
+    sec.first_node = static_cast<int>(nodes.size());
+    double Xprev = X0;
+    for (int j = 0; j <= nq; ++j) {
+      const double X = j < nq ? X0 + gx[j] * sec.length : X0 + sec.length;
+      Node n;
+      n.parent = prev;
+      n.offset = (prev == parent) ? placement : SE3::Identity();
+      n.dof0 = sec.dof0;
+      n.ndof = sec.ndof;
+      n.h = X - Xprev;
+      sec.basis(Xprev + n.h * (0.5 - kSqrt3 / 6.0), n.Phi_a);
+      sec.basis(Xprev + n.h * (0.5 + kSqrt3 / 6.0), n.Phi_b);
+      n.xibar_a = n.xibar_b = sec.rest_strain;
+      n.commutator = sec.order > 0;
+      if (j < nq) {
+        n.dX = gw[j] * sec.length;
+        n.inertia = (n.dX * section_inertia_density(ss.material, rod.radius(X))).asDiagonal();
+      }
+      n.rod = rod_id;
+      n.section = static_cast<int>(sections.size());
+      n.X = X;
+      nodes.push_back(n);
+      prev = static_cast<int>(nodes.size()) - 1;
+      Xprev = X;
+    }
+    sec.end_node = prev;
+    sections.push_back(sec);
+    X0 += sec.length;
+  }
+  rod.nsections = static_cast<int>(specs.size());
+  rod.tip_node = prev;
+  rods.push_back(rod);
+  return rod_id;
+}
+
+int Model::add_cable(const Cable& c, const std::string& name) {
+  require(c.rod >= 0 && c.rod < static_cast<int>(rods.size()), "add_cable: bad rod");
+  Cable cc = c;
+  if (cc.X_end < 0) cc.X_end = rods[c.rod].length;
+  require(cc.X_begin >= 0 && cc.X_begin < cc.X_end && cc.X_end <= rods[c.rod].length * (1 + 1e-12),
+          "add_cable: need 0 <= X_begin < X_end <= rod length");
+  const Rod& rod = rods[c.rod];
+  std::vector<double> gx, gw;
+  for (int si = rod.first_section; si < rod.first_section + rod.nsections; ++si) {
+    const Section& sec = sections[si];
+    const double a = std::max(sec.X0, cc.X_begin), b = std::min(sec.X0 + sec.length, cc.X_end);
+    if (b <= a) continue;
+    gauss_legendre01(sec.order + 3, gx, gw);
+    for (size_t j = 0; j < gx.size(); ++j) cc.points.push_back({a + gx[j] * (b - a), gw[j] * (b - a), si});
+  }
+  cables.push_back(cc);
+  actuators.push_back({Actuator::CableTension, static_cast<int>(cables.size()) - 1, name});
+  return static_cast<int>(actuators.size()) - 1;
+}
+
+int Model::add_dof_actuator(int dof, const std::string& name) {
+  require(dof >= 0 && dof < nv, "add_dof_actuator: bad dof");
+  actuators.push_back({Actuator::DofForce, dof, name});
+  return static_cast<int>(actuators.size()) - 1;
+}
+
+void Model::finalize() {
+  require(!finalized, "finalize called twice");
+  K = MatX::Zero(nv, nv);
+  D = MatX::Zero(nv, nv);
+  q_ref = VecX::Zero(nv);
+  for (size_t k = 0; k < joint_dof_.size(); ++k) {
+    K(joint_dof_[k], joint_dof_[k]) += joint_stiffness_[k];
+    D(joint_dof_[k], joint_dof_[k]) += joint_damping_[k];
+  }
+  // K = int Phi^T Sigma Phi dX, D = int Phi^T Upsilon Phi dX (DESIGN.md section 5). The integrand
+  // is a polynomial of degree 2 order + 4 (r^4 under a linear taper): order + 3 points are exact.
+  std::vector<double> gx, gw;
+  Mat6X Phi;
+  for (const auto& sec : sections) {
+    if (sec.ndof == 0) continue;
+    gauss_legendre01(sec.order + 4, gx, gw);
+    const Rod& rod = rods[sec.rod];
+    for (size_t j = 0; j < gx.size(); ++j) {
+      const double X = sec.X0 + gx[j] * sec.length, w = gw[j] * sec.length;
+      sec.basis(X, Phi);
+      const double r = rod.radius(X);
+      K.block(sec.dof0, sec.dof0, sec.ndof, sec.ndof) +=
+          w * Phi.transpose() * section_stiffness(sec.material, r).asDiagonal() * Phi;
+      D.block(sec.dof0, sec.dof0, sec.ndof, sec.ndof) +=
+          w * Phi.transpose() * section_damping(sec.material, r).asDiagonal() * Phi;
+    }
+  }
+  const int nn = static_cast<int>(nodes.size());
+  children_begin.assign(nn + 2, 0);  // entry p+1 lists the children of node p (p = -1: base)
+  for (const auto& n : nodes) children_begin[n.parent + 2]++;
+  for (int i = 1; i < nn + 2; ++i) children_begin[i] += children_begin[i - 1];
+  children.assign(nn, 0);
+  std::vector<int> fill(children_begin.begin(), children_begin.end() - 1);
+  for (int i = 0; i < nn; ++i) children[fill[nodes[i].parent + 1]++] = i;
+  max_ndof = 0;
+  for (const auto& n : nodes) max_ndof = std::max(max_ndof, n.ndof);
+  finalized = true;
+}
+
+int Model::rod_index(const std::string& name) const {
+  for (size_t r = 0; r < rods.size(); ++r)
+    if (rods[r].name == name) return static_cast<int>(r);
+  return -1;
+}
+
+int Model::rod_node_at(int r, double X) const {
+  const Rod& rod = rods[r];
+  const Section& last = sections[rod.first_section + rod.nsections - 1];
+  for (int s = rod.first_section; s < rod.first_section + rod.nsections; ++s)
+    for (int i = sections[s].first_node; i <= sections[s].end_node; ++i)
+      if (nodes[i].X >= X) return i;
+  return last.end_node;
+}
+
+Data::Data(const Model& m) {
+  if (!m.finalized) throw std::invalid_argument("Data(model): model not finalized");
+  const int n = m.nv, nn = static_cast<int>(m.nodes.size());
+  q = VecX::Zero(n);
+  v = VecX::Zero(n);
+  ctrl = VecX::Zero(m.nu());
+  f_ext_body.assign(nn, Vec6::Zero());
+  f_ext_world.assign(nn, Vec6::Zero());
+  qacc = qfrc_bias = qfrc_passive = qfrc_actuator = VecX::Zero(n);
+  M = MatX::Zero(n, n);
+  g.assign(nn, SE3());
+  g_rel.assign(nn, SE3());
+  Omega.assign(nn, Vec6::Zero());
+  Omega_dot.assign(nn, Vec6::Zero());
+  G.resize(nn);
+  S.resize(nn);
+  for (int i = 0; i < nn; ++i) {
+    G[i] = Mat6X::Zero(6, m.nodes[i].ndof);
+    S[i] = Mat6X::Zero(6, m.nodes[i].ndof);
+  }
+  eta.assign(nn, Vec6::Zero());
+  cbias.assign(nn, Vec6::Zero());
+  acc.assign(nn, Vec6::Zero());
+  F.assign(nn, Vec6::Zero());
+  Ic.assign(nn, Mat6::Zero());
+  Fs = Mat6X::Zero(6, m.max_ndof);
+  tmp = rhs = VecX::Zero(n);
+  A = MatX::Zero(n, n);
+  ldlt = Eigen::LDLT<MatX>(n);
+  q0 = v0 = VecX::Zero(n);
+  for (int k = 0; k < 4; ++k) kq[k] = kv[k] = VecX::Zero(n);
+}
+
+}  // namespace cosserat

@@ -1,0 +1,210 @@
+// The compiled model of a soft-rigid tree, and the data that holds its state and scratch memory.
+//
+// Everything is a tree of nodes (frames). Node i sits in its parent's frame at
+//     g_{parent,i} = offset_i * exp(Omega_i(q)),
+// where Omega_i is one 4th-order Magnus (Zanna) step (DESIGN.md section 4) over a length h:
+//     Omega = h/2 (xi_a + xi_b) + (sqrt(3)/12) h^2 ad_{xi_a} xi_b,   xi_{a,b} = Phi_{a,b} q_i + xibar_{a,b},
+// with xi_a, xi_b the strain at the two Gauss points of the step and q_i the node's dof block.
+//  - a rigid joint is one node with h = 1, Phi_a = Phi_b = B (joint basis), xibar = 0;
+//  - a PCS section has constant strain, Phi_a = Phi_b = B: the commutator vanishes and the step is
+//    the exact exponential of DESIGN.md section 4;
+//  - a GVS section uses Phi(X) = B (x) Legendre(X): the commutator term is kept.
+// Each rod section is split at the Gauss points of its mass quadrature plus its end; the inertia
+// of the rod is lumped at those Gauss points (weight x cross-section inertia density), so mass
+// matrix, bias, energy and momentum are all exact for this discrete model.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <Eigen/Cholesky>
+#include <Eigen/Core>
+
+#include "lie.hpp"
+#include "strain.hpp"
+
+namespace cosserat {
+
+using VecX = Eigen::VectorXd;
+using MatX = Eigen::MatrixXd;
+
+// Spatial inertia at a frame's origin, angular first: [[I_o, m c~], [-m c~, m I]].
+Mat6 spatial_inertia(double mass, const Vec3& com, const Mat3& inertia_at_com);
+
+// Material and shape of one stretch of rod. Circular cross-section, linear taper of the radius.
+struct RodMaterial {
+  double density = 1000.0;  // rho [kg/m^3]
+  double young = 1e6;       // E [Pa]
+  double poisson = 0.5;     // nu; G = E / (2 (1 + nu))
+  double viscosity = 0.0;   // Kelvin-Voigt mu [Pa s]: Upsilon = mu diag(Jx, 3Iy, 3Iz, 3A, A, A)
+};
+
+// A section of a rod (DESIGN.md section 7: nested <section> overrides).
+struct SectionSpec {
+  double length = 0.0;  // [m]; 0: the rod's length divided evenly
+  StrainMask dofs{true, true, true, true, true, true};
+  int order = 0;  // 0: piecewise constant strain (PCS); > 0: GVS Legendre order
+  Vec6 rest_strain = (Vec6() << 0, 0, 0, 1, 0, 0).finished();
+  RodMaterial material;
+  int quadrature = 0;  // mass points in the section; 0: order + 2
+};
+
+struct RodSpec {
+  std::string name;
+  double length = 1.0;
+  double radius_base = 0.01, radius_tip = -1.0;  // tip < 0: same as base
+  int sections = 1;
+  SectionSpec section;                // applied to every section ...
+  std::vector<SectionSpec> overrides; // ... unless given one by one (then `sections` is ignored)
+};
+
+struct Node {
+  int parent = -1;        // -1: the base frame
+  SE3 offset;             // fixed placement in the parent frame, applied before the motion
+  int dof0 = 0, ndof = 0; // dof block of Omega (ndof = 0: a fixed segment)
+  double h = 1.0;         // length of the Magnus step
+  Mat6X Phi_a, Phi_b;     // 6 x ndof strain basis at the two Gauss points of the step
+  Vec6 xibar_a = Vec6::Zero(), xibar_b = Vec6::Zero();
+  bool commutator = false;  // Phi_a != Phi_b or xibar_a != xibar_b
+  Mat6 inertia = Mat6::Zero();  // lumped spatial inertia in the node frame
+  double dX = 0.0;        // rod length this node stands for in quadratures (0 for non-rod nodes)
+  int rod = -1, section = -1;
+  double X = 0.0;         // material abscissa along its rod
+};
+
+struct Section {
+  int rod = -1;
+  double X0 = 0.0, length = 0.0;
+  int dof0 = 0, ndof = 0, order = 0;
+  Mat6X B;                 // 6 x nfree selection of free components
+  Vec6 rest_strain;
+  RodMaterial material;
+  int start_node = -1;     // node at X0 (the rod's attachment frame for the first section)
+  int first_node = 0, end_node = 0;  // nodes inside the section: first_node..end_node (end at X0+L)
+  // Strain basis Phi(X) = B (x) [P_0 .. P_order]((X - X0)/length): dof index = c*(order+1)+k.
+  void basis(double X, Mat6X& Phi) const;
+};
+
+struct Rod {
+  std::string name;
+  double length = 0.0, radius_base = 0.0, radius_tip = 0.0;
+  int parent = -1;      // node the rod hangs from (-1: base)
+  SE3 placement;        // X = 0 frame in the parent frame
+  int first_section = 0, nsections = 0;
+  int tip_node = -1;
+  double radius(double X) const { return radius_base + (radius_tip - radius_base) * X / length; }
+};
+
+// Cross-section constants at a radius: stiffness Sigma, inertia density, damping (DESIGN.md s.3).
+Vec6 section_stiffness(const RodMaterial& m, double r);
+Vec6 section_inertia_density(const RodMaterial& m, double r);
+Vec6 section_damping(const RodMaterial& m, double r);
+
+// A cable (tendon) routed inside a rod at a cross-section offset d(X) (y, z components used),
+// linear from d_begin at X_begin to d_end at X_end. Its tension pulls the rod's sections together:
+// generalised force tau = -T dl/dq with l the cable length (DESIGN.md section 5's F_a).
+struct Cable {
+  int rod = 0;
+  Vec3 d_begin = Vec3::Zero(), d_end = Vec3::Zero();
+  double X_begin = 0.0, X_end = -1.0;  // X_end < 0: the rod's tip
+  // Quadrature of the cable's integrals, filled by Model::add_cable: Gauss points of each section
+  // piece the cable spans (order + 3 points: exact for PCS where the integrand is constant).
+  struct Point {
+    double X, w;
+    int section;
+  };
+  std::vector<Point> points;
+};
+
+// An input u: a cable tension [N] or a generalised force on one dof [N or N m].
+struct Actuator {
+  enum Kind { CableTension, DofForce } kind = DofForce;
+  int index = 0;  // cable index or dof index
+  std::string name;
+};
+
+struct Model {
+  std::vector<Node> nodes;
+  std::vector<Section> sections;
+  std::vector<Rod> rods;
+  std::vector<Cable> cables;
+  std::vector<Actuator> actuators;
+  int nv = 0;  // number of generalised coordinates (q and v have the same size)
+  Vec3 gravity = Vec3(0, 0, -9.81);  // world frame
+  MatX K, D;        // constant stiffness and damping matrices (nv x nv)
+  VecX q_ref;       // q where the elastic force vanishes (zero for rods: q is the strain change)
+  std::vector<int> children_begin, children;  // CSR children lists, built by finalize()
+  int max_ndof = 0;
+  bool finalized = false;
+
+  // --- building (before finalize) ---
+  // Rigid joint at `placement` in `parent` (node, or -1 for the base). Returns its node.
+  int add_joint(int parent, const SE3& placement, JointType type, const Vec3& axis = Vec3::UnitZ(),
+                double pitch = 0.0, double stiffness = 0.0, double damping = 0.0);
+  // A fixed frame (no dof) at `placement` in `parent`. Returns its node.
+  int add_frame(int parent, const SE3& placement);
+  // Add rigid-body inertia (mass, centre of mass and inertia about it, in the node frame).
+  void add_body(int node, double mass, const Vec3& com, const Mat3& inertia_at_com);
+  // A rod hanging at `placement` in `parent`. Returns the rod index; its tip is rods[r].tip_node.
+  int add_rod(int parent, const SE3& placement, const RodSpec& spec);
+  int add_cable(const Cable& c, const std::string& name = "");  // also adds its actuator
+  int add_dof_actuator(int dof, const std::string& name = "");
+  // Computes K, D and the child lists. Throws std::invalid_argument on inconsistent input.
+  void finalize();
+
+  // --- queries ---
+  int nu() const { return static_cast<int>(actuators.size()); }
+  int rod_index(const std::string& name) const;  // -1 if absent
+  // Node whose step contains abscissa X of rod r (the first node with node.X >= X).
+  int rod_node_at(int rod, double X) const;
+
+ private:
+  std::vector<double> joint_stiffness_, joint_damping_;
+  std::vector<int> joint_dof_;
+};
+
+enum class Status { Ok, Diverged };
+
+// State, outputs and all scratch memory, sized once by the constructor (no allocation when
+// stepping: see tests/core/step_alloc_test.cpp).
+struct Data {
+  explicit Data(const Model& m);
+
+  // state and inputs
+  double time = 0.0;
+  VecX q, v;      // generalised coordinates and velocities (nv)
+  VecX ctrl;      // actuator inputs (nu)
+  SE3 base_pose;  // pose of the base frame in the world
+  Vec6 base_twist = Vec6::Zero(), base_accel = Vec6::Zero();  // in the base frame
+  std::vector<Vec6> f_ext_body;   // per node: external wrench [m; f] in the node frame
+  std::vector<Vec6> f_ext_world;  // per node: [moment; force] in world axes, applied at the node origin
+
+  // outputs
+  VecX qacc;          // generalised accelerations (nv)
+  VecX qfrc_bias;     // Coriolis, centrifugal, gravity and external loads: M qacc + bias = passive + actuation
+  VecX qfrc_passive;  // -K (q - q_ref) - D v
+  VecX qfrc_actuator; // from ctrl
+  MatX M;             // mass matrix (nv x nv)
+  Status status = Status::Ok;
+
+  // kinematics per node
+  std::vector<SE3> g;      // world pose
+  std::vector<SE3> g_rel;  // pose in the parent frame
+  std::vector<Vec6> Omega, Omega_dot;
+  std::vector<Mat6X> G;    // dOmega/dq_i (6 x ndof)
+  std::vector<Mat6X> S;    // motion subspace dexp(-Omega) G (6 x ndof)
+  std::vector<Vec6> eta;   // body twist
+  std::vector<Vec6> cbias; // velocity-product acceleration of the step: ad_eta S v + dS/dt v
+  std::vector<Vec6> acc;   // body acceleration (scratch of rnea)
+  std::vector<Vec6> F;     // subtree wrench (scratch of rnea)
+  std::vector<Mat6> Ic;    // composite inertia (scratch of crba)
+
+  // scratch
+  Mat6X Fs;                // 6 x max_ndof
+  VecX tmp, rhs;
+  MatX A;                  // system matrix of the implicit integrator
+  Eigen::LDLT<MatX> ldlt;
+  VecX q0, v0, kq[4], kv[4];  // RK4 stages
+};
+
+}  // namespace cosserat

@@ -1,0 +1,234 @@
+// Dynamics of the node tree against finite differences and against each other
+// (plugin/core/kinematics.cpp, dynamics.cpp).
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+#include <Eigen/Eigenvalues>
+
+#include "dynamics.hpp"
+#include "kinematics.hpp"
+#include "support/test_models.hpp"
+
+using namespace cosserat;
+using namespace cosserat::testing;
+
+namespace {
+
+void randomize(Data& d, unsigned seed, double scale = 0.5) {
+  std::mt19937 gen(seed);
+  std::uniform_real_distribution<double> u(-1, 1);
+  for (int i = 0; i < d.q.size(); ++i) d.q(i) = scale * u(gen);
+  for (int i = 0; i < d.v.size(); ++i) d.v(i) = scale * u(gen);
+}
+
+// Body twist of node i as the finite difference of its pose along a velocity: log(g(q)^-1 g(q+eps v))/eps.
+TEST(Kinematics, NodeJacobianMatchesFiniteDifferences) {
+  Model m = hybrid_tree();
+  Data d(m);
+  randomize(d, 1);
+  fwd_position(m, d);
+  MatX J;
+  const double e = 1e-6;
+  for (size_t i = 0; i < m.nodes.size(); i += 3) {
+    node_jacobian(m, d, static_cast<int>(i), J);
+    for (int k = 0; k < m.nv; ++k) {
+      Data dp = d, dm = d;
+      dp.q(k) += e;
+      dm.q(k) -= e;
+      fwd_position(m, dp);
+      fwd_position(m, dm);
+      const Vec6 fd = log_se3(dm.g[i].inverse() * dp.g[i]) / (2 * e);
+      // central difference: truncation O(e^2) ~ 1e-12, round-off ~ eps/e ~ 1e-10
+      EXPECT_LT((fd - J.col(k)).norm(), 1e-7 * (1 + J.col(k).norm())) << "node " << i << " dof " << k;
+    }
+  }
+}
+
+TEST(Kinematics, TwistEqualsJacobianTimesVelocity) {
+  Model m = hybrid_tree();
+  Data d(m);
+  randomize(d, 2);
+  fwd_position(m, d);
+  fwd_velocity(m, d);
+  MatX J;
+  for (size_t i = 0; i < m.nodes.size(); ++i) {
+    node_jacobian(m, d, static_cast<int>(i), J);
+    EXPECT_LT((J * d.v - d.eta[i]).norm(), 1e-12 * (1 + d.eta[i].norm()));
+  }
+}
+
+// J-dot v = d/dt (J(q) v) at constant v: central difference along q + t v.
+TEST(Kinematics, JdotVMatchesFiniteDifferences) {
+  Model m = hybrid_tree();
+  Data d(m);
+  randomize(d, 3);
+  fwd_position(m, d);
+  fwd_velocity(m, d);
+  const double e = 1e-6;
+  Data dp = d, dm = d;
+  dp.q += e * d.v;
+  dm.q -= e * d.v;
+  fwd_position(m, dp);
+  fwd_position(m, dm);
+  MatX Jp, Jm;
+  for (size_t i = 0; i < m.nodes.size(); ++i) {
+    node_jacobian(m, dp, static_cast<int>(i), Jp);
+    node_jacobian(m, dm, static_cast<int>(i), Jm);
+    const Vec6 fd = (Jp - Jm) * d.v / (2 * e);
+    const Vec6 an = node_jdot_v(m, d, static_cast<int>(i));
+    EXPECT_LT((fd - an).norm(), 1e-7 * (1 + an.norm())) << "node " << i;
+  }
+}
+
+TEST(Kinematics, RodJacobianAtAnyAbscissaMatchesFiniteDifferences) {
+  Model m = hybrid_tree();
+  Data d(m);
+  randomize(d, 4);
+  fwd_position(m, d);
+  MatX J;
+  const double e = 1e-6;
+  for (int r = 0; r < static_cast<int>(m.rods.size()); ++r) {
+    for (double f : {0.0, 0.13, 0.5, 0.77, 1.0}) {
+      const double X = f * m.rods[r].length;
+      rod_jacobian(m, d, r, X, J);
+      const SE3 g0 = rod_pose(m, d, r, X);
+      for (int k = 0; k < m.nv; ++k) {
+        Data dp = d, dm = d;
+        dp.q(k) += e;
+        dm.q(k) -= e;
+        fwd_position(m, dp);
+        fwd_position(m, dm);
+        const Vec6 fd = log_se3(rod_pose(m, dm, r, X).inverse() * rod_pose(m, dp, r, X)) / (2 * e);
+        EXPECT_LT((fd - J.col(k)).norm(), 1e-7 * (1 + J.col(k).norm())) << "rod " << r << " X " << X;
+      }
+      (void)g0;
+    }
+  }
+}
+
+TEST(Kinematics, RodPoseAtNodesEqualsNodePose) {
+  Model m = hybrid_tree();
+  Data d(m);
+  randomize(d, 5);
+  fwd_position(m, d);
+  for (size_t i = 0; i < m.nodes.size(); ++i) {
+    if (m.nodes[i].rod < 0) continue;
+    const SE3 g = rod_pose(m, d, m.nodes[i].rod, m.nodes[i].X);
+    EXPECT_LT((g.matrix() - d.g[i].matrix()).norm(), 1e-12);
+  }
+}
+
+TEST(Dynamics, MassMatrixSymmetricPositiveDefiniteAndEqualsSumJtMJ) {
+  Model m = hybrid_tree();
+  Data d(m);
+  randomize(d, 6);
+  fwd_position(m, d);
+  crba(m, d);
+  EXPECT_LT((d.M - d.M.transpose()).norm(), 1e-14 * d.M.norm());
+  Eigen::SelfAdjointEigenSolver<MatX> es(d.M);
+  EXPECT_GT(es.eigenvalues().minCoeff(), 0.0);
+  MatX ref = MatX::Zero(m.nv, m.nv), J;
+  for (size_t i = 0; i < m.nodes.size(); ++i) {
+    node_jacobian(m, d, static_cast<int>(i), J);
+    ref += J.transpose() * m.nodes[i].inertia * J;
+  }
+  EXPECT_LT((ref - d.M).norm(), 1e-12 * d.M.norm());
+}
+
+TEST(Dynamics, InverseDynamicsConsistentWithForwardDynamics) {
+  Model m = hybrid_tree();
+  Data d(m);
+  randomize(d, 7);
+  d.ctrl << 0.7, 0.02;
+  d.f_ext_world[m.rods[1].tip_node] << 0.001, 0.0, 0.0, 0.0, 0.05, -0.1;
+  forward(m, d);
+  // rnea at the computed acceleration must return the applied forces
+  VecX tau(m.nv);
+  rnea(m, d, d.qacc, true, true, tau);
+  const VecX applied = d.qfrc_passive + d.qfrc_actuator;
+  EXPECT_LT((tau - applied).norm(), 1e-9 * (1 + applied.norm()));
+  // and rnea is affine in qacc with slope M
+  VecX tau0(m.nv), a = VecX::Random(m.nv);
+  rnea(m, d, VecX::Zero(m.nv), true, true, tau0);
+  rnea(m, d, a, true, true, tau);
+  EXPECT_LT((tau - tau0 - d.M * a).norm(), 1e-10 * (1 + (d.M * a).norm()));
+}
+
+// Lagrange's equations from the energy: the bias at v = 0 with gravity is dU/dq.
+TEST(Dynamics, GravityForceIsGradientOfPotential) {
+  Model m = hybrid_tree();
+  Data d(m);
+  randomize(d, 8);
+  d.v.setZero();
+  fwd_position(m, d);
+  fwd_velocity(m, d);
+  VecX tau(m.nv);
+  rnea(m, d, VecX::Zero(m.nv), true, false, tau);
+  const double e = 1e-6;
+  for (int k = 0; k < m.nv; ++k) {
+    Data dp = d, dm = d;
+    dp.q(k) += e;
+    dm.q(k) -= e;
+    fwd_position(m, dp);
+    fwd_velocity(m, dp);
+    fwd_position(m, dm);
+    fwd_velocity(m, dm);
+    const double fd = (energy(m, dp).gravity - energy(m, dm).gravity) / (2 * e);
+    EXPECT_NEAR(fd, tau(k), 1e-7 * (1 + std::abs(tau(k))));
+  }
+}
+
+// The cable's generalised force is -T dl/dq: compare with a finite difference of the length.
+TEST(Dynamics, CableForceIsMinusTensionTimesLengthGradient) {
+  Model m = hybrid_tree();
+  Data d(m);
+  randomize(d, 9, 0.3);
+  fwd_position(m, d);
+  VecX grad;
+  cable_length(m, d, 0, &grad);
+  const double e = 1e-6;
+  for (int k = 0; k < m.nv; ++k) {
+    Data dp = d, dm = d;
+    dp.q(k) += e;
+    dm.q(k) -= e;
+    const double fd = (cable_length(m, dp, 0) - cable_length(m, dm, 0)) / (2 * e);
+    EXPECT_NEAR(fd, grad(k), 1e-8 * (1 + std::abs(grad(k))));
+  }
+  d.ctrl << 2.0, 0.0;
+  actuation(m, d);
+  EXPECT_LT((d.qfrc_actuator + 2.0 * grad).norm(), 1e-12);
+}
+
+// Kinetic energy 1/2 v^T M v, and its rate: d/dt T = v^T (applied - C v - g) ... checked through
+// the power balance dE/dt = v^T (qfrc_actuator - D v) when K, gravity are part of E.
+TEST(Dynamics, PowerBalance) {
+  Model m = hybrid_tree();
+  Data d(m);
+  randomize(d, 10);
+  d.ctrl << 0.3, 0.5;
+  forward(m, d);
+  const double E0 = energy(m, d).total();
+  EXPECT_NEAR(energy(m, d).kinetic, 0.5 * d.v.dot(d.M * d.v), 1e-12 * (1 + energy(m, d).kinetic));
+  // dE/dt by central differences along the exact flow (q + v t, v + qacc t), Richardson
+  // extrapolated: the stiff axial modes make the O(t^2) error of a plain difference ~1e-5.
+  auto dEdt_at = [&](double dt) {
+    Data dp = d, dm = d;
+    dp.q += dt * d.v;
+    dp.v += dt * d.qacc;
+    dm.q -= dt * d.v;
+    dm.v -= dt * d.qacc;
+    fwd_position(m, dp);
+    fwd_velocity(m, dp);
+    fwd_position(m, dm);
+    fwd_velocity(m, dm);
+    return (energy(m, dp).total() - energy(m, dm).total()) / (2 * dt);
+  };
+  const double dEdt = (4.0 * dEdt_at(5e-7) - dEdt_at(1e-6)) / 3.0;
+  const double power = d.v.dot(d.qfrc_actuator - m.D * d.v);
+  // remaining error: O(t^4) truncation and eps E0 / t round-off, both ~1e-9 relative
+  EXPECT_NEAR(dEdt, power, 1e-7 * (std::abs(power) + std::abs(E0)));
+}
+
+}  // namespace
