@@ -60,6 +60,7 @@ int Model::add_joint(int parent, const SE3& placement, JointType type, const Vec
   n.ndof = joint_dofs(type);
   n.h = 1.0;
   n.Phi_a = n.Phi_b = joint_basis(type, axis, pitch);
+  n.free_joint = type == JointType::Free;
   for (int k = 0; k < n.ndof; ++k) {
     joint_dof_.push_back(nv + k);
     joint_stiffness_.push_back(stiffness);

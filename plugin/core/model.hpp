@@ -68,6 +68,7 @@ struct Node {
   bool commutator = false;  // Phi_a != Phi_b or xibar_a != xibar_b
   Mat6 inertia = Mat6::Zero();  // lumped spatial inertia in the node frame
   double dX = 0.0;        // rod length this node stands for in quadratures (0 for non-rod nodes)
+  bool free_joint = false;  // a 6-dof free joint (floating base): no static equilibrium
   int rod = -1, section = -1;
   double X = 0.0;         // material abscissa along its rod
 };

@@ -84,7 +84,7 @@ bool newton(const Model& m, Data& d, double lambda, const StaticsOptions& opt, S
 StaticsResult equilibrium(const Model& m, Data& d, const StaticsOptions& opt) {
   StaticsResult res;
   for (const auto& n : m.nodes) {
-    if (n.parent < 0 && n.ndof == 6 && n.Phi_a.isIdentity()) {
+    if (n.free_joint) {
       res.message = "a free-floating base has no static equilibrium";
       return res;
     }
