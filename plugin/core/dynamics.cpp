@@ -123,6 +123,23 @@ double cable_integral(const Model& m, const Data& d, int c, double s, Eigen::Ref
 }
 }  // namespace
 
+void add_distributed_force(const Model& m, Data& d, int rod, const Vec3& f) {
+  const Rod& r = m.rods[rod];
+  for (int s = r.first_section; s < r.first_section + r.nsections; ++s)
+    for (int i = m.sections[s].first_node; i <= m.sections[s].end_node; ++i)
+      d.f_ext_world[i].tail<3>() += m.nodes[i].dX * f;
+}
+
+void add_rod_point_wrench(const Model& m, const Data& d, int rod, double X, const Vec3& moment,
+                          const Vec3& force, VecX& tau) {
+  MatX J;
+  rod_jacobian(m, d, rod, X, J);
+  const Mat3 Rt = rod_pose(m, d, rod, X).R.transpose();
+  Vec6 F;
+  F << Rt * moment, Rt * force;
+  tau.noalias() += J.transpose() * F;
+}
+
 double cable_length(const Model& m, const Data& d, int c, VecX* grad) {
   if (!grad) return cable_integral(m, d, c, 0.0, nullptr);
   grad->setZero(m.nv);

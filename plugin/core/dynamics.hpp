@@ -21,6 +21,15 @@ void actuation(const Model& m, Data& d);
 // Everything above and the accelerations d.qacc (explicit forward dynamics).
 void forward(const Model& m, Data& d);
 
+// External loads on rods (they add to d.f_ext_world; clear it yourself between uses):
+// a force per unit length in world axes over the whole rod, lumped at the mass quadrature nodes
+// with their length weights (the same rule that integrates the rod's own weight).
+void add_distributed_force(const Model& m, Data& d, int rod, const Vec3& force_per_length);
+// Generalised force J(X)^T [R^T m; R^T f] of a world-axes wrench applied at abscissa X, added to
+// tau. After fwd_position.
+void add_rod_point_wrench(const Model& m, const Data& d, int rod, double X, const Vec3& moment,
+                          const Vec3& force, VecX& tau);
+
 // Length of a cable and its gradient dl/dq (the cable's generalised force is -T dl/dq).
 double cable_length(const Model& m, const Data& d, int cable, VecX* grad = nullptr);
 
