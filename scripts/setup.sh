@@ -6,6 +6,9 @@ packages=(
   build-essential cmake ninja-build  # toolchain
   libeigen3-dev                      # the solver core (Eigen only)
   libgtest-dev googletest            # tests
+  libmujoco-dev                      # MuJoCo 2.2.2 (the coupling)
+  libqhull-dev                       # its CMake config names qhull's include dir
+  libtinyxml2-dev                    # MJCF pre-processing
 )
 missing=()
 for p in "${packages[@]}"; do

@@ -15,9 +15,12 @@
 #include <cmath>
 #include <complex>
 #include <cstdio>
+#include <limits>
+#include <string>
 #include <vector>
 
 #include <Eigen/Eigenvalues>
+#include <Eigen/LU>
 
 #include "dynamics.hpp"
 #include "kinematics.hpp"
@@ -91,27 +94,227 @@ std::vector<double> bending_errors(const VecX& f, int stride, bool print, const 
 
 double max_of(const std::vector<double>& e) { return *std::max_element(e.begin(), e.end()); }
 
-// The smallest number of PCS sections of the planar basis whose first three bending
-// frequencies are within 1% of Euler-Bernoulli (found by the scan printed by this test).
-constexpr int kPlanarPcsSections = 0;  // TODO set after measurement
+// Eigenvalues of A (unordered).
+std::vector<std::complex<double>> eigenvalues_of(const MatX& A) {
+  Eigen::EigenSolver<MatX> es(A, false);
+  std::vector<std::complex<double>> ev(es.eigenvalues().data(), es.eigenvalues().data() + A.rows());
+  return ev;
+}
 
-TEST(Linearize, PlanarPcsBendingFrequenciesMatchEulerBernoulli) {
-  std::printf("planar (kz) PCS: max error of the first three bending frequencies vs sections\n");
+// Backward-error bound of the eigenvalues of A: 100 eps |A|_F (see StateSpaceMatricesOfUndampedRod).
+double eig_tolerance(const MatX& A) { return 100.0 * std::numeric_limits<double>::epsilon() * A.norm(); }
+
+// The eigenvalue of `ev` nearest to `target`.
+std::complex<double> nearest(const std::vector<std::complex<double>>& ev, std::complex<double> target) {
+  return *std::min_element(ev.begin(), ev.end(), [&](const auto& a, const auto& b) {
+    return std::abs(a - target) < std::abs(b - target);
+  });
+}
+
+// (a) Planar basis (kz only), piecewise constant strain.
+//
+// The smallest number of PCS sections whose first three bending frequencies are all within 1% of
+// Euler-Bernoulli, found by scanning N = 1..40 (printed below). The error is dominated by mode 3
+// and decays like N^-2 (a Ritz method with piecewise-constant curvature, i.e. piecewise-quadratic
+// deflection, converges at O(h^2) in the eigenvalue), from 9.3e-2 at N = 3 to 9.8e-3 at N = 18.
+constexpr int kPlanarPcsSections = 18;
+
+TEST(Linearize, PlanarPcsScanFindsSmallestSectionCountWithin1Percent) {
+  std::printf("planar (kz) PCS: max relative error of the first three bending frequencies\n");
   int first_within = -1;
-  std::vector<double> max_err(41, 0.0);
-  for (int n = 1; n <= 40; ++n) {
-    const Model m = clamped_rod(kPlanar, n, 0);
-    const Linearization lin = linearize_at_equilibrium(m);
-    if (lin.frequencies_hz.size() < 3) {
-      max_err[n] = INFINITY;
-      std::printf("  N = %2d: fewer than 3 modes\n", n);
-      continue;
-    }
-    max_err[n] = max_of(bending_errors(lin.frequencies_hz, 1, false, ""));
-    std::printf("  N = %2d: max error %.4e\n", n, max_err[n]);
-    if (first_within < 0 && max_err[n] < 0.01) first_within = n;
+  for (int n = 3; n <= 24; ++n) {  // N < 3 has fewer than three modes
+    const Linearization lin = linearize_at_equilibrium(clamped_rod(kPlanar, n, 0));
+    ASSERT_EQ(lin.frequencies_hz.size(), n);
+    const double e = max_of(bending_errors(lin.frequencies_hz, 1, false, ""));
+    std::printf("  N = %2d: %.4e\n", n, e);
+    if (first_within < 0 && e < 0.01) first_within = n;
   }
   std::printf("  smallest N within 1%%: %d\n", first_within);
+  // a regression guard of the discretisation: a change to the PCS kinematics or mass lumping
+  // that moves this number should be looked at (and kPlanarPcsSections updated if intended)
+  EXPECT_EQ(first_within, kPlanarPcsSections);
+}
+
+TEST(Linearize, PlanarPcsBendingFrequenciesWithin1PercentAndConvergeQuadratically) {
+  const Linearization lin = linearize_at_equilibrium(clamped_rod(kPlanar, kPlanarPcsSections, 0));
+  const auto e = bending_errors(lin.frequencies_hz, 1, true, "planar PCS N=18");
+  for (int i = 0; i < 3; ++i) EXPECT_LT(e[i], 0.01) << "mode " << i + 1;
+
+  // Error vs sections N = 9, 18, 36, 72: every mode's error shrinks, at the O(N^-2) rate of
+  // the Ritz argument above.
+  std::vector<std::vector<double>> err;
+  for (int n : {9, 18, 36, 72}) {
+    const Linearization l = linearize_at_equilibrium(clamped_rod(kPlanar, n, 0));
+    err.push_back(bending_errors(l.frequencies_hz, 1, true, ("planar PCS N=" + std::to_string(n)).c_str()));
+  }
+  for (size_t k = 1; k < err.size(); ++k) {
+    for (int i = 0; i < 3; ++i) {
+      EXPECT_LT(err[k][i], err[k - 1][i]) << "mode " << i + 1;
+      const double order = std::log2(err[k - 1][i] / err[k][i]);
+      std::printf("  mode %d, N %d -> %d: observed order %.3f\n", i + 1, 9 << (k - 1), 9 << k, order);
+      // Asymptotic order 2. The reference is Euler-Bernoulli, not the converged discrete
+      // model: rotary inertia and shear put the converged model ~1e-5 (mode 1) to ~3e-4 (mode 3)
+      // below it, which inflates the apparent ratio as the discretisation error shrinks toward
+      // that floor; hence the band [1.7, 2.6] rather than a tight one around 2. Only mode 3 is
+      // far enough above the floor up to N = 72 to be tested there.
+      if (err[k][i] > 10 * 3e-4 || i == 2) {
+        EXPECT_GT(order, 1.7) << "mode " << i + 1;
+        EXPECT_LT(order, 2.6) << "mode " << i + 1;
+      }
+    }
+  }
+}
+
+// (b) GVS: Legendre strain bases of order 2 and 3 on two sections reach 1% with 6 and 8 dofs,
+// where PCS needs 18.
+TEST(Linearize, PlanarGvsBendingFrequenciesWithin1Percent) {
+  for (int order : {2, 3}) {
+    const Model m = clamped_rod(kPlanar, 2, order);
+    ASSERT_EQ(m.nv, 2 * (order + 1));
+    const Linearization lin = linearize_at_equilibrium(m);
+    const std::string label = "planar GVS o" + std::to_string(order) + " N=2";
+    const auto e = bending_errors(lin.frequencies_hz, 1, true, label.c_str());
+    for (int i = 0; i < 3; ++i) EXPECT_LT(e[i], 0.01) << label << " mode " << i + 1;
+  }
+}
+
+// (c) Full 3D basis (Simo-Reissner: bending, torsion, shear, stretch), GVS order 3, 2 sections.
+// A circular section on a straight rod: bending in y and z are the same problem, so the
+// frequencies come in degenerate pairs; torsion f = sqrt(G/rho)/(4L) = 14.43 Hz and stretch
+// f = sqrt(E/rho)/(4L) = 25.0 Hz (quarter-wave clamped-free bars) lie far above the third pair.
+TEST(Linearize, FullBasisBendingFrequenciesComeInDegeneratePairs) {
+  const Model m = clamped_rod(*strain_mask_from_name("sr"), 2, 3);
+  ASSERT_EQ(m.nv, 6 * 4 * 2);
+  const Linearization lin = linearize_at_equilibrium(m);
+  const VecX& f = lin.frequencies_hz;
+  std::printf("sr GVS o3 N=2, first 8 frequencies [Hz]:");
+  for (int i = 0; i < 8; ++i) std::printf(" %.6f", f(i));
+  std::printf("\n");
+  for (int i = 0; i < 3; ++i) {
+    // The two bending planes are exchanged by a rotation about the tangent that maps the model
+    // onto itself, so the pair is equal up to round-off: the tangent stiffness is a central
+    // difference of a residual linear in q here (no gravity), round-off ~ eps |K q| / e ~ 1e-10
+    // relative, and the symmetric eigensolver adds ~ eps cond.
+    EXPECT_NEAR(f(2 * i + 1), f(2 * i), 1e-7 * f(2 * i)) << "pair " << i + 1;
+  }
+  const auto e = bending_errors(f, 2, true, "sr GVS o3 N=2");
+  for (int i = 0; i < 3; ++i) EXPECT_LT(e[i], 0.01) << "pair " << i + 1;
+  // the 7th frequency is not a bending pair partner of the third: a clear gap (4th bending pair
+  // at EB 4.81 Hz, about twice the third)
+  EXPECT_GT(f(6), 1.5 * f(5));
+
+  // torsion and stretch (bar theory, exact for these uniform bars; the 1% is the same
+  // discretisation budget as for bending)
+  const double G = kE / (2.0 * (1.0 + 0.5));
+  const double f_torsion = std::sqrt(G / kRho) / (4.0 * kL), f_axial = std::sqrt(kE / kRho) / (4.0 * kL);
+  auto closest = [&](double target) {
+    double best = f(0);
+    for (int i = 0; i < f.size(); ++i)
+      if (std::abs(f(i) - target) < std::abs(best - target)) best = f(i);
+    return best;
+  };
+  std::printf("  torsion %.6f Hz (bar %.6f), stretch %.6f Hz (bar %.6f)\n", closest(f_torsion), f_torsion,
+              closest(f_axial), f_axial);
+  EXPECT_NEAR(closest(f_torsion), f_torsion, 0.01 * f_torsion);
+  EXPECT_NEAR(closest(f_axial), f_axial, 0.01 * f_axial);
+  EXPECT_GT(f_torsion, 3.0 * f(5));
+
+  // Kirchhoff-Love (no shear) adds stretch and torsion to the planar model, both decoupled from
+  // bending at the straight configuration: its bending pairs equal the planar GVS frequencies
+  // up to round-off of the two eigensolves.
+  const Linearization kl = linearize_at_equilibrium(clamped_rod(*strain_mask_from_name("kl"), 2, 3));
+  const Linearization pl = linearize_at_equilibrium(clamped_rod(kPlanar, 2, 3));
+  for (int i = 0; i < 3; ++i) {
+    EXPECT_NEAR(kl.frequencies_hz(2 * i), pl.frequencies_hz(i), 1e-8 * pl.frequencies_hz(i));
+    EXPECT_NEAR(kl.frequencies_hz(2 * i + 1), pl.frequencies_hz(i), 1e-8 * pl.frequencies_hz(i));
+  }
+}
+
+// State-space form: shapes, block structure, B against the cable's lever arm, and the undamped
+// spectrum of A.
+TEST(Linearize, StateSpaceMatricesOfUndampedRod) {
+  const int n_sec = kPlanarPcsSections;
+  const Model m = clamped_rod(kPlanar, n_sec, 0, 0.0, /*cable=*/true);
+  const int n = m.nv;
+  ASSERT_EQ(n, n_sec);
+  ASSERT_EQ(m.nu(), 1);
+  const Linearization lin = linearize_at_equilibrium(m);
+  ASSERT_EQ(lin.A.rows(), 2 * n);
+  ASSERT_EQ(lin.A.cols(), 2 * n);
+  ASSERT_EQ(lin.B.rows(), 2 * n);
+  ASSERT_EQ(lin.B.cols(), 1);
+  ASSERT_EQ(lin.M.rows(), n);
+  ASSERT_EQ(lin.Kt.rows(), n);
+  ASSERT_EQ(lin.Bu.rows(), n);
+  ASSERT_EQ(lin.Bu.cols(), 1);
+  ASSERT_EQ(lin.frequencies_hz.size(), n);
+  EXPECT_EQ(lin.A.topLeftCorner(n, n).norm(), 0.0);
+  EXPECT_EQ((lin.A.topRightCorner(n, n) - MatX::Identity(n, n)).norm(), 0.0);
+  EXPECT_EQ(lin.A.bottomRightCorner(n, n).norm(), 0.0);  // D = 0
+  EXPECT_EQ(lin.B.topRows(n).norm(), 0.0);
+
+  // Straight rod, cable at y = d: its length is int (1 - kz d) dX, so a unit tension gives each
+  // section the generalised force -dl/dkz = d * (L / N) (exact, linear in q).
+  const double d = 0.6 * kR;
+  for (int k = 0; k < n; ++k) EXPECT_NEAR(lin.Bu(k, 0), d * kL / n_sec, 1e-12 * d) << k;
+  // and B = [0; M^-1 Bu]: M B_v = Bu to the conditioning of M times eps
+  EXPECT_LT((lin.M * lin.B.bottomRows(n) - lin.Bu).norm(), 1e-9 * lin.Bu.norm());
+
+  // Undamped: the eigenvalues of A are +-i 2 pi f. The nonsymmetric eigensolver (Hessenberg QR)
+  // is backward stable, so each eigenvalue is off by about cond(lambda) * eps |A|; tol below is
+  // 100 eps |A|_F (measured errors are ~0.2 eps |A|_F). Here |A| ~ 2e6 (w_max ~ 1.2e3 rad/s), so
+  // tol ~ 4e-8 against |lambda| >= 0.88: a tight test of a purely imaginary spectrum.
+  const double tol = eig_tolerance(lin.A);
+  const auto ev = eigenvalues_of(lin.A);
+  double max_re = 0.0;
+  for (const auto& l : ev) max_re = std::max(max_re, std::abs(l.real()));
+  std::printf("undamped: max |Re lambda| = %.3e (tol %.3e), w_max = %.3f rad/s, |A|_F = %.3e\n", max_re, tol,
+              2 * M_PI * lin.frequencies_hz(n - 1), lin.A.norm());
+  EXPECT_LT(max_re, tol);
+  for (int i = 0; i < n; ++i) {
+    const double w = 2.0 * M_PI * lin.frequencies_hz(i);
+    for (double s : {1.0, -1.0}) {
+      const std::complex<double> target(0.0, s * w);
+      EXPECT_LT(std::abs(nearest(ev, target) - target), tol) << "mode " << i;
+    }
+  }
+}
+
+// Kelvin-Voigt damping. With nu = 0.5 (G = E/3) the damping density mu diag(J, 3I, 3I, 3A, A, A)
+// is exactly (3 mu / E) times the stiffness density diag(GJ, EI, EI, EA, GA, GA), so D = c K
+// with c = 3 mu / E (stiffness-proportional damping). Each undamped mode w then becomes
+//   lambda = -c w^2 / 2 +- i w sqrt(1 - (c w / 2)^2)
+// (overdamped, two negative reals, when c w > 2). Every eigenvalue has a negative real part.
+TEST(Linearize, KelvinVoigtViscosityGivesNegativeRealParts) {
+  const double mu = 1e5;  // c = 0.03 s: damping ratios 1.3%, 8%, 23% for the first three modes
+  const double c = 3.0 * mu / kE;
+  for (const char* basis : {"planar", "sr"}) {
+    const bool planar = std::string(basis) == "planar";
+    const StrainMask mask = planar ? kPlanar : *strain_mask_from_name("sr");
+    const Model m = planar ? clamped_rod(mask, kPlanarPcsSections, 0, mu) : clamped_rod(mask, 2, 3, mu);
+    const int n = m.nv;
+    ASSERT_LT((m.D - c * m.K).norm(), 1e-12 * c * m.K.norm()) << basis;
+    const Linearization lin = linearize_at_equilibrium(m);
+    EXPECT_LT((lin.A.bottomRightCorner(n, n) + lin.M.lu().solve(m.D)).norm(),
+              1e-9 * lin.A.bottomRightCorner(n, n).norm());
+    const auto ev = eigenvalues_of(lin.A);
+    double max_re = -INFINITY;
+    for (const auto& l : ev) max_re = std::max(max_re, l.real());
+    std::printf("%s: max Re lambda = %.6e, eigenvalue tolerance %.3e\n", basis, max_re, eig_tolerance(lin.A));
+    for (const auto& l : ev) EXPECT_LT(l.real(), 0.0) << basis << " " << l;
+    // The first three modes, whose frequencies are unchanged by damping (same Kt and M).
+    for (int i = 0; i < 3; ++i) {
+      const double w = 2.0 * M_PI * lin.frequencies_hz(planar ? i : 2 * i);
+      const std::complex<double> expect(-c * w * w / 2.0, w * std::sqrt(1.0 - c * c * w * w / 4.0));
+      const std::complex<double> got = nearest(ev, expect);
+      std::printf("  mode %d: lambda = %.9f %+.9fi, stiffness-proportional %.9f %+.9fi\n", i + 1,
+                  got.real(), got.imag(), expect.real(), expect.imag());
+      // Same backward-error tolerance as the undamped test: 4e-8 for the planar model; the sr
+      // model's A is much larger (|A|_F ~ 2e10: stiff shear/stretch modes and small rotary
+      // inertia), so its tolerance is ~5e-4, still 20x below Re lambda of mode 1.
+      EXPECT_LT(std::abs(got - expect), eig_tolerance(lin.A)) << basis << " mode " << i + 1;
+    }
+  }
 }
 
 }  // namespace

@@ -1,0 +1,74 @@
+// MJCF pre-processing: turns <cosserat> elements into MuJoCo proxy bodies (DESIGN.md sections 6-7)
+// and collects the rod declarations the coupling builds its rod models from.
+//
+// Contract (names of generated MuJoCo objects; the coupling and users rely on them):
+//   body  "<rod>/base"       fixed frame at X = 0, with the element's pos and orientation
+//                            attributes copied verbatim (MuJoCo resolves quat/euler/axisangle/
+//                            xyaxes/zaxis with the model's <compiler angle/eulerseq>)
+//   body  "<rod>/s<i>"       proxy of section i (0-based), a chain under "<rod>/base"; its frame
+//                            is the end of section i (the coupling overwrites its pose)
+//   joint "<rod>/s<i>/<c>"   slide joint per strain coordinate of section i, c = kx ky kz px py pz
+//                            for PCS, or "<comp><k>" (e.g. kz0 kz1 kz2) for Legendre order k (GVS),
+//                            in the core's dof order (Section::basis: component-major)
+//   geom  "<rod>/s<i>/g<j>"  capsule j of section i (collision and visual), covering
+//                            [X0 + j L_i / n, X0 + (j+1) L_i / n] with n capsules per section
+//   site  "<rod>/base", "<rod>/tip" automatic; user <site name=... at=X pos=...> keep their name
+//   <body> children of <cosserat> hang under the last proxy (at the tip frame).
+// Pairs of proxies of the same rod are excluded from collision (<contact><exclude>) unless
+// selfcollide="true".
+#pragma once
+
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "model.hpp"
+
+namespace cosserat::mj {
+
+// A load error that knows where it comes from: what() is "file:line: message".
+class LoadError : public std::runtime_error {
+ public:
+  LoadError(const std::string& file, int line, const std::string& msg);
+  std::string file;
+  int line;
+  std::string message;
+};
+
+struct RodSiteDecl {
+  std::string name;
+  double X = 0.0;               // material abscissa
+  Vec3 pos = Vec3::Zero();      // offset in the cross-section frame
+};
+
+struct RodGeomDecl {
+  std::string name;             // "<rod>/s<i>/g<j>"
+  int section = 0;
+  double X_begin = 0.0, X_end = 0.0;
+};
+
+struct RodDecl {
+  std::string name;
+  std::string file;
+  int line = 0;
+  RodSpec spec;                       // core description (length, radii, sections, material)
+  std::string parent_body;            // MuJoCo body the rod hangs from ("world" for worldbody)
+  std::vector<RodSiteDecl> sites;     // user sites plus "<rod>/base" and "<rod>/tip"
+  std::vector<RodGeomDecl> geoms;     // capsules, in section order
+  std::vector<std::string> joints;    // slide joint names in core dof order (nv of the rod)
+  std::vector<std::string> proxies;   // proxy body names, one per section
+};
+
+struct Preprocessed {
+  std::string xml;                    // MJCF for mj_loadXML, <include>s expanded
+  std::string path;                   // the original file (for relative asset paths)
+  std::vector<RodDecl> rods;
+};
+
+// Reads `path`, expands <include file=...> recursively (relative to the including file), and
+// rewrites every <cosserat>. Throws LoadError on bad input (file:line: what is wrong).
+Preprocessed preprocess_file(const std::string& path);
+// Same for MJCF text; `path` names it in messages and anchors relative includes.
+Preprocessed preprocess_string(const std::string& xml, const std::string& path);
+
+}  // namespace cosserat::mj
