@@ -29,7 +29,13 @@ void crba(const Model& m, Data& d) {
     }
     d.Ic[i] = I;
   }
+  d.Ic_base.setZero();
+  for (int c : children_of(m, -1)) {
+    const Mat6 X = Ad_inv(d.g_rel[c]);
+    d.Ic_base.noalias() += X.transpose() * d.Ic[c] * X;
+  }
   d.M.setZero();
+  d.F_base.setZero();
   // M = sum_a [S_a^T Ic_a S_a + sum_{b ancestor of a} (S_a^T Ic_a X_{b->a} S_b + transpose)]
   for (int a = 0; a < nn; ++a) {
     const Node& na = m.nodes[a];
@@ -37,9 +43,13 @@ void crba(const Model& m, Data& d) {
     auto Fa = d.Fs.leftCols(na.ndof);
     Fa.noalias() = d.Ic[a] * d.S[a];
     d.M.block(na.dof0, na.dof0, na.ndof, na.ndof).noalias() += d.S[a].transpose() * Fa;
-    for (int j = a; m.nodes[j].parent >= 0; j = m.nodes[j].parent) {
+    for (int j = a;; j = m.nodes[j].parent) {
       const int b = m.nodes[j].parent;
       Fa = coAd(d.g_rel[j]) * Fa;  // force subspace transported to the parent frame
+      if (b < 0) {
+        d.F_base.middleCols(na.dof0, na.ndof) += Fa;
+        break;
+      }
       const Node& nb = m.nodes[b];
       if (nb.ndof == 0) continue;
       auto blk = d.M.block(na.dof0, nb.dof0, na.ndof, nb.ndof);
@@ -72,10 +82,11 @@ void rnea(const Model& m, Data& d, const Eigen::Ref<const VecX>& qacc, bool grav
     d.F[i] = f;
   }
   tau.setZero();
+  d.f_base.setZero();
   for (int i = nn - 1; i >= 0; --i) {
     const Node& n = m.nodes[i];
     if (n.ndof > 0) tau.segment(n.dof0, n.ndof).noalias() += d.S[i].transpose() * d.F[i];
-    if (n.parent >= 0) d.F[n.parent] += coAd_apply(d.g_rel[i], d.F[i]);
+    (n.parent >= 0 ? d.F[n.parent] : d.f_base) += coAd_apply(d.g_rel[i], d.F[i]);
   }
 }
 

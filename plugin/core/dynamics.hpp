@@ -9,9 +9,13 @@
 namespace cosserat {
 
 // Mass matrix by the composite-rigid-body algorithm into d.M. After fwd_position.
+// Also fills the coupling to a moving base: d.Ic_base (composite inertia of the whole tree in the
+// base frame) and d.F_base (6 x nv, base-frame wrench per unit qacc), so that for a base with
+// body-frame acceleration a_b the full mass matrix is [[Ic_base, F_base], [F_base^T, M]].
 void crba(const Model& m, Data& d);
 // Recursive Newton-Euler: tau = M qacc + C v + gravity - external loads. After fwd_velocity.
 // `gravity` and `external` switch those contributions on; the base moves as d.base_twist/accel.
+// d.f_base receives the base-frame wrench the base must supply to the tree (its inverse dynamics).
 void rnea(const Model& m, Data& d, const Eigen::Ref<const VecX>& qacc, bool gravity, bool external,
           Eigen::Ref<VecX> tau);
 // -K (q - q_ref) - D v into d.qfrc_passive.

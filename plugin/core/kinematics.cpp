@@ -137,6 +137,48 @@ void rod_jacobian(const Model& m, const Data& d, int r, double X, MatX& J) {
   if (n.ndof > 0) J.middleCols(n.dof0, n.ndof) += dexp(-ps.Om) * ps.G;
 }
 
+int section_jacobian(const Model& m, const Data& d, int r, double X, Mat6X& J, Mat6X* Jdot, SE3* gX) {
+  const PartialStep ps = partial_step(m, d, r, X);
+  const int si = m.nodes[ps.node].section;
+  const Section& sec = m.sections[si];
+  J.setZero(6, sec.ndof);
+  if (Jdot) Jdot->setZero(6, sec.ndof);
+  SE3 g;
+  Mat6X Sdot(6, sec.ndof), AJ(6, sec.ndof);
+  // one Magnus step of the section: J <- Ad^-1 J + S, Jdot <- Ad^-1 Jdot - ad_psi Ad^-1 J + Sdot
+  auto advance = [&](const Node& n, const SE3& grel, const Vec6& Om, const Mat6X& G) {
+    const Mat6 Ai = Ad_inv(grel);
+    const Mat6 Dm = dexp(-Om);
+    AJ.noalias() = Ai * J;
+    J = AJ;
+    J.noalias() += Dm * G;
+    g = g * grel;
+    if (!Jdot || sec.ndof == 0) return;
+    const auto vi = d.v.segment(n.dof0, n.ndof);
+    const Vec6 Omd = G * vi;
+    const Vec6 psi = Dm * Omd;
+    Sdot.noalias() = ddexp(-Om, -Omd) * G;
+    if (n.commutator) {
+      const double c = kZanna * n.h * n.h;
+      const Vec6 xad = n.Phi_a * vi, xbd = n.Phi_b * vi;
+      Sdot.noalias() += Dm * (c * (ad(xad) * n.Phi_b - ad(xbd) * n.Phi_a));
+    }
+    *Jdot = Ai * (*Jdot) - ad(psi) * AJ + Sdot;
+  };
+  for (int i = sec.first_node; i < ps.node; ++i) advance(m.nodes[i], d.g_rel[i], d.Omega[i], d.G[i]);
+  // the last (possibly partial) step; Phi of the partial step for its commutator
+  Node part = m.nodes[ps.node];
+  if (part.commutator) {
+    const double Xp = part.X - part.h, h = std::clamp(X, 0.0, m.rods[r].length) - Xp;
+    part.h = h;
+    sec.basis(Xp + h * (0.5 - 0.28867513459481287), part.Phi_a);
+    sec.basis(Xp + h * (0.5 + 0.28867513459481287), part.Phi_b);
+  }
+  advance(part, ps.offset * exp_se3(ps.Om), ps.Om, ps.G);
+  if (gX) *gX = g;
+  return si;
+}
+
 Vec6 rod_strain(const Model& m, const Data& d, int r, double X) {
   const Rod& rod = m.rods[r];
   X = std::clamp(X, 0.0, rod.length);

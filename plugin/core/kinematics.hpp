@@ -22,6 +22,14 @@ Vec6 node_jdot_v(const Model& m, const Data& d, int node);
 SE3 rod_pose(const Model& m, const Data& d, int rod, double X);
 // Body Jacobian (6 x nv) of the cross-section at X. After fwd_position.
 void rod_jacobian(const Model& m, const Data& d, int rod, double X, MatX& J);
+// Twist of the cross-section at X relative to the start frame of the section containing X, per
+// unit velocity of that section's own dofs: J (6 x ndof of the section, in the frame at X), and
+// its time derivative Jdot (if given; after fwd_velocity). The pose of the frame at X relative to
+// the section start goes to g_start_X if given. Returns the section index. At a section end this
+// is what a MuJoCo proxy's strain dofs contribute (cdof, cdof_dot: DESIGN.md section 6).
+int section_jacobian(const Model& m, const Data& d, int rod, double X, Mat6X& J, Mat6X* Jdot = nullptr,
+                     SE3* g_start_X = nullptr);
+
 // Strain xi(X) = Phi(X) q + xi* of rod r.
 Vec6 rod_strain(const Model& m, const Data& d, int rod, double X);
 

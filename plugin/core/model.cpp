@@ -285,6 +285,7 @@ Data::Data(const Model& m) {
   F.assign(nn, Vec6::Zero());
   Ic.assign(nn, Mat6::Zero());
   Fs = Mat6X::Zero(6, m.max_ndof);
+  F_base = Mat6X::Zero(6, n);
   tmp = rhs = VecX::Zero(n);
   A = MatX::Zero(n, n);
   ldlt = Eigen::LDLT<MatX>(n);

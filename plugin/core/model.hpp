@@ -199,6 +199,10 @@ struct Data {
   std::vector<Vec6> acc;   // body acceleration (scratch of rnea)
   std::vector<Vec6> F;     // subtree wrench (scratch of rnea)
   std::vector<Mat6> Ic;    // composite inertia (scratch of crba)
+  // what the tree transmits to its base (for coupling to a moving parent body):
+  Mat6 Ic_base = Mat6::Zero();   // composite inertia of everything, base frame (crba)
+  Mat6X F_base;                  // 6 x nv: base-frame wrench per unit qacc (crba): M_base,q
+  Vec6 f_base = Vec6::Zero();    // base-frame wrench the base supplies to the tree (rnea)
 
   // scratch
   Mat6X Fs;                // 6 x max_ndof

@@ -232,3 +232,45 @@ TEST(Dynamics, PowerBalance) {
 }
 
 }  // namespace
+
+namespace {
+
+// The coupling to a moving base (Ic_base, F_base, f_base) equals what a free joint at the base
+// sees: put the same rods on a free joint at q = 0 (identity pose, body twist = v_free).
+TEST(Dynamics, BaseCouplingEqualsFreeJointBlocks) {
+  RodSpec a = rod_spec("sr", 2, 1, 0.3, 0.01);
+  a.section.rest_strain << 0.2, -0.3, 0.5, 1.0, 0.0, 0.02;
+  SE3 place(exp_so3(Vec3(0.3, 0.1, -0.2)), Vec3(0.05, 0.01, 0.0));
+  Model fixed, floating;
+  fixed.add_rod(-1, place, a);
+  fixed.finalize();
+  const int fj = floating.add_joint(-1, SE3::Identity(), JointType::Free);
+  floating.add_rod(fj, place, a);
+  floating.finalize();
+  Data df(fixed), dl(floating);
+  df.q = 0.3 * VecX::Random(fixed.nv);
+  df.v = 0.5 * VecX::Random(fixed.nv);
+  const Vec6 vb = Vec6::Random(), ab = Vec6::Random();
+  df.base_twist = vb;
+  df.base_accel = ab;
+  dl.q << VecX::Zero(6), df.q;
+  dl.v << vb, df.v;
+  VecX acc_f = VecX::Random(fixed.nv), acc_l(floating.nv), tau_f(fixed.nv), tau_l(floating.nv);
+  acc_l << ab, acc_f;
+  for (Data* d : {&df, &dl}) {
+    const Model& m = d == &df ? fixed : floating;
+    fwd_position(m, *d);
+    fwd_velocity(m, *d);
+    crba(m, *d);
+  }
+  rnea(fixed, df, acc_f, true, false, tau_f);
+  rnea(floating, dl, acc_l, true, false, tau_l);
+  const double s = dl.M.norm();
+  EXPECT_LT((dl.M.topLeftCorner(6, 6) - df.Ic_base).norm(), 1e-13 * s);
+  EXPECT_LT((dl.M.topRightCorner(6, fixed.nv) - df.F_base).norm(), 1e-13 * s);
+  EXPECT_LT((dl.M.bottomRightCorner(fixed.nv, fixed.nv) - df.M).norm(), 1e-13 * s);
+  EXPECT_LT((tau_l.head(6) - df.f_base).norm(), 1e-12 * (1 + tau_l.norm()));
+  EXPECT_LT((tau_l.tail(fixed.nv) - tau_f).norm(), 1e-12 * (1 + tau_l.norm()));
+}
+
+}  // namespace

@@ -1,0 +1,78 @@
+// Section-relative Jacobians (plugin/core/kinematics.cpp: section_jacobian) against finite
+// differences: they become the cdof / cdof_dot of MuJoCo proxies and the rod columns of contacts.
+#include <gtest/gtest.h>
+
+#include "kinematics.hpp"
+#include "support/test_models.hpp"
+
+using namespace cosserat;
+using namespace cosserat::testing;
+
+namespace {
+
+// pose of the frame at X relative to the start of its section, for a given q
+SE3 relative_pose(const Model& m, const Data& d, int r, double X) {
+  Mat6X J;
+  SE3 g;
+  section_jacobian(m, d, r, X, J, nullptr, &g);
+  return g;
+}
+
+TEST(SectionJacobian, MatchesFiniteDifferencesOfRelativePose) {
+  Model m = hybrid_tree(false);
+  Data d(m);
+  d.q = 0.4 * VecX::Random(m.nv);
+  fwd_position(m, d);
+  const double e = 1e-6;
+  for (int r = 0; r < static_cast<int>(m.rods.size()); ++r) {
+    for (double f : {0.05, 0.3, 0.5, 0.71, 1.0}) {
+      const double X = f * m.rods[r].length;
+      Mat6X J;
+      SE3 g;
+      const int s = section_jacobian(m, d, r, X, J, nullptr, &g);
+      const Section& sec = m.sections[s];
+      // the relative pose agrees with world poses: g_start^-1 g_X
+      const SE3 gs = sec.start_node < 0 ? d.base_pose : d.g[sec.start_node];
+      const SE3 gw = gs * g;
+      EXPECT_LT((gw.matrix() - rod_pose(m, d, r, X).matrix()).norm(), 1e-12);
+      for (int k = 0; k < sec.ndof; ++k) {
+        Data dp = d, dm = d;
+        dp.q(sec.dof0 + k) += e;
+        dm.q(sec.dof0 + k) -= e;
+        fwd_position(m, dp);
+        fwd_position(m, dm);
+        const Vec6 fd = log_se3(relative_pose(m, dm, r, X).inverse() * relative_pose(m, dp, r, X)) / (2 * e);
+        EXPECT_LT((fd - J.col(k)).norm(), 1e-7 * (1 + J.col(k).norm())) << "rod " << r << " X " << X;
+      }
+    }
+  }
+}
+
+TEST(SectionJacobian, TimeDerivativeMatchesFiniteDifferences) {
+  Model m = hybrid_tree(false);
+  Data d(m);
+  d.q = 0.4 * VecX::Random(m.nv);
+  d.v = 0.7 * VecX::Random(m.nv);
+  fwd_position(m, d);
+  fwd_velocity(m, d);
+  const double e = 1e-6;
+  for (int r = 0; r < static_cast<int>(m.rods.size()); ++r) {
+    for (double f : {0.2, 0.5, 0.83, 1.0}) {
+      const double X = f * m.rods[r].length;
+      Mat6X J, Jd, Jp, Jm;
+      section_jacobian(m, d, r, X, J, &Jd);
+      Data dp = d, dm = d;
+      dp.q += e * d.v;
+      dm.q -= e * d.v;
+      fwd_position(m, dp);
+      fwd_position(m, dm);
+      section_jacobian(m, dp, r, X, Jp);
+      section_jacobian(m, dm, r, X, Jm);
+      const Mat6X fd = (Jp - Jm) / (2 * e);
+      // central difference: O(e^2) truncation, eps/e round-off: sqrt-eps level
+      EXPECT_LT((fd - Jd).norm(), 1e-7 * (1 + Jd.norm())) << "rod " << r << " X " << X;
+    }
+  }
+}
+
+}  // namespace
