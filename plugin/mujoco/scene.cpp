@@ -1,0 +1,679 @@
+// Rods inside MuJoCo 2.2.2: loading and the staged, strongly coupled step (DESIGN.md section 6).
+//
+// The step is MuJoCo's own pipeline, stage by stage, with the rod patches in between:
+//   position: kinematics | patch poses | comPos | patch cdof | camlight | tendon | patch ten_J |
+//             crb | patch qM | factorM | collision | makeConstraint | patch contact rows |
+//             transmission | projectConstraint
+//   velocity: ten/actuator velocity | comVel | patch cdof_dot | passive | referenceConstraint |
+//             rne | patch bias (+ rod elastic and damping forces)
+//   then actuation, acceleration, constraint, and an integrator of ours.
+// Rod inertia enters as an articulated subtree on the rod's parent body: the core provides the
+// rod block of M, the base-frame force subspace F_base and the composite inertia Ic_base, which
+// are projected on the parent's dofs through the parent's Jacobian (from MuJoCo's cdof).
+#include "scene.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+
+#include "dynamics.hpp"
+#include "kinematics.hpp"
+
+namespace cosserat::mj {
+
+namespace {
+
+using Vec3m = Eigen::Map<Vec3>;
+using Mat3r = Eigen::Matrix<double, 3, 3, Eigen::RowMajor>;  // MuJoCo's xmat layout
+
+// ---------------------------------------------------------------------------------- loading --
+
+mjModel* compile_xml(const std::string& xml, const std::string& path) {
+  // MuJoCo 2.2 reads files; a VFS entry named after the original file keeps its directory as the
+  // model directory for relative asset paths.
+  mjVFS vfs;
+  mj_defaultVFS(&vfs);
+  const int err = mj_makeEmptyFileVFS(&vfs, path.c_str(), static_cast<int>(xml.size()));
+  if (err) throw LoadError(path, 0, "cannot create the virtual file for MuJoCo (code " + std::to_string(err) + ")");
+  std::memcpy(vfs.filedata[vfs.nfile - 1], xml.data(), xml.size());
+  char error[1024] = "";
+  mjModel* m = mj_loadXML(path.c_str(), &vfs, error, sizeof(error));
+  mj_deleteVFS(&vfs);
+  if (!m) throw LoadError(path, 0, std::string("MuJoCo: ") + error);
+  return m;
+}
+
+int require_id(const mjModel* m, int type, const std::string& name, const RodDecl& r) {
+  const int id = mj_name2id(m, type, name.c_str());
+  if (id < 0) throw LoadError(r.file, r.line, "internal: generated element '" + name + "' missing in the compiled model");
+  return id;
+}
+
+bool is_descendant(const mjModel* m, int b, int ancestor) {
+  for (; b > 0; b = m->body_parentid[b])
+    if (b == ancestor) return true;
+  return ancestor == 0;
+}
+
+RodBinding bind_rod(const mjModel* m, const RodDecl& decl) {
+  RodBinding rb;
+  rb.decl = decl;
+  rb.model.gravity = Vec3(m->opt.gravity[0], m->opt.gravity[1], m->opt.gravity[2]);
+  rb.model.add_rod(-1, SE3::Identity(), decl.spec);
+  rb.model.finalize();
+  rb.base_body = require_id(m, mjOBJ_BODY, decl.name + "/base", decl);
+  for (const auto& p : decl.proxies) rb.proxy_body.push_back(require_id(m, mjOBJ_BODY, p, decl));
+  if (static_cast<int>(decl.joints.size()) != rb.model.nv)
+    throw LoadError(decl.file, decl.line, "internal: joint count differs from the rod's dof count");
+  // the rod's dofs must be one contiguous block in core order
+  for (size_t k = 0; k < decl.joints.size(); ++k) {
+    const int j = require_id(m, mjOBJ_JOINT, decl.joints[k], decl);
+    if (k == 0) {
+      rb.dof0 = m->jnt_dofadr[j];
+      rb.qpos0 = m->jnt_qposadr[j];
+    } else if (m->jnt_dofadr[j] != rb.dof0 + static_cast<int>(k) || m->jnt_qposadr[j] != rb.qpos0 + static_cast<int>(k)) {
+      throw LoadError(decl.file, decl.line, "internal: rod dofs are not contiguous");
+    }
+  }
+  for (const auto& g : decl.geoms) rb.geom_id.push_back(require_id(m, mjOBJ_GEOM, g.name, decl));
+  for (const auto& s : decl.sites) rb.site_id.push_back(require_id(m, mjOBJ_SITE, s.name, decl));
+  const int last = rb.proxy_body.back();
+  rb.below_begin = last + 1;
+  rb.below_end = rb.below_begin;
+  while (rb.below_end < m->nbody && is_descendant(m, rb.below_end, last)) ++rb.below_end;
+  return rb;
+}
+
+// Proxies carry no inertia of their own (the core owns the rod's inertia): zero their masses, fix
+// the subtree masses MuJoCo divides by, and disable the "simple body" shortcuts that ignore cdof.
+void strip_proxies(mjModel* m, const std::vector<RodBinding>& rods) {
+  for (const auto& r : rods) {
+    for (int p : r.proxy_body) {
+      m->body_mass[p] = 0.0;
+      for (int k = 0; k < 3; ++k) m->body_inertia[3 * p + k] = 0.0;
+    }
+    for (int b = r.proxy_body.front(); b < r.below_end; ++b) m->body_simple[b] = 0;
+  }
+  for (int i = 0; i < m->nv; ++i) {
+    const int b = m->dof_bodyid[i];
+    for (const auto& r : rods)
+      if (b >= r.proxy_body.front() && b < r.below_end) m->dof_simplenum[i] = 0;
+  }
+  for (int b = 0; b < m->nbody; ++b) m->body_subtreemass[b] = m->body_mass[b];
+  for (int b = m->nbody - 1; b > 0; --b) m->body_subtreemass[m->body_parentid[b]] += m->body_subtreemass[b];
+}
+
+// ------------------------------------------------------------------------------- kinematics --
+
+void set_pose(mjtNum* xpos, mjtNum* xmat, const SE3& g) {
+  for (int i = 0; i < 3; ++i) {
+    xpos[i] = g.u(i);
+    for (int j = 0; j < 3; ++j) xmat[3 * i + j] = g.R(i, j);
+  }
+}
+
+SE3 get_pose(const mjtNum* xpos, const mjtNum* xmat) {
+  SE3 g;
+  for (int i = 0; i < 3; ++i) {
+    g.u(i) = xpos[i];
+    for (int j = 0; j < 3; ++j) g.R(i, j) = xmat[3 * i + j];
+  }
+  return g;
+}
+
+// MuJoCo's mj_kinematics for one body whose parent pose is final (bodies below a rod).
+void body_kinematics(const mjModel* m, mjData* d, int i) {
+  mjtNum xpos[3], xquat[4];
+  const int jntadr = m->body_jntadr[i], jntnum = m->body_jntnum[i];
+  if (jntnum == 1 && m->jnt_type[jntadr] == mjJNT_FREE) {
+    const int qadr = m->jnt_qposadr[jntadr];
+    mju_copy3(xpos, d->qpos + qadr);
+    mju_copy4(xquat, d->qpos + qadr + 3);
+    mju_normalize4(xquat);
+    mju_copy3(d->xanchor + 3 * jntadr, xpos);
+    mju_copy3(d->xaxis + 3 * jntadr, m->jnt_axis + 3 * jntadr);
+  } else {
+    const int pid = m->body_parentid[i];
+    mju_rotVecMat(xpos, m->body_pos + 3 * i, d->xmat + 9 * pid);
+    mju_addTo3(xpos, d->xpos + 3 * pid);
+    mju_mulQuat(xquat, d->xquat + 4 * pid, m->body_quat + 4 * i);
+    for (int j = 0; j < jntnum; ++j) {
+      const int jid = jntadr + j, qadr = m->jnt_qposadr[jid], type = m->jnt_type[jid];
+      mjtNum xanchor[3], xaxis[3];
+      mju_rotVecQuat(xaxis, m->jnt_axis + 3 * jid, xquat);
+      mju_rotVecQuat(xanchor, m->jnt_pos + 3 * jid, xquat);
+      mju_addTo3(xanchor, xpos);
+      if (type == mjJNT_SLIDE) {
+        mju_addToScl3(xpos, xaxis, d->qpos[qadr] - m->qpos0[qadr]);
+      } else if (type == mjJNT_BALL || type == mjJNT_HINGE) {
+        mjtNum qloc[4], vec[3];
+        if (type == mjJNT_BALL) {
+          mju_copy4(qloc, d->qpos + qadr);
+          mju_normalize4(qloc);
+        } else {
+          mju_axisAngle2Quat(qloc, m->jnt_axis + 3 * jid, d->qpos[qadr] - m->qpos0[qadr]);
+        }
+        mju_mulQuat(xquat, xquat, qloc);
+        mju_rotVecQuat(vec, m->jnt_pos + 3 * jid, xquat);
+        mju_sub3(xpos, xanchor, vec);
+      }
+      mju_copy3(d->xanchor + 3 * jid, xanchor);
+      mju_copy3(d->xaxis + 3 * jid, xaxis);
+    }
+  }
+  mju_normalize4(xquat);
+  mju_copy4(d->xquat + 4 * i, xquat);
+  mju_copy3(d->xpos + 3 * i, xpos);
+  mju_quat2Mat(d->xmat + 9 * i, xquat);
+  mj_local2Global(d, d->xipos + 3 * i, d->ximat + 9 * i, m->body_ipos + 3 * i, m->body_iquat + 4 * i, i,
+                  m->body_sameframe[i]);
+}
+
+// Geoms and sites of bodies [b0, b1) from their (final) body poses.
+void attached_kinematics(const mjModel* m, mjData* d, int b0, int b1) {
+  for (int g = 0; g < m->ngeom; ++g) {
+    const int b = m->geom_bodyid[g];
+    if (b >= b0 && b < b1)
+      mj_local2Global(d, d->geom_xpos + 3 * g, d->geom_xmat + 9 * g, m->geom_pos + 3 * g, m->geom_quat + 4 * g, b,
+                      m->geom_sameframe[g]);
+  }
+  for (int s = 0; s < m->nsite; ++s) {
+    const int b = m->site_bodyid[s];
+    if (b >= b0 && b < b1)
+      mj_local2Global(d, d->site_xpos + 3 * s, d->site_xmat + 9 * s, m->site_pos + 3 * s, m->site_quat + 4 * s, b,
+                      m->site_sameframe[s]);
+  }
+}
+
+// Patch point 1: proxy poses, rod capsules and sites from the rod solution; then everything below.
+void patch_rod_kinematics(const Scene& s, SceneData& sd, int r) {
+  const mjModel* m = s.m;
+  mjData* d = sd.d;
+  const RodBinding& rb = s.rods[r];
+  cosserat::Data& rd = sd.rod[r];
+  for (int k = 0; k < rb.model.nv; ++k) rd.q(k) = d->qpos[rb.qpos0 + k];
+  rd.base_pose = get_pose(d->xpos + 3 * rb.base_body, d->xmat + 9 * rb.base_body);
+  cosserat::fwd_position(rb.model, rd);
+  for (size_t i = 0; i < rb.proxy_body.size(); ++i) {
+    const int p = rb.proxy_body[i];
+    const SE3& g = rd.g[rb.model.sections[i].end_node];
+    set_pose(d->xpos + 3 * p, d->xmat + 9 * p, g);
+    mju_mat2Quat(d->xquat + 4 * p, d->xmat + 9 * p);
+    mju_copy3(d->xipos + 3 * p, d->xpos + 3 * p);
+    mju_copy(d->ximat + 9 * p, d->xmat + 9 * p, 9);
+    for (int j = m->body_jntadr[p]; j < m->body_jntadr[p] + m->body_jntnum[p]; ++j) {
+      mju_copy3(d->xanchor + 3 * j, d->xpos + 3 * p);
+      mju_rotVecMat(d->xaxis + 3 * j, m->jnt_axis + 3 * j, d->xmat + 9 * p);
+    }
+  }
+  // capsules along the chord of their stretch of centreline (MuJoCo capsules lie along local z)
+  for (size_t k = 0; k < rb.geom_id.size(); ++k) {
+    const RodGeomDecl& gd = rb.decl.geoms[k];
+    const Vec3 a = rod_pose(rb.model, rd, 0, gd.X_begin).u, b = rod_pose(rb.model, rd, 0, gd.X_end).u;
+    const Mat3 Rm = rod_pose(rb.model, rd, 0, 0.5 * (gd.X_begin + gd.X_end)).R;
+    Vec3 z = b - a;
+    z = z.norm() > 1e-300 ? Vec3(z.normalized()) : Vec3(Rm.col(0));
+    Vec3 x = Rm.col(1) - Rm.col(1).dot(z) * z;
+    x = x.norm() > 1e-9 ? Vec3(x.normalized()) : Vec3(z.unitOrthogonal());
+    SE3 g;
+    g.R << x, z.cross(x), z;
+    g.u = 0.5 * (a + b);
+    const int id = rb.geom_id[k];
+    set_pose(d->geom_xpos + 3 * id, d->geom_xmat + 9 * id, g);
+  }
+  for (size_t k = 0; k < rb.site_id.size(); ++k) {
+    const RodSiteDecl& sdl = rb.decl.sites[k];
+    SE3 g = rod_pose(rb.model, rd, 0, sdl.X);
+    g.u += g.R * sdl.pos;
+    const int id = rb.site_id[k];
+    set_pose(d->site_xpos + 3 * id, d->site_xmat + 9 * id, g);
+  }
+  for (int b = rb.below_begin; b < rb.below_end; ++b) body_kinematics(m, d, b);
+  attached_kinematics(m, d, rb.below_begin, rb.below_end);
+}
+
+// Spatial transform MuJoCo's com-based vectors live in, for a frame g: G = (R, p - c).
+SE3 com_frame(const SE3& g, const mjtNum* c) { return SE3{g.R, g.u - Vec3(c[0], c[1], c[2])}; }
+
+// Patch point 2: cdof of each strain dof = twist of its section's end per unit dof velocity.
+void patch_cdof(const Scene& s, SceneData& sd, int r) {
+  mjData* d = sd.d;
+  const RodBinding& rb = s.rods[r];
+  cosserat::Data& rd = sd.rod[r];
+  Mat6X J;
+  for (size_t i = 0; i < rb.proxy_body.size(); ++i) {
+    const Section& sec = rb.model.sections[i];
+    if (sec.ndof == 0) continue;
+    section_jacobian(rb.model, rd, 0, sec.X0 + sec.length, J);
+    const mjtNum* c = d->subtree_com + 3 * s.m->body_rootid[rb.proxy_body[i]];
+    const Mat6 A = Ad(com_frame(rd.g[sec.end_node], c));
+    for (int k = 0; k < sec.ndof; ++k) {
+      const Vec6 v = A * J.col(k);
+      for (int e = 0; e < 6; ++e) d->cdof[6 * (rb.dof0 + sec.dof0 + k) + e] = v(e);
+    }
+  }
+}
+
+// Patch point 4: cdof_dot = d/dt (Ad_G J) = Ad_G (ad_eta J + Jdot), eta the end frame's twist.
+void patch_cdof_dot(const Scene& s, SceneData& sd, int r) {
+  mjData* d = sd.d;
+  const RodBinding& rb = s.rods[r];
+  cosserat::Data& rd = sd.rod[r];
+  Mat6X J, Jd;
+  for (size_t i = 0; i < rb.proxy_body.size(); ++i) {
+    const Section& sec = rb.model.sections[i];
+    if (sec.ndof == 0) continue;
+    section_jacobian(rb.model, rd, 0, sec.X0 + sec.length, J, &Jd);
+    const mjtNum* c = d->subtree_com + 3 * s.m->body_rootid[rb.proxy_body[i]];
+    const Mat6 A = Ad(com_frame(rd.g[sec.end_node], c));
+    const Mat6 ade = ad(rd.eta[sec.end_node]);
+    for (int k = 0; k < sec.ndof; ++k) {
+      const Vec6 v = A * (ade * J.col(k) + Jd.col(k));
+      for (int e = 0; e < 6; ++e) d->cdof_dot[6 * (rb.dof0 + sec.dof0 + k) + e] = v(e);
+    }
+  }
+}
+
+// The dofs above the rod's base body, nearest first (MuJoCo's dof_parentid chain).
+int first_ancestor_dof(const mjModel* m, int body) {
+  for (int b = body; b > 0; b = m->body_parentid[b])
+    if (m->body_dofnum[b] > 0) return m->body_dofadr[b] + m->body_dofnum[b] - 1;
+  return -1;
+}
+
+// Base-frame columns of the ancestor dofs: Ad_G^-1 cdof_j.
+void base_columns(const Scene& s, SceneData& sd, int r, std::vector<int>& dofs, Mat6X& cols) {
+  const mjModel* m = s.m;
+  mjData* d = sd.d;
+  const RodBinding& rb = s.rods[r];
+  dofs.clear();
+  for (int j = first_ancestor_dof(m, rb.base_body); j >= 0; j = m->dof_parentid[j]) dofs.push_back(j);
+  cols.resize(6, static_cast<int>(dofs.size()));
+  const SE3 G = com_frame(sd.rod[r].base_pose, d->subtree_com + 3 * m->body_rootid[rb.base_body]);
+  for (size_t t = 0; t < dofs.size(); ++t) {
+    Vec6 cd;
+    for (int e = 0; e < 6; ++e) cd(e) = d->cdof[6 * dofs[t] + e];
+    cols.col(t) = Ad_inv_apply(G, cd);
+  }
+}
+
+// Patch point 3: the rod's inertia in qM (sparse: qM[dof_Madr[i] + k] = M(i, k-th ancestor)).
+void patch_qM(const Scene& s, SceneData& sd, int r) {
+  const mjModel* m = s.m;
+  mjData* d = sd.d;
+  const RodBinding& rb = s.rods[r];
+  cosserat::Data& rd = sd.rod[r];
+  cosserat::crba(rb.model, rd);
+  std::vector<int> anc;
+  Mat6X C;
+  base_columns(s, sd, r, anc, C);
+  const int n = rb.model.nv, na = static_cast<int>(anc.size());
+  for (int i = 0; i < n; ++i) {
+    const int adr = m->dof_Madr[rb.dof0 + i];
+    for (int j = 0; j <= i; ++j) d->qM[adr + (i - j)] += rd.M(i, j);
+    for (int t = 0; t < na; ++t) d->qM[adr + i + 1 + t] += rd.F_base.col(i).dot(C.col(t));
+  }
+  const MatX IC = C.transpose() * rd.Ic_base * C;
+  for (int t = 0; t < na; ++t)
+    for (int u = t; u < na; ++u) d->qM[m->dof_Madr[anc[t]] + (u - t)] += IC(t, u);
+}
+
+// Patch point 6: rod Coriolis, centrifugal and gravity forces, the reaction on the ancestors,
+// and the rod's elastic and Kelvin-Voigt forces (explicit here; see the integrators).
+void patch_bias(const Scene& s, SceneData& sd, int r) {
+  const mjModel* m = s.m;
+  mjData* d = sd.d;
+  const RodBinding& rb = s.rods[r];
+  cosserat::Data& rd = sd.rod[r];
+  const int n = rb.model.nv;
+  for (int k = 0; k < n; ++k) rd.v(k) = d->qvel[rb.dof0 + k];
+  // base motion: MuJoCo's spatial velocity/bias acceleration at the base, to the base frame
+  const int root = m->body_rootid[rb.base_body];
+  const SE3 G = com_frame(rd.base_pose, d->subtree_com + 3 * root);
+  Vec6 cvel, cacc = Vec6::Zero();
+  for (int e = 0; e < 6; ++e) cvel(e) = d->cvel[6 * rb.base_body + e];
+  if (!(m->opt.disableflags & mjDSBL_GRAVITY)) cacc.tail<3>() = -Vec3(m->opt.gravity[0], m->opt.gravity[1], m->opt.gravity[2]);
+  for (int j = first_ancestor_dof(m, rb.base_body); j >= 0; j = m->dof_parentid[j])
+    for (int e = 0; e < 6; ++e) cacc(e) += d->cdof_dot[6 * j + e] * d->qvel[j];
+  rd.base_twist = Ad_inv_apply(G, cvel);
+  rd.base_accel = Ad_inv_apply(G, cacc);
+  cosserat::fwd_velocity(rb.model, rd);
+  rd.rhs.setZero();
+  cosserat::rnea(rb.model, rd, rd.rhs, false, true, rd.qfrc_bias);  // gravity is in base_accel
+  for (int k = 0; k < n; ++k) d->qfrc_bias[rb.dof0 + k] += rd.qfrc_bias(k);
+  std::vector<int> anc;
+  Mat6X C;
+  base_columns(s, sd, r, anc, C);
+  for (size_t t = 0; t < anc.size(); ++t) d->qfrc_bias[anc[t]] += C.col(t).dot(rd.f_base);
+  cosserat::passive(rb.model, rd);
+  for (int k = 0; k < n; ++k) d->qfrc_passive[rb.dof0 + k] += rd.qfrc_passive(k);
+}
+
+}  // namespace
+
+// ------------------------------------------------------------------------------- public API --
+
+Scene::~Scene() {
+  if (m) mj_deleteModel(m);
+}
+
+SceneData::SceneData(const Scene& s) {
+  d = mj_makeData(s.m);
+  for (const auto& r : s.rods) rod.emplace_back(r.model);
+  const int nv = s.m->nv;
+  jac.assign(3 * nv, 0);
+  jacr.assign(3 * nv, 0);
+  tmp_nv.assign(nv, 0);
+  qacc_tmp.assign(nv, 0);
+  qpos_save.assign(s.m->nq, 0);
+  qvel_save.assign(nv, 0);
+  rk_q.assign(s.m->nq, 0);
+  rk_v.assign(nv, 0);
+  rk_kq.assign(4 * nv, 0);
+  rk_kv.assign(4 * nv, 0);
+}
+
+SceneData::~SceneData() {
+  if (d) mj_deleteData(d);
+}
+
+void fwd_position(const Scene& s, SceneData& sd) {
+  const mjModel* m = s.m;
+  mjData* d = sd.d;
+  mj_kinematics(m, d);
+  for (size_t r = 0; r < s.rods.size(); ++r) patch_rod_kinematics(s, sd, static_cast<int>(r));
+  mj_comPos(m, d);
+  for (size_t r = 0; r < s.rods.size(); ++r) patch_cdof(s, sd, static_cast<int>(r));
+  mj_camlight(m, d);
+  mj_tendon(m, d);
+  mj_crb(m, d);
+  for (size_t r = 0; r < s.rods.size(); ++r) patch_qM(s, sd, static_cast<int>(r));
+  mj_factorM(m, d);
+  mj_collision(m, d);
+  mj_makeConstraint(m, d);
+  mj_transmission(m, d);
+  mj_projectConstraint(m, d);
+}
+
+void fwd_velocity(const Scene& s, SceneData& sd) {
+  const mjModel* m = s.m;
+  mjData* d = sd.d;
+  if (m->ntendon) mju_mulMatVec(d->ten_velocity, d->ten_J, d->qvel, m->ntendon, m->nv);
+  if (m->nu) mju_mulMatVec(d->actuator_velocity, d->actuator_moment, d->qvel, m->nu, m->nv);
+  mj_comVel(m, d);
+  for (size_t r = 0; r < s.rods.size(); ++r) patch_cdof_dot(s, sd, static_cast<int>(r));
+  mj_passive(m, d);
+  mj_referenceConstraint(m, d);
+  mj_rne(m, d, 1, d->qfrc_bias);
+  for (size_t r = 0; r < s.rods.size(); ++r) patch_bias(s, sd, static_cast<int>(r));
+}
+
+void forward(const Scene& s, SceneData& sd) {
+  const mjModel* m = s.m;
+  mjData* d = sd.d;
+  fwd_position(s, sd);
+  mj_sensorPos(m, d);
+  fwd_velocity(s, sd);
+  mj_sensorVel(m, d);
+  mj_fwdActuation(m, d);
+  mj_fwdAcceleration(m, d);
+  mj_fwdConstraint(m, d);
+  mj_sensorAcc(m, d);
+}
+
+// --------------------------------------------------------------------------- load / reset --
+
+namespace {
+
+// Model constants that mj_setConst derived from a mass matrix without the rods' inertia: recompute
+// them from the patched mass matrix at qpos0 (they set the softness of contacts and limits).
+void recompute_invweight0(Scene& s) {
+  mjModel* m = s.m;
+  SceneData sd(s);
+  mju_copy(sd.d->qpos, m->qpos0, m->nq);
+  fwd_position(s, sd);
+  const int nv = m->nv;
+  Eigen::MatrixXd Minv(nv, nv);
+  std::vector<mjtNum> e(nv), x(nv);
+  for (int j = 0; j < nv; ++j) {
+    std::fill(e.begin(), e.end(), 0.0);
+    e[j] = 1.0;
+    mj_solveM(m, sd.d, x.data(), e.data(), 1);
+    for (int i = 0; i < nv; ++i) Minv(i, j) = x[i];
+  }
+  for (int j = 0; j < m->njnt; ++j) {
+    const int a = m->jnt_dofadr[j];
+    switch (m->jnt_type[j]) {
+      case mjJNT_FREE: {
+        const double t = (Minv(a, a) + Minv(a + 1, a + 1) + Minv(a + 2, a + 2)) / 3.0;
+        const double r = (Minv(a + 3, a + 3) + Minv(a + 4, a + 4) + Minv(a + 5, a + 5)) / 3.0;
+        for (int k = 0; k < 3; ++k) m->dof_invweight0[a + k] = t, m->dof_invweight0[a + 3 + k] = r;
+        break;
+      }
+      case mjJNT_BALL: {
+        const double r = (Minv(a, a) + Minv(a + 1, a + 1) + Minv(a + 2, a + 2)) / 3.0;
+        for (int k = 0; k < 3; ++k) m->dof_invweight0[a + k] = r;
+        break;
+      }
+      default: m->dof_invweight0[a] = Minv(a, a);
+    }
+  }
+  Eigen::MatrixXd J(6, nv);
+  std::vector<mjtNum> jp(3 * nv), jr(3 * nv);
+  for (int b = 1; b < m->nbody; ++b) {
+    mj_jacBodyCom(m, sd.d, jp.data(), jr.data(), b);
+    for (int i = 0; i < 3; ++i)
+      for (int k = 0; k < nv; ++k) J(i, k) = jp[i * nv + k], J(3 + i, k) = jr[i * nv + k];
+    const Eigen::MatrixXd A = J * Minv * J.transpose();
+    m->body_invweight0[2 * b] = (A(0, 0) + A(1, 1) + A(2, 2)) / 3.0;
+    m->body_invweight0[2 * b + 1] = (A(3, 3) + A(4, 4) + A(5, 5)) / 3.0;
+  }
+  for (int t = 0; t < m->ntendon; ++t) {
+    Eigen::Map<const Eigen::RowVectorXd> Jt(sd.d->ten_J + t * nv, nv);
+    m->tendon_invweight0[t] = Jt * Minv * Jt.transpose();
+  }
+}
+
+std::unique_ptr<Scene> compile(const Preprocessed& pre) {
+  auto s = std::make_unique<Scene>();
+  s->path = pre.path;
+  s->m = compile_xml(pre.xml, pre.path);
+  for (const auto& decl : pre.rods) s->rods.push_back(bind_rod(s->m, decl));
+  std::sort(s->rods.begin(), s->rods.end(),
+            [](const RodBinding& a, const RodBinding& b) { return a.base_body < b.base_body; });
+  strip_proxies(s->m, s->rods);
+  s->geom_rod.assign(s->m->ngeom, -1);
+  s->geom_index.assign(s->m->ngeom, -1);
+  for (size_t r = 0; r < s->rods.size(); ++r)
+    for (size_t k = 0; k < s->rods[r].geom_id.size(); ++k) {
+      s->geom_rod[s->rods[r].geom_id[k]] = static_cast<int>(r);
+      s->geom_index[s->rods[r].geom_id[k]] = static_cast<int>(k);
+    }
+  if (!s->rods.empty()) recompute_invweight0(*s);
+  s->integrator = s->rods.empty() ? Integrator::Euler : Integrator::Implicit;
+  if (s->m->opt.integrator == mjINT_RK4) s->integrator = Integrator::RK4;
+  return s;
+}
+
+}  // namespace
+
+std::unique_ptr<Scene> load_scene(const std::string& path) { return compile(preprocess_file(path)); }
+
+std::unique_ptr<Scene> load_scene_string(const std::string& xml, const std::string& path) {
+  return compile(preprocess_string(xml, path));
+}
+
+void reset(const Scene& s, SceneData& sd) {
+  mj_resetData(s.m, sd.d);
+  sd.status = Status::Ok;
+  sd.warning.clear();
+}
+
+// ------------------------------------------------------------------------------ integrators --
+
+namespace {
+
+// Advance qvel, qpos, act and time with the accelerations in d->qacc exactly as MuJoCo's Euler
+// does, without its implicit joint damping (already folded into qacc by the caller).
+void advance_with_qacc(const Scene& s, SceneData& sd) {
+  mjModel* m = s.m;
+  std::vector<mjtNum>& damping = sd.tmp_nv;
+  mju_copy(damping.data(), m->dof_damping, m->nv);
+  mju_zero(m->dof_damping, m->nv);
+  mj_Euler(m, sd.d);
+  mju_copy(m->dof_damping, damping.data(), m->nv);
+}
+
+// Implicit in the rods' stiffness and damping and in MuJoCo's joint damping:
+//   (M + h D + h^2 K) a = M qacc - h K v,   qacc the explicit accelerations (with constraint forces).
+// Assembled in MuJoCo's sparse qM (K and D live inside each section's dof chain) and solved with
+// MuJoCo's own factorisation; qM is restored afterwards.
+void implicit_step(const Scene& s, SceneData& sd) {
+  const mjModel* m = s.m;
+  mjData* d = sd.d;
+  const double h = m->opt.timestep;
+  const int nv = m->nv;
+  // rhs = M qacc - h K v
+  mj_mulM(m, d, sd.qacc_tmp.data(), d->qacc);
+  for (size_t r = 0; r < s.rods.size(); ++r) {
+    const RodBinding& rb = s.rods[r];
+    const VecX Kv = rb.model.K * sd.rod[r].v;
+    for (int k = 0; k < rb.model.nv; ++k) sd.qacc_tmp[rb.dof0 + k] -= h * Kv(k);
+  }
+  std::vector<mjtNum> qM_save(d->qM, d->qM + m->nM);
+  for (int i = 0; i < nv; ++i) d->qM[m->dof_Madr[i]] += h * m->dof_damping[i];
+  for (const auto& rb : s.rods)
+    for (int i = 0; i < rb.model.nv; ++i)
+      for (int j = 0; j <= i; ++j) {
+        const double a = h * rb.model.D(i, j) + h * h * rb.model.K(i, j);
+        if (a != 0.0) d->qM[m->dof_Madr[rb.dof0 + i] + (i - j)] += a;
+      }
+  mj_factorM(m, d);
+  mj_solveM(m, d, d->qacc, sd.qacc_tmp.data(), 1);
+  std::copy(qM_save.begin(), qM_save.end(), d->qM);
+  mj_factorM(m, d);
+  advance_with_qacc(s, sd);
+}
+
+// Classic RK4 on (qpos, qvel, act) with our forward at every stage (MuJoCo's mj_RungeKutta calls
+// mj_forward and would lose the rod patches). Positions are integrated with mj_integratePos.
+void rk4_step(const Scene& s, SceneData& sd) {
+  const mjModel* m = s.m;
+  mjData* d = sd.d;
+  const int nv = m->nv, nq = m->nq, na = m->na;
+  const double h = m->opt.timestep;
+  static constexpr double A[3] = {0.5, 0.5, 1.0}, B[4] = {1.0 / 6, 1.0 / 3, 1.0 / 3, 1.0 / 6};
+  std::vector<mjtNum> q0(d->qpos, d->qpos + nq), v0(d->qvel, d->qvel + nv), a0(d->act, d->act + na);
+  std::vector<mjtNum> kq(4 * nv), kv(4 * nv), ka(4 * std::max(na, 1)), dx(nv);
+  const double t0 = d->time;
+  for (int st = 0; st < 4; ++st) {
+    if (st > 0) {
+      const double c = A[st - 1] * h;
+      mju_copy(d->qpos, q0.data(), nq);
+      mj_integratePos(m, d->qpos, kq.data() + (st - 1) * nv, c);
+      for (int i = 0; i < nv; ++i) d->qvel[i] = v0[i] + c * kv[(st - 1) * nv + i];
+      for (int i = 0; i < na; ++i) d->act[i] = a0[i] + c * ka[(st - 1) * na + i];
+      d->time = t0 + c;
+    }
+    forward(s, sd);
+    mju_copy(kq.data() + st * nv, d->qvel, nv);
+    mju_copy(kv.data() + st * nv, d->qacc, nv);
+    if (na) mju_copy(ka.data() + st * na, d->act_dot, na);
+  }
+  mju_copy(d->qpos, q0.data(), nq);
+  for (int i = 0; i < nv; ++i) {
+    dx[i] = 0.0;
+    double acc = 0.0;
+    for (int st = 0; st < 4; ++st) dx[i] += B[st] * kq[st * nv + i], acc += B[st] * kv[st * nv + i];
+    d->qvel[i] = v0[i] + h * acc;
+    d->qacc[i] = acc;
+  }
+  mj_integratePos(m, d->qpos, dx.data(), h);
+  for (int i = 0; i < na; ++i) {
+    double acc = 0.0;
+    for (int st = 0; st < 4; ++st) acc += B[st] * ka[st * na + i];
+    d->act[i] = a0[i] + h * acc;
+  }
+  d->time = t0 + h;
+}
+
+bool state_finite(const mjModel* m, const mjData* d) {
+  for (int i = 0; i < m->nq; ++i)
+    if (!std::isfinite(d->qpos[i])) return false;
+  for (int i = 0; i < m->nv; ++i)
+    if (!std::isfinite(d->qvel[i]) || std::abs(d->qvel[i]) > 1e10) return false;
+  return true;
+}
+
+}  // namespace
+
+Status step(const Scene& s, SceneData& sd) { return step(s, sd, s.integrator); }
+
+Status step(const Scene& s, SceneData& sd, Integrator method) {
+  const mjModel* m = s.m;
+  mjData* d = sd.d;
+  mju_copy(sd.qpos_save.data(), d->qpos, m->nq);
+  mju_copy(sd.qvel_save.data(), d->qvel, m->nv);
+  const double t = d->time;
+  switch (method) {
+    case Integrator::Euler:
+      forward(s, sd);
+      mj_Euler(m, d);
+      break;
+    case Integrator::Implicit:
+      forward(s, sd);
+      implicit_step(s, sd);
+      break;
+    case Integrator::RK4: rk4_step(s, sd); break;
+  }
+  if (!state_finite(m, d)) {
+    mju_copy(d->qpos, sd.qpos_save.data(), m->nq);
+    mju_copy(d->qvel, sd.qvel_save.data(), m->nv);
+    d->time = t;
+    sd.status = Status::Diverged;
+    sd.warning = "the state became non-finite at t = " + std::to_string(t) + " s";
+    return sd.status;
+  }
+  sd.status = Status::Ok;
+  return sd.status;
+}
+
+// ------------------------------------------------------------------------------- outputs --
+
+SceneEnergy energy(const Scene& s, SceneData& sd) {
+  const mjModel* m = s.m;
+  mjData* d = sd.d;
+  SceneEnergy e;
+  std::vector<mjtNum> Mv(m->nv);
+  mj_mulM(m, d, Mv.data(), d->qvel);  // qM includes the rods' inertia
+  e.kinetic = 0.5 * mju_dot(Mv.data(), d->qvel, m->nv);
+  const Vec3 g(m->opt.gravity[0], m->opt.gravity[1], m->opt.gravity[2]);
+  for (int b = 1; b < m->nbody; ++b) e.gravity -= m->body_mass[b] * g.dot(Vec3(d->xipos[3 * b], d->xipos[3 * b + 1], d->xipos[3 * b + 2]));
+  for (size_t r = 0; r < s.rods.size(); ++r) {
+    const Energy er = cosserat::energy(s.rods[r].model, sd.rod[r]);
+    e.gravity += er.gravity;
+    e.elastic += er.elastic;
+  }
+  for (int j = 0; j < m->njnt; ++j) {
+    const int t = m->jnt_type[j], a = m->jnt_qposadr[j];
+    if (m->jnt_stiffness[j] > 0 && (t == mjJNT_HINGE || t == mjJNT_SLIDE)) {
+      const double dq = d->qpos[a] - m->qpos_spring[a];
+      e.elastic += 0.5 * m->jnt_stiffness[j] * dq * dq;
+    }
+  }
+  for (int t = 0; t < m->ntendon; ++t)
+    if (m->tendon_stiffness[t] > 0) {
+      const double dl = d->ten_length[t] - m->tendon_lengthspring[t];
+      e.elastic += 0.5 * m->tendon_stiffness[t] * dl * dl;
+    }
+  return e;
+}
+
+std::vector<Vec3> rod_centerline(const Scene& s, const SceneData& sd, int r, int n) {
+  std::vector<Vec3> pts;
+  const double L = s.rods[r].model.rods[0].length;
+  for (int i = 0; i < n; ++i) pts.push_back(rod_pose(s.rods[r].model, sd.rod[r], 0, L * i / std::max(n - 1, 1)).u);
+  return pts;
+}
+
+}  // namespace cosserat::mj

@@ -1,0 +1,94 @@
+// A MuJoCo 2.2.2 scene with Cosserat rods, stepped as one system (DESIGN.md section 6).
+//
+// Scene is the compiled model (MuJoCo model plus one core rod model per <cosserat>); SceneData
+// holds the state (mjData plus one core Data per rod). The API mirrors MuJoCo's:
+//   auto scene = load_scene("arm.xml");        // throws LoadError("file:line: ...")
+//   SceneData data(*scene);
+//   while (...) step(*scene, data);             // or forward(*scene, data)
+// Strain coordinates live in MuJoCo's qpos/qvel (one slide joint per strain coordinate, see
+// mjcf.hpp for the names), so actuators, sensors, equality constraints and the constraint solver
+// see one system.
+#pragma once
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <mujoco/mujoco.h>
+
+#include "integrators.hpp"
+#include "mjcf.hpp"
+#include "model.hpp"
+
+namespace cosserat::mj {
+
+// One rod inside the MuJoCo model.
+struct RodBinding {
+  RodDecl decl;
+  cosserat::Model model;          // the rod alone; its base frame is the "<rod>/base" body
+  int base_body = -1;             // MuJoCo body id of "<rod>/base"
+  std::vector<int> proxy_body;    // per section
+  int dof0 = 0, qpos0 = 0;        // the rod's contiguous block in qvel / qpos (nv = model.nv)
+  int below_begin = 0, below_end = 0;  // MuJoCo bodies hanging below the last proxy: [begin, end)
+  std::vector<int> geom_id;       // capsules (decl.geoms order)
+  std::vector<int> site_id;       // sites (decl.sites order)
+};
+
+struct Scene {
+  Scene() = default;
+  Scene(const Scene&) = delete;
+  Scene& operator=(const Scene&) = delete;
+  ~Scene();
+
+  mjModel* m = nullptr;
+  std::vector<RodBinding> rods;   // ordered by base body id: outer rods before rods hanging on them
+  std::vector<int> geom_rod;      // per MuJoCo geom: rod index or -1
+  std::vector<int> geom_index;    // per MuJoCo geom: index into that rod's geoms
+  std::string path;
+  Integrator integrator = Integrator::Implicit;  // default: Implicit with rods, Euler without
+};
+
+struct SceneData {
+  explicit SceneData(const Scene& s);
+  SceneData(const SceneData&) = delete;
+  SceneData& operator=(const SceneData&) = delete;
+  ~SceneData();
+
+  mjData* d = nullptr;
+  std::vector<cosserat::Data> rod;  // per rod
+  Status status = Status::Ok;
+  std::string warning;              // last divergence message
+  // scratch (sized once)
+  std::vector<mjtNum> jac, jacr, tmp_nv, qacc_tmp, qpos_save, qvel_save, rk_q, rk_v, rk_kq, rk_kv;
+  Eigen::MatrixXd Mfull, Afull;
+};
+
+// Loads an MJCF file with <cosserat> elements. Throws LoadError on bad input.
+std::unique_ptr<Scene> load_scene(const std::string& path);
+std::unique_ptr<Scene> load_scene_string(const std::string& xml, const std::string& path);
+
+// Staged MuJoCo pipeline with the rod patches: position, velocity, actuation, acceleration,
+// constraint solve. Leaves d->qacc as MuJoCo's forward would.
+void forward(const Scene& s, SceneData& sd);
+// One time step with s.integrator (or `method`). Returns Diverged (and restores the state) when
+// the state goes non-finite.
+Status step(const Scene& s, SceneData& sd);
+Status step(const Scene& s, SceneData& sd, Integrator method);
+// qpos = qpos0, qvel = 0, time = 0, and MuJoCo's mj_resetData.
+void reset(const Scene& s, SceneData& sd);
+
+// Energies of the whole scene (after forward): rods (core) plus MuJoCo's rigid bodies.
+struct SceneEnergy {
+  double kinetic = 0, gravity = 0, elastic = 0;
+  double total() const { return kinetic + gravity + elastic; }
+};
+SceneEnergy energy(const Scene& s, SceneData& sd);
+
+// Sampled centreline of rod r: n points from base to tip (world frame), after forward.
+std::vector<Vec3> rod_centerline(const Scene& s, const SceneData& sd, int rod, int n);
+
+// Lower-level stages (exposed for tests and for the static solver).
+void fwd_position(const Scene& s, SceneData& sd);
+void fwd_velocity(const Scene& s, SceneData& sd);
+
+}  // namespace cosserat::mj
