@@ -145,29 +145,36 @@ int Model::add_rod(int parent, const SE3& placement, const RodSpec& spec) {
     const int nq = ss.quadrature > 0 ? ss.quadrature : ss.order + 2;
     gauss_legendre01(nq, gx, gw);
     sec.first_node = static_cast<int>(nodes.size());
+    require(ss.substeps >= 1, "rod '" + spec.name + "': substeps must be >= 1");
     double Xprev = X0;
     for (int j = 0; j <= nq; ++j) {
-      const double X = j < nq ? X0 + gx[j] * sec.length : X0 + sec.length;
-      Node n;
-      n.parent = prev;
-      n.offset = (prev == parent) ? placement : SE3::Identity();
-      n.dof0 = sec.dof0;
-      n.ndof = sec.ndof;
-      n.h = X - Xprev;
-      sec.basis(Xprev + n.h * (0.5 - kSqrt3 / 6.0), n.Phi_a);
-      sec.basis(Xprev + n.h * (0.5 + kSqrt3 / 6.0), n.Phi_b);
-      n.xibar_a = n.xibar_b = sec.rest_strain;
-      n.commutator = sec.order > 0;
-      if (j < nq) {
-        n.dX = gw[j] * sec.length;
-        n.inertia = (n.dX * section_inertia_density(ss.material, rod.radius(X))).asDiagonal();
+      const double Xq = j < nq ? X0 + gx[j] * sec.length : X0 + sec.length;
+      const double Xstart = Xprev;
+      // a GVS interval is split into `substeps` Magnus steps; PCS steps are exact already
+      const int nsub = sec.order > 0 ? ss.substeps : 1;
+      for (int k = 1; k <= nsub; ++k) {
+        const double X = k == nsub ? Xq : Xstart + (Xq - Xstart) * k / nsub;
+        Node n;
+        n.parent = prev;
+        n.offset = (prev == parent) ? placement : SE3::Identity();
+        n.dof0 = sec.dof0;
+        n.ndof = sec.ndof;
+        n.h = X - Xprev;
+        sec.basis(Xprev + n.h * (0.5 - kSqrt3 / 6.0), n.Phi_a);
+        sec.basis(Xprev + n.h * (0.5 + kSqrt3 / 6.0), n.Phi_b);
+        n.xibar_a = n.xibar_b = sec.rest_strain;
+        n.commutator = sec.order > 0;
+        if (j < nq && k == nsub) {
+          n.dX = gw[j] * sec.length;
+          n.inertia = (n.dX * section_inertia_density(ss.material, rod.radius(X))).asDiagonal();
+        }
+        n.rod = rod_id;
+        n.section = static_cast<int>(sections.size());
+        n.X = X;
+        nodes.push_back(n);
+        prev = static_cast<int>(nodes.size()) - 1;
+        Xprev = X;
       }
-      n.rod = rod_id;
-      n.section = static_cast<int>(sections.size());
-      n.X = X;
-      nodes.push_back(n);
-      prev = static_cast<int>(nodes.size()) - 1;
-      Xprev = X;
     }
     sec.end_node = prev;
     sections.push_back(sec);

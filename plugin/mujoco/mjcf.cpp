@@ -1,2 +1,820 @@
-// Placeholder translation unit until the loader lands (keeps the library target non-empty).
+// MJCF pre-processing (DESIGN.md sections 6-7): <include> expansion with file:line tracking, and
+// the rewrite of every <cosserat> into proxy bodies, slide joints, capsules and sites, following
+// the naming contract of mjcf.hpp.
+//
+// Pipeline (Preprocessor::run):
+//   1. parse the text (tinyxml2), remember the file and line of every element (Origin);
+//   2. expand <include file=...> recursively, relative to the including file, cloning the
+//      included elements together with their origins;
+//   3. collect the names of the user's bodies, joints, geoms and sites (collision checks);
+//   4. walk the tree and replace each <cosserat> by its "<rod>/base" body (read_rod checks and
+//      collects everything first, build_rod then generates the MuJoCo elements);
+//   5. add the <contact><exclude> pairs, check the nesting depth, and print the document.
+//
+// Two MuJoCo 2.2.2 limits shape the output beyond mjcf.hpp's contract:
+//   - a body takes at most 6 dofs: a section with more strain coordinates (e.g. GVS order 1 with
+//     kl) puts its first joints on helper bodies "<rod>/s<i>/h<k>" chained just above the proxy, at
+//     the same frame, with a negligible mass (see add_section_bodies);
+//   - its XML parser (tinyxml2) refuses elements nested 100 deep, and each section nests one body:
+//     a rod too long for that is a LoadError at the rod (see check_depth).
 #include "mjcf.hpp"
+
+#include <tinyxml2.h>
+
+#include <algorithm>
+#include <charconv>
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <memory>
+#include <optional>
+#include <set>
+#include <sstream>
+#include <string_view>
+#include <unordered_map>
+#include <utility>
+
+namespace cosserat::mj {
+
+LoadError::LoadError(const std::string& file_, int line_, const std::string& msg)
+    : std::runtime_error(file_ + ":" + std::to_string(line_) + ": " + msg),
+      file(file_),
+      line(line_),
+      message(msg) {}
+
+namespace {
+
+namespace fs = std::filesystem;
+using tinyxml2::XMLDocument;
+using tinyxml2::XMLElement;
+using tinyxml2::XMLNode;
+
+using Attributes = std::vector<std::pair<std::string, std::string>>;  // name, verbatim value
+
+// ------------------------------------------------------------------------------------------------
+// Small utilities
+
+// Where an element comes from (after include expansion).
+struct Origin {
+  std::string file;
+  int line = 0;
+};
+
+// Shortest decimal text that reads back to the same double.
+std::string fmt(double v) {
+  char buf[64];
+  const auto r = std::to_chars(buf, buf + sizeof buf, v);
+  return std::string(buf, r.ptr);
+}
+
+std::string fmt3(double x, double y, double z) { return fmt(x) + " " + fmt(y) + " " + fmt(z); }
+
+bool is(const XMLElement* e, std::string_view name) { return e && name == e->Name(); }
+
+std::vector<std::string> split_whitespace(std::string_view s) {
+  std::vector<std::string> out;
+  std::istringstream in{std::string(s)};
+  for (std::string tok; in >> tok;) out.push_back(tok);
+  return out;
+}
+
+std::optional<std::string> read_text_file(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return std::nullopt;
+  std::ostringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+// Canonical form of a path for include-cycle detection (the file need not exist).
+std::string canonical_key(const std::string& path) {
+  std::error_code ec;
+  const fs::path p = fs::weakly_canonical(fs::absolute(path, ec), ec);
+  return ec ? fs::path(path).lexically_normal().string() : p.string();
+}
+
+// ------------------------------------------------------------------------------------------------
+// Reader: typed, checked access to the attributes of one element. Every error is a LoadError
+// naming the element's file and line, the element and the attribute.
+
+using OriginMap = std::unordered_map<const XMLElement*, Origin>;
+
+class Reader {
+ public:
+  // `origins` locates child elements in messages about them.
+  Reader(const XMLElement* e, Origin origin, const OriginMap& origins)
+      : e_(e), origin_(std::move(origin)), origins_(origins) {}
+
+  const XMLElement* element() const { return e_; }
+  const Origin& origin() const { return origin_; }
+
+  [[noreturn]] void fail(const std::string& msg) const {
+    throw LoadError(origin_.file, origin_.line, "<" + std::string(e_->Name()) + ">: " + msg);
+  }
+  [[noreturn]] void fail_attr(const char* attr, const std::string& msg) const {
+    fail("attribute '" + std::string(attr) + "' " + msg);
+  }
+  void check(bool ok, const char* attr, const std::string& msg) const {
+    if (!ok) fail_attr(attr, msg);
+  }
+
+  // Any attribute outside `allowed` is an error.
+  void allow_attributes(std::initializer_list<std::string_view> allowed) const {
+    for (auto* a = e_->FirstAttribute(); a; a = a->Next())
+      if (std::find(allowed.begin(), allowed.end(), a->Name()) == allowed.end())
+        fail("unknown attribute '" + std::string(a->Name()) + "'");
+  }
+  // Any child element outside `allowed` is an error, reported at the child's line.
+  void allow_children(std::initializer_list<std::string_view> allowed) const {
+    for (auto* c = e_->FirstChildElement(); c; c = c->NextSiblingElement()) {
+      if (std::find(allowed.begin(), allowed.end(), c->Name()) != allowed.end()) continue;
+      const auto it = origins_.find(c);
+      const Origin& o = it == origins_.end() ? origin_ : it->second;
+      throw LoadError(o.file, o.line, "<" + std::string(e_->Name()) + ">: unknown child element <" +
+                                          std::string(c->Name()) + ">");
+    }
+  }
+
+  bool has(const char* attr) const { return e_->Attribute(attr) != nullptr; }
+
+  std::string text(const char* attr, const std::string& fallback = "") const {
+    const char* v = e_->Attribute(attr);
+    return v ? v : fallback;
+  }
+  std::string required_text(const char* attr) const {
+    const char* v = e_->Attribute(attr);
+    if (!v) fail("missing attribute '" + std::string(attr) + "'");
+    if (!*v) fail_attr(attr, "must not be empty");
+    return v;
+  }
+
+  // The one number parser: between min_n and max_n whitespace-separated finite numbers, or
+  // nullopt when the attribute is absent.
+  std::optional<std::vector<double>> numbers(const char* attr, int min_n, int max_n) const {
+    const char* v = e_->Attribute(attr);
+    if (!v) return std::nullopt;
+    std::vector<double> out;
+    for (const std::string& tok : split_whitespace(v)) {
+      char* end = nullptr;
+      const double x = std::strtod(tok.c_str(), &end);
+      if (end != tok.c_str() + tok.size() || !std::isfinite(x))
+        fail_attr(attr, "holds '" + tok + "', which is not a number");
+      out.push_back(x);
+    }
+    const int n = static_cast<int>(out.size());
+    if (n < min_n || n > max_n) {
+      const std::string want = min_n == max_n ? std::to_string(min_n)
+                                              : std::to_string(min_n) + " to " + std::to_string(max_n);
+      fail_attr(attr, "needs " + want + (max_n == 1 ? " number" : " numbers") + ", got " +
+                          std::to_string(n) + " ('" + v + "')");
+    }
+    return out;
+  }
+  double number(const char* attr, double fallback) const {
+    const auto v = numbers(attr, 1, 1);
+    return v ? (*v)[0] : fallback;
+  }
+  double required_number(const char* attr) const {
+    if (!has(attr)) fail("missing attribute '" + std::string(attr) + "'");
+    return number(attr, 0.0);
+  }
+  // An integer >= min_value.
+  int integer(const char* attr, int fallback, int min_value) const {
+    if (!has(attr)) return fallback;
+    const double x = number(attr, 0.0);
+    check(x == std::floor(x) && std::abs(x) < 1e9, attr, "must be an integer, got '" + text(attr) + "'");
+    check(x >= min_value, attr, "must be >= " + std::to_string(min_value) + ", got " + text(attr));
+    return static_cast<int>(x);
+  }
+  bool boolean(const char* attr, bool fallback) const {
+    if (!has(attr)) return fallback;
+    const std::string v = text(attr);
+    if (v == "true") return true;
+    if (v == "false") return false;
+    fail_attr(attr, "must be 'true' or 'false', got '" + v + "'");
+  }
+  // Copies attribute `attr` verbatim into `out` if present, after checking it holds between
+  // min_n and max_n numbers (max_n = 0: any text).
+  void pass_through(const char* attr, int min_n, int max_n, Attributes& out) const {
+    if (!has(attr)) return;
+    if (max_n > 0) numbers(attr, min_n, max_n);
+    out.emplace_back(attr, text(attr));
+  }
+
+ private:
+  const XMLElement* e_;
+  Origin origin_;
+  const OriginMap& origins_;
+};
+
+// ------------------------------------------------------------------------------------------------
+// What a <cosserat> says, checked, before any MuJoCo element is generated.
+
+constexpr const char* kComponents[6] = {"kx", "ky", "kz", "px", "py", "pz"};
+
+struct RodSite {
+  const XMLElement* element = nullptr;
+  RodSiteDecl decl;
+  int section = 0;
+  Attributes attrs;  // size, rgba, type, group, class (verbatim)
+};
+
+struct RodInput {
+  RodDecl decl;                     // name, file, line, spec, parent_body (generated lists later)
+  Attributes frame;                 // pos and orientation of "<rod>/base", verbatim
+  Attributes geom;                  // attributes of every capsule, verbatim
+  int capsules = 2;                 // per section
+  bool selfcollide = false;
+  std::vector<double> section_end;  // X at the end of each section
+  std::vector<RodSite> sites;       // user sites
+  std::vector<XMLElement*> bodies;  // <body> children, moved under the last proxy
+  std::vector<std::string> helpers; // generated helper bodies (sections with more than 6 dofs)
+};
+
+// strain="name" or dofs="m m m m m m" (exclusive); `fallback` when neither is given.
+StrainMask read_strain_mask(const Reader& r, const StrainMask& fallback) {
+  if (r.has("strain") && r.has("dofs")) r.fail("attributes 'strain' and 'dofs' are exclusive");
+  if (r.has("strain")) {
+    const auto m = strain_mask_from_name(r.text("strain"));
+    r.check(m.has_value(), "strain",
+            "unknown strain name '" + r.text("strain") + "' (known: rigid spring pcc icc cc ikl kl sr)");
+    return *m;
+  }
+  if (const auto d = r.numbers("dofs", 6, 6)) {
+    StrainMask m{};
+    for (int i = 0; i < 6; ++i) {
+      r.check((*d)[i] == 0.0 || (*d)[i] == 1.0, "dofs",
+              "must hold six 0/1 values, got '" + r.text("dofs") + "'");
+      m[i] = (*d)[i] == 1.0;
+    }
+    return m;
+  }
+  return fallback;
+}
+
+// Strain and material attributes shared by <cosserat> and <section>: each overrides `base`.
+SectionSpec read_section_spec(const Reader& r, SectionSpec s) {
+  s.dofs = read_strain_mask(r, s.dofs);
+  s.order = r.integer("order", s.order, 0);
+  r.check(s.order <= 20, "order", "must be <= 20");
+  if (const auto v = r.numbers("reststrain", 6, 6)) s.rest_strain = Eigen::Map<const Vec6>(v->data());
+  s.material.density = r.number("density", s.material.density);
+  r.check(s.material.density > 0, "density", "must be positive");
+  s.material.young = r.number("young", s.material.young);
+  r.check(s.material.young > 0, "young", "must be positive");
+  s.material.poisson = r.number("poisson", s.material.poisson);
+  r.check(s.material.poisson > -1.0 && s.material.poisson <= 0.5, "poisson", "must be in (-1, 0.5]");
+  s.material.viscosity = r.number("viscosity", s.material.viscosity);
+  r.check(s.material.viscosity >= 0, "viscosity", "must be >= 0");
+  s.quadrature = r.integer("quadrature", s.quadrature, 1);
+  return s;
+}
+
+// ------------------------------------------------------------------------------------------------
+// Preprocessor: owns the parsed documents and the origin of every element.
+
+class Preprocessor {
+ public:
+  Preprocessed run(const std::string& text, const std::string& path);
+
+ private:
+  // parsing and includes
+  XMLDocument& parse(const std::string& text, const std::string& file);
+  void record_origins(const XMLElement* e, const std::string& file);
+  void expand_includes(XMLElement* parent, XMLDocument& doc, std::vector<std::string>& stack);
+  void splice_include(XMLElement* include, XMLDocument& doc, std::vector<std::string>& stack);
+  XMLNode* clone(const XMLNode* src, XMLDocument& doc);
+
+  // names
+  void collect_names(const XMLElement* e);
+  void claim(const std::string& kind, const std::string& name, const Reader& r, bool user);
+  void check_class(const Reader& r) const;
+
+  // rods
+  void rewrite(XMLElement* parent);
+  XMLElement* replace_rod(XMLElement* parent, XMLElement* cosserat);
+  RodInput read_rod(XMLElement* cosserat, const std::string& parent_body);
+  void read_sections(const Reader& r, RodInput& rod);
+  void read_sites(const Reader& r, RodInput& rod);
+  XMLElement* build_rod(XMLDocument& doc, RodInput& rod);
+  void add_excludes(const RodInput& rod);
+  void emit_excludes(XMLDocument& doc, XMLElement* root);
+  void check_depth(const XMLElement* root) const;
+
+  Reader reader(const XMLElement* e) const { return Reader(e, origin(e), origins_); }
+  const Origin& origin(const XMLElement* e) const;
+
+  std::vector<std::unique_ptr<XMLDocument>> docs_;  // main document first; kept alive
+  OriginMap origins_;
+  std::set<std::pair<std::string, std::string>> names_;  // (kind, name) of MuJoCo objects
+  std::set<std::string> classes_{"main"};                 // <default class=...> names
+  std::map<std::string, Origin> rod_names_;
+  std::vector<RodDecl> rods_;
+  std::vector<std::pair<std::string, std::string>> excludes_;
+};
+
+const Origin& Preprocessor::origin(const XMLElement* e) const {
+  static const Origin unknown{"<generated>", 0};
+  const auto it = origins_.find(e);
+  return it == origins_.end() ? unknown : it->second;
+}
+
+// --- parsing and includes -----------------------------------------------------------------------
+
+// Parses `text` (named `file` in messages) into a new document; records element origins.
+XMLDocument& Preprocessor::parse(const std::string& text, const std::string& file) {
+  auto doc = std::make_unique<XMLDocument>();
+  if (doc->Parse(text.data(), text.size()) != tinyxml2::XML_SUCCESS)
+    throw LoadError(file, doc->ErrorLineNum(), doc->ErrorStr());
+  if (!doc->RootElement()) throw LoadError(file, 1, "no root element");
+  record_origins(doc->RootElement(), file);
+  docs_.push_back(std::move(doc));
+  return *docs_.back();
+}
+
+void Preprocessor::record_origins(const XMLElement* e, const std::string& file) {
+  for (; e; e = e->NextSiblingElement()) {
+    origins_[e] = Origin{file, e->GetLineNum()};
+    record_origins(e->FirstChildElement(), file);
+  }
+}
+
+// Deep copy of `src` into `doc`, carrying the origins of its elements along.
+XMLNode* Preprocessor::clone(const XMLNode* src, XMLDocument& doc) {
+  XMLNode* copy = src->ShallowClone(&doc);
+  if (const XMLElement* e = src->ToElement()) origins_[copy->ToElement()] = origin(e);
+  for (const XMLNode* c = src->FirstChild(); c; c = c->NextSibling()) copy->InsertEndChild(clone(c, doc));
+  return copy;
+}
+
+// Replaces every <include> below `parent` (recursively). `stack` holds the canonical paths of the
+// files being expanded (cycle detection).
+void Preprocessor::expand_includes(XMLElement* parent, XMLDocument& doc, std::vector<std::string>& stack) {
+  XMLElement* c = parent->FirstChildElement();
+  while (c) {
+    XMLElement* next = c->NextSiblingElement();  // spliced content is already expanded
+    if (is(c, "include"))
+      splice_include(c, doc, stack);
+    else
+      expand_includes(c, doc, stack);
+    c = next;
+  }
+}
+
+// Replaces one <include file=...> by the children of the included file's root element.
+void Preprocessor::splice_include(XMLElement* include, XMLDocument& doc, std::vector<std::string>& stack) {
+  const Reader r = reader(include);
+  r.allow_attributes({"file"});
+  r.allow_children({});
+  const std::string name = r.required_text("file");
+  const std::string path = (fs::path(r.origin().file).parent_path() / name).lexically_normal().string();
+  const std::string key = canonical_key(path);
+
+  // cycles and missing files are errors at the <include>
+  if (std::find(stack.begin(), stack.end(), key) != stack.end()) {
+    std::string chain;
+    for (const auto& s : stack) chain += fs::path(s).filename().string() + " -> ";
+    r.fail("include cycle: " + chain + fs::path(key).filename().string());
+  }
+  const auto text = read_text_file(path);
+  if (!text) r.fail("cannot open include file '" + path + "'");
+
+  // parse and expand the included file in its own document, then clone its content here
+  XMLDocument& inc = parse(*text, path);
+  if (inc.RootElement()->NextSiblingElement())
+    throw LoadError(path, origin(inc.RootElement()->NextSiblingElement()).line,
+                    "an included file must have a single top-level element");
+  stack.push_back(key);
+  expand_includes(inc.RootElement(), inc, stack);
+  stack.pop_back();
+  XMLNode* after = include;
+  for (const XMLNode* c = inc.RootElement()->FirstChild(); c; c = c->NextSibling())
+    after = include->Parent()->InsertAfterChild(after, clone(c, doc));
+  include->Parent()->DeleteChild(include);
+}
+
+// --- names --------------------------------------------------------------------------------------
+
+constexpr std::string_view kNamedKinds[] = {"body", "joint", "geom", "site"};
+
+// Records the default class names, and the names of the user's bodies, joints, geoms and sites
+// (except the sites of a <cosserat>, which are claimed with their rod).
+void Preprocessor::collect_names(const XMLElement* e) {
+  for (const XMLElement* c = e->FirstChildElement(); c; c = c->NextSiblingElement()) {
+    if (is(c, "default") && c->Attribute("class")) classes_.insert(c->Attribute("class"));
+    if (is(c, "site") && is(e, "cosserat")) continue;
+    const std::string kind = is(c, "freejoint") ? "joint" : c->Name();
+    if (c->Attribute("name") &&
+        std::find(std::begin(kNamedKinds), std::end(kNamedKinds), kind) != std::end(kNamedKinds))
+      names_.emplace(kind, c->Attribute("name"));
+    collect_names(c);
+  }
+}
+
+// Reserves a name of a MuJoCo object; a repeated name is an error at `r`'s element.
+void Preprocessor::claim(const std::string& kind, const std::string& name, const Reader& r, bool user) {
+  if (names_.emplace(kind, name).second) return;
+  if (user) r.fail(kind + " name '" + name + "' is already used");
+  r.fail("generated " + kind + " name '" + name + "' is already used");
+}
+
+// The class attribute of a generated geom or site must name a default class.
+void Preprocessor::check_class(const Reader& r) const {
+  if (r.has("class") && !classes_.count(r.text("class")))
+    r.fail_attr("class", "names no <default class=...>: '" + r.text("class") + "'");
+}
+
+// --- rods: reading ------------------------------------------------------------------------------
+
+// Checks everything a <cosserat> says and collects it; no MuJoCo element is generated here.
+RodInput Preprocessor::read_rod(XMLElement* cosserat, const std::string& parent_body) {
+  const Reader r = reader(cosserat);
+  r.allow_attributes({"name", "pos", "quat", "euler", "axisangle", "xyaxes", "zaxis", "length",
+                      "sections", "strain", "dofs", "order", "reststrain", "radius", "density",
+                      "young", "poisson", "viscosity", "quadrature", "capsules", "selfcollide",
+                      "contype", "conaffinity", "condim", "friction", "solref", "solimp", "margin",
+                      "gap", "rgba", "group", "material", "class"});
+  r.allow_children({"site", "body", "section"});
+
+  RodInput rod;
+  RodDecl& d = rod.decl;
+  d.name = r.required_text("name");
+  d.file = r.origin().file;
+  d.line = r.origin().line;
+  d.parent_body = parent_body;
+
+  // base frame: pos and at most one orientation, copied verbatim
+  r.pass_through("pos", 3, 3, rod.frame);
+  int orientations = 0;
+  for (auto [attr, n] : {std::pair{"quat", 4}, {"euler", 3}, {"axisangle", 4}, {"xyaxes", 6}, {"zaxis", 3}}) {
+    if (!r.has(attr)) continue;
+    if (++orientations > 1)
+      r.fail_attr(attr, "conflicts with another orientation attribute (use at most one of quat, euler, "
+                        "axisangle, xyaxes, zaxis)");
+    r.pass_through(attr, n, n, rod.frame);
+  }
+
+  // shape
+  RodSpec& spec = d.spec;
+  spec.name = d.name;
+  spec.length = r.required_number("length");
+  r.check(spec.length > 0, "length", "must be positive, got " + r.text("length"));
+  if (const auto rad = r.numbers("radius", 1, 2)) {
+    for (double x : *rad) r.check(x > 0, "radius", "must be positive, got '" + r.text("radius") + "'");
+    spec.radius_base = rad->front();
+    spec.radius_tip = rad->back();
+  } else {
+    spec.radius_tip = spec.radius_base;
+  }
+
+  // strain, material and sections
+  SectionSpec defaults;
+  defaults.dofs = *strain_mask_from_name("kl");
+  spec.section = read_section_spec(r, defaults);
+  spec.section.length = 0.0;
+  read_sections(r, rod);
+
+  // capsules and collision options
+  rod.capsules = r.integer("capsules", 2, 1);
+  rod.selfcollide = r.boolean("selfcollide", false);
+  for (auto [attr, lo, hi] : {std::tuple{"contype", 1, 1}, {"conaffinity", 1, 1}, {"condim", 1, 1},
+                              {"friction", 1, 3}, {"solref", 2, 2}, {"solimp", 3, 5}, {"margin", 1, 1},
+                              {"gap", 1, 1}, {"rgba", 4, 4}, {"group", 1, 1}, {"material", 0, 0},
+                              {"class", 0, 0}})
+    r.pass_through(attr, lo, hi, rod.geom);
+  check_class(r);
+
+  // children: sites, bodies (sections were read above)
+  read_sites(r, rod);
+  for (XMLElement* c = cosserat->FirstChildElement("body"); c; c = c->NextSiblingElement("body"))
+    rod.bodies.push_back(c);
+  return rod;
+}
+
+// Fills spec.overrides (one fully resolved SectionSpec per section) and rod.section_end, from
+// `sections` or the <section> children.
+void Preprocessor::read_sections(const Reader& r, RodInput& rod) {
+  RodSpec& spec = rod.decl.spec;
+  const int n_attr = r.integer("sections", 0, 1);
+
+  // one SectionSpec per section: the rod's values, overridden by each <section>
+  std::vector<SectionSpec>& secs = spec.overrides;
+  std::vector<bool> sized;
+  for (const XMLElement* c = r.element()->FirstChildElement("section"); c;
+       c = c->NextSiblingElement("section")) {
+    const Reader s = reader(c);
+    s.allow_attributes({"length", "strain", "dofs", "order", "reststrain", "density", "young", "poisson",
+                        "viscosity", "quadrature"});
+    s.allow_children({});
+    SectionSpec ss = read_section_spec(s, spec.section);
+    ss.length = s.number("length", 0.0);
+    s.check(!s.has("length") || ss.length > 0, "length", "must be positive, got " + s.text("length"));
+    secs.push_back(ss);
+    sized.push_back(s.has("length"));
+  }
+  if (secs.empty()) {
+    secs.assign(n_attr > 0 ? n_attr : 1, spec.section);
+    sized.assign(secs.size(), false);
+  } else if (n_attr > 0 && n_attr != static_cast<int>(secs.size())) {
+    r.fail_attr("sections", "is " + std::to_string(n_attr) + " but there are " + std::to_string(secs.size()) +
+                                " <section> children");
+  }
+  spec.sections = static_cast<int>(secs.size());
+
+  // lengths: the given ones, the rest shared evenly; they must add up to the rod length
+  double given = 0.0;
+  int unsized = 0;
+  for (std::size_t i = 0; i < secs.size(); ++i) {
+    if (sized[i])
+      given += secs[i].length;
+    else
+      ++unsized;
+  }
+  const double L = spec.length, tol = 1e-9 * L;
+  if (unsized == 0 && std::abs(given - L) > tol)
+    r.fail("section lengths add up to " + fmt(given) + ", not the rod length " + fmt(L));
+  if (unsized > 0 && given >= L - tol)
+    r.fail("section lengths add up to " + fmt(given) + ", leaving nothing of the rod length " + fmt(L) +
+           " for the sections without a length");
+  double X = 0.0;
+  for (std::size_t i = 0; i < secs.size(); ++i) {
+    if (!sized[i]) secs[i].length = (L - given) / unsized;
+    X += secs[i].length;
+    rod.section_end.push_back(i + 1 == secs.size() ? L : X);
+  }
+}
+
+// User <site name=... at=X pos=...> children: abscissa, offset, section, pass-through attributes.
+void Preprocessor::read_sites(const Reader& r, RodInput& rod) {
+  const double L = rod.decl.spec.length;
+  for (const XMLElement* c = r.element()->FirstChildElement("site"); c; c = c->NextSiblingElement("site")) {
+    const Reader s = reader(c);
+    s.allow_attributes({"name", "at", "pos", "size", "rgba", "type", "group", "class"});
+    s.allow_children({});
+    RodSite site;
+    site.element = c;
+    site.decl.name = s.required_text("name");
+    site.decl.X = s.required_number("at");
+    s.check(site.decl.X >= 0 && site.decl.X <= L, "at",
+            "must be in [0, " + fmt(L) + "] (the rod length), got " + s.text("at"));
+    if (const auto p = s.numbers("pos", 2, 3))
+      site.decl.pos = p->size() == 2 ? Vec3(0, (*p)[0], (*p)[1]) : Vec3((*p)[0], (*p)[1], (*p)[2]);
+    // the section containing X; on a boundary, the earlier one
+    while (site.section + 1 < static_cast<int>(rod.section_end.size()) &&
+           site.decl.X > rod.section_end[site.section] + 1e-9 * L)
+      ++site.section;
+    s.pass_through("size", 1, 3, site.attrs);
+    s.pass_through("rgba", 4, 4, site.attrs);
+    s.pass_through("type", 0, 0, site.attrs);
+    s.pass_through("group", 1, 1, site.attrs);
+    s.pass_through("class", 0, 0, site.attrs);
+    check_class(s);
+    rod.sites.push_back(std::move(site));
+  }
+}
+
+// --- rods: generating ---------------------------------------------------------------------------
+
+// A new element with `attrs`, then the verbatim `extra` ones.
+XMLElement* new_element(XMLDocument& doc, const char* tag, const Attributes& attrs,
+                        const Attributes& extra = {}) {
+  XMLElement* e = doc.NewElement(tag);
+  for (const auto& [k, v] : attrs) e->SetAttribute(k.c_str(), v.c_str());
+  for (const auto& [k, v] : extra) e->SetAttribute(k.c_str(), v.c_str());
+  return e;
+}
+
+XMLElement* new_slide_joint(XMLDocument& doc, const std::string& name) {
+  return new_element(doc, "joint",
+                     {{"name", name}, {"type", "slide"}, {"pos", "0 0 0"}, {"axis", "1 0 0"},
+                      {"limited", "false"}, {"stiffness", "0"}, {"damping", "0"}, {"armature", "0"},
+                      {"frictionloss", "0"}, {"ref", "0"}, {"springref", "0"}});
+}
+
+// The bodies of one section under `parent`: normally just the proxy `prefix`, at `offset` along x,
+// with all the section's slide joints and the explicit inertia the compiler requires of moving
+// bodies (the coupling zeroes it). MuJoCo 2.2.2 refuses more than 6 dofs in a body, so a section
+// with more joints gets a chain of helper bodies "<prefix>/h<k>" at the same frame above the proxy
+// (6 joints each, in dof order, the proxy keeping the rest). Helpers carry a negligible mass
+// (1e-9 kg) so that physics stays right even if the coupling does not know about them; their
+// names are appended to `helpers`. Returns the proxy.
+XMLElement* add_section_bodies(XMLDocument& doc, XMLElement* parent, const std::string& prefix, double offset,
+                               const std::vector<std::string>& joints, std::vector<std::string>& helpers) {
+  constexpr std::size_t kMaxDofs = 6;
+  const std::size_t nbodies = joints.empty() ? 1 : (joints.size() + kMaxDofs - 1) / kMaxDofs;
+  XMLElement* body = nullptr;
+  for (std::size_t b = 0; b < nbodies; ++b) {
+    const bool proxy = b + 1 == nbodies;
+    const std::string name = proxy ? prefix : prefix + "/h" + std::to_string(b);
+    body = new_element(doc, "body", {{"name", name}, {"pos", fmt3(b == 0 ? offset : 0.0, 0, 0)}});
+    body->InsertEndChild(new_element(doc, "inertial",
+                                     {{"pos", "0 0 0"},
+                                      {"mass", proxy ? "1" : "1e-9"},
+                                      {"diaginertia", proxy ? "1 1 1" : "1e-9 1e-9 1e-9"}}));
+    for (std::size_t j = b * kMaxDofs; j < std::min(joints.size(), (b + 1) * kMaxDofs); ++j)
+      body->InsertEndChild(new_slide_joint(doc, joints[j]));
+    if (!proxy) helpers.push_back(name);
+    parent->InsertEndChild(body);
+    parent = body;
+  }
+  return body;
+}
+
+// Generates "<rod>/base" with its proxy chain, joints, capsules and sites, moves the <body>
+// children under the last proxy, and fills the generated lists of rod.decl.
+XMLElement* Preprocessor::build_rod(XMLDocument& doc, RodInput& rod) {
+  RodDecl& d = rod.decl;
+  const RodSpec& spec = d.spec;
+  const std::string& n = d.name;
+
+  // base body and site
+  XMLElement* base = new_element(doc, "body", {{"name", n + "/base"}}, rod.frame);
+  base->InsertEndChild(new_element(doc, "site", {{"name", n + "/base"}, {"pos", "0 0 0"}}));
+  d.sites.push_back(RodSiteDecl{n + "/base", 0.0, Vec3::Zero()});
+
+  XMLElement* parent = base;
+  double X0 = 0.0;
+  for (int i = 0; i < spec.sections; ++i) {
+    const SectionSpec& sec = spec.overrides[i];
+    const double Xe = rod.section_end[i];
+    const std::string prefix = n + "/s" + std::to_string(i);
+
+    // slide joint names in core dof order (component-major, then Legendre degree)
+    std::vector<std::string> joints;
+    for (int c = 0; c < 6; ++c)
+      for (int k = 0; sec.dofs[c] && k <= sec.order; ++k)
+        joints.push_back(prefix + "/" + kComponents[c] + (sec.order == 0 ? "" : std::to_string(k)));
+    d.joints.insert(d.joints.end(), joints.begin(), joints.end());
+
+    // the proxy at the section end (after helpers if the section has more than 6 dofs)
+    XMLElement* proxy = add_section_bodies(doc, parent, prefix, Xe - X0, joints, rod.helpers);
+    d.proxies.push_back(prefix);
+
+    // capsules along the straight rest shape, radius of the taper at their middle
+    for (int j = 0; j < rod.capsules; ++j) {
+      const double a = X0 + (Xe - X0) * j / rod.capsules;
+      const double b = j + 1 == rod.capsules ? Xe : X0 + (Xe - X0) * (j + 1) / rod.capsules;
+      const double radius =
+          spec.radius_base + (spec.radius_tip - spec.radius_base) * 0.5 * (a + b) / spec.length;
+      const std::string gn = prefix + "/g" + std::to_string(j);
+      proxy->InsertEndChild(new_element(doc, "geom",
+                                        {{"name", gn}, {"type", "capsule"},
+                                         {"fromto", fmt3(a - Xe, 0, 0) + " " + fmt3(b - Xe, 0, 0)},
+                                         {"size", fmt(radius)}},
+                                        rod.geom));
+      d.geoms.push_back(RodGeomDecl{gn, i, a, b});
+    }
+
+    // user sites of this section, placed in the proxy frame
+    for (const RodSite& s : rod.sites) {
+      if (s.section != i) continue;
+      const Vec3 pos(s.decl.X - Xe + s.decl.pos.x(), s.decl.pos.y(), s.decl.pos.z());
+      proxy->InsertEndChild(
+          new_element(doc, "site", {{"name", s.decl.name}, {"pos", fmt3(pos.x(), pos.y(), pos.z())}}, s.attrs));
+      d.sites.push_back(s.decl);
+    }
+
+    parent = proxy;
+    X0 = Xe;
+  }
+
+  // tip site and the rigid bodies hanging at the tip
+  parent->InsertEndChild(new_element(doc, "site", {{"name", n + "/tip"}, {"pos", "0 0 0"}}));
+  d.sites.push_back(RodSiteDecl{n + "/tip", spec.length, Vec3::Zero()});
+  for (XMLElement* b : rod.bodies) parent->InsertEndChild(b);  // moves it (origins kept)
+  return base;
+}
+
+// Collision exclusions of one rod: its proxies pairwise and with its base (unless selfcollide),
+// and the first proxy with the parent body.
+void Preprocessor::add_excludes(const RodInput& rod) {
+  const auto& p = rod.decl.proxies;
+  excludes_.emplace_back(rod.decl.parent_body, p.front());
+  if (rod.selfcollide) return;
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    excludes_.emplace_back(rod.decl.name + "/base", p[i]);
+    for (std::size_t j = i + 1; j < p.size(); ++j) excludes_.emplace_back(p[i], p[j]);
+  }
+}
+
+// Checks the place of one <cosserat>, reads it, claims its names, and replaces it by the
+// generated "<rod>/base" body (returned, so that the walk continues inside it).
+XMLElement* Preprocessor::replace_rod(XMLElement* parent, XMLElement* cosserat) {
+  const Reader r = reader(cosserat);
+  if (!is(parent, "worldbody") && !is(parent, "body"))
+    r.fail("a <cosserat> must be inside a named <body> or <worldbody> (found inside <" +
+           std::string(parent->Name()) + ">)");
+  if (is(parent, "body") && (!parent->Attribute("name") || !*parent->Attribute("name")))
+    r.fail("a <cosserat> must be inside a named <body> or <worldbody>");
+  RodInput rod = read_rod(cosserat, is(parent, "worldbody") ? "world" : parent->Attribute("name"));
+
+  // names: the rod's, then every generated or user object name
+  const std::string& name = rod.decl.name;
+  if (const auto it = rod_names_.find(name); it != rod_names_.end())
+    r.fail("duplicate rod name '" + name + "' (first declared at " + it->second.file + ":" +
+           std::to_string(it->second.line) + ")");
+  rod_names_[name] = r.origin();
+  XMLDocument& doc = *cosserat->GetDocument();
+  XMLElement* base = build_rod(doc, rod);
+  claim("body", name + "/base", r, false);
+  for (const auto& p : rod.decl.proxies) claim("body", p, r, false);
+  for (const auto& h : rod.helpers) claim("body", h, r, false);
+  for (const auto& j : rod.decl.joints) claim("joint", j, r, false);
+  for (const auto& g : rod.decl.geoms) claim("geom", g.name, r, false);
+  claim("site", name + "/base", r, false);
+  claim("site", name + "/tip", r, false);
+  for (const RodSite& s : rod.sites) claim("site", s.decl.name, reader(s.element), true);
+
+  // splice the generated subtree in place of the <cosserat>
+  parent->InsertAfterChild(cosserat, base);
+  parent->DeleteChild(cosserat);
+  add_excludes(rod);
+  rods_.push_back(std::move(rod.decl));
+  return base;
+}
+
+// Walks the tree and replaces every <cosserat> (rods inside bodies moved to a rod tip included).
+void Preprocessor::rewrite(XMLElement* parent) {
+  for (XMLElement* c = parent->FirstChildElement(); c; c = c->NextSiblingElement()) {
+    if (is(c, "cosserat")) c = replace_rod(parent, c);
+    rewrite(c);
+  }
+}
+
+// Appends the exclusion pairs to the first top-level <contact>, or to a new one.
+void Preprocessor::emit_excludes(XMLDocument& doc, XMLElement* root) {
+  if (excludes_.empty()) return;
+  XMLElement* contact = root->FirstChildElement("contact");
+  if (!contact) contact = root->InsertEndChild(doc.NewElement("contact"))->ToElement();
+  for (const auto& [b1, b2] : excludes_)
+    contact->InsertEndChild(new_element(doc, "exclude", {{"body1", b1}, {"body2", b2}}));
+}
+
+// The deepest element below `e` (at `depth`) and its depth.
+std::pair<const XMLElement*, int> deepest(const XMLElement* e, int depth) {
+  std::pair<const XMLElement*, int> best{e, depth};
+  for (const XMLElement* c = e->FirstChildElement(); c; c = c->NextSiblingElement()) {
+    const auto d = deepest(c, depth + 1);
+    if (d.second > best.second) best = d;
+  }
+  return best;
+}
+
+// MuJoCo 2.2.2 parses our output with tinyxml2, which refuses elements nested
+// TINYXML2_MAX_ELEMENT_DEPTH (100) deep, and every section adds one level: report a chain that is
+// too deep at the innermost rod it runs through, rather than as MuJoCo's parse error.
+void Preprocessor::check_depth(const XMLElement* root) const {
+  const auto [e, depth] = deepest(root, 1);
+  const int limit = TINYXML2_MAX_ELEMENT_DEPTH - 1;
+  if (depth <= limit) return;
+  for (const XMLNode* a = e; a; a = a->Parent()) {
+    const XMLElement* b = a->ToElement();
+    if (!is(b, "body") || !b->Attribute("name")) continue;
+    for (const RodDecl& rod : rods_) {
+      const auto& p = rod.proxies;
+      if (std::find(p.begin(), p.end(), b->Attribute("name")) == p.end()) continue;
+      throw LoadError(rod.file, rod.line,
+                      "rod '" + rod.name + "': the generated bodies nest " + std::to_string(depth) +
+                          " elements deep, MuJoCo 2.2.2's XML parser stops at " + std::to_string(limit) +
+                          " (each section is one nested body; a section with more than 6 dofs, more): "
+                          "use at most about " +
+                          std::to_string(std::max(1, rod.spec.sections - (depth - limit))) +
+                          " sections here");
+    }
+  }
+  throw LoadError(origin(e).file, origin(e).line, "elements nested too deep for MuJoCo's XML parser");
+}
+
+Preprocessed Preprocessor::run(const std::string& text, const std::string& path) {
+  const std::string file = path.empty() ? "<string>" : path;
+  XMLDocument& doc = parse(text, file);
+  XMLElement* root = doc.RootElement();
+  if (!is(root, "mujoco")) reader(root).fail("the root element must be <mujoco>");
+
+  std::vector<std::string> stack{canonical_key(file)};
+  expand_includes(root, doc, stack);
+  collect_names(root);
+  rewrite(root);
+  emit_excludes(doc, root);
+  check_depth(root);
+
+  tinyxml2::XMLPrinter printer;
+  doc.Print(&printer);
+  return Preprocessed{printer.CStr(), path, std::move(rods_)};
+}
+
+}  // namespace
+
+Preprocessed preprocess_file(const std::string& path) {
+  const auto text = read_text_file(path);
+  if (!text) throw LoadError(path, 0, "cannot open file");
+  return Preprocessor().run(*text, path);
+}
+
+Preprocessed preprocess_string(const std::string& xml, const std::string& path) {
+  return Preprocessor().run(xml, path);
+}
+
+}  // namespace cosserat::mj

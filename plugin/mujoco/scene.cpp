@@ -318,26 +318,34 @@ void patch_qM(const Scene& s, SceneData& sd, int r) {
     for (int u = t; u < na; ++u) d->qM[m->dof_Madr[anc[t]] + (u - t)] += IC(t, u);
 }
 
-// Patch point 6: rod Coriolis, centrifugal and gravity forces, the reaction on the ancestors,
-// and the rod's elastic and Kelvin-Voigt forces (explicit here; see the integrators).
-void patch_bias(const Scene& s, SceneData& sd, int r) {
+// Rod velocities for this step: strain rates from qvel, and the base's twist and bias
+// acceleration (MuJoCo's cvel and sum cdof_dot qvel - gravity, to the base frame). Must run after
+// mj_comVel and after the patches of every rod above this one (rods are ordered outer first).
+void rod_velocity(const Scene& s, SceneData& sd, int r) {
   const mjModel* m = s.m;
   mjData* d = sd.d;
   const RodBinding& rb = s.rods[r];
   cosserat::Data& rd = sd.rod[r];
-  const int n = rb.model.nv;
-  for (int k = 0; k < n; ++k) rd.v(k) = d->qvel[rb.dof0 + k];
-  // base motion: MuJoCo's spatial velocity/bias acceleration at the base, to the base frame
-  const int root = m->body_rootid[rb.base_body];
-  const SE3 G = com_frame(rd.base_pose, d->subtree_com + 3 * root);
+  for (int k = 0; k < rb.model.nv; ++k) rd.v(k) = d->qvel[rb.dof0 + k];
+  const SE3 G = com_frame(rd.base_pose, d->subtree_com + 3 * m->body_rootid[rb.base_body]);
   Vec6 cvel, cacc = Vec6::Zero();
   for (int e = 0; e < 6; ++e) cvel(e) = d->cvel[6 * rb.base_body + e];
-  if (!(m->opt.disableflags & mjDSBL_GRAVITY)) cacc.tail<3>() = -Vec3(m->opt.gravity[0], m->opt.gravity[1], m->opt.gravity[2]);
+  if (!(m->opt.disableflags & mjDSBL_GRAVITY))
+    cacc.tail<3>() = -Vec3(m->opt.gravity[0], m->opt.gravity[1], m->opt.gravity[2]);
   for (int j = first_ancestor_dof(m, rb.base_body); j >= 0; j = m->dof_parentid[j])
     for (int e = 0; e < 6; ++e) cacc(e) += d->cdof_dot[6 * j + e] * d->qvel[j];
   rd.base_twist = Ad_inv_apply(G, cvel);
   rd.base_accel = Ad_inv_apply(G, cacc);
   cosserat::fwd_velocity(rb.model, rd);
+}
+
+// Patch point 6: rod Coriolis, centrifugal and gravity forces, the reaction on the ancestors,
+// and the rod's elastic and Kelvin-Voigt forces (explicit here; see the integrators).
+void patch_bias(const Scene& s, SceneData& sd, int r) {
+  mjData* d = sd.d;
+  const RodBinding& rb = s.rods[r];
+  cosserat::Data& rd = sd.rod[r];
+  const int n = rb.model.nv;
   rd.rhs.setZero();
   cosserat::rnea(rb.model, rd, rd.rhs, false, true, rd.qfrc_bias);  // gravity is in base_accel
   for (int k = 0; k < n; ++k) d->qfrc_bias[rb.dof0 + k] += rd.qfrc_bias(k);
@@ -401,10 +409,13 @@ void fwd_velocity(const Scene& s, SceneData& sd) {
   if (m->ntendon) mju_mulMatVec(d->ten_velocity, d->ten_J, d->qvel, m->ntendon, m->nv);
   if (m->nu) mju_mulMatVec(d->actuator_velocity, d->actuator_moment, d->qvel, m->nu, m->nv);
   mj_comVel(m, d);
-  for (size_t r = 0; r < s.rods.size(); ++r) patch_cdof_dot(s, sd, static_cast<int>(r));
+  for (size_t r = 0; r < s.rods.size(); ++r) {
+    rod_velocity(s, sd, static_cast<int>(r));
+    patch_cdof_dot(s, sd, static_cast<int>(r));
+  }
   mj_passive(m, d);
   mj_referenceConstraint(m, d);
-  mj_rne(m, d, 1, d->qfrc_bias);
+  mj_rne(m, d, 0, d->qfrc_bias);
   for (size_t r = 0; r < s.rods.size(); ++r) patch_bias(s, sd, static_cast<int>(r));
 }
 

@@ -1,0 +1,560 @@
+// MJCF pre-processor (plugin/mujoco/mjcf.hpp): bad input gives LoadError with file:line, good
+// scenes compile in MuJoCo 2.2.2 with the contract's names, dof counts and frames.
+#include "mjcf.hpp"
+
+#include <gtest/gtest.h>
+#include <mujoco/mujoco.h>
+
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <memory>
+#include <random>
+#include <string>
+#include <unistd.h>
+#include <vector>
+
+#include "model.hpp"
+
+using namespace cosserat;
+using namespace cosserat::mj;
+
+namespace {
+
+const std::string kData = std::string(COSSERAT_SOURCE_DIR) + "/tests/mujoco/data/";
+// Name of in-memory test scenes: anchors their includes in the data directory.
+const std::string kInline = kData + "inline.xml";
+
+struct ModelDeleter {
+  void operator()(mjModel* m) const { mj_deleteModel(m); }
+};
+struct DataDeleter {
+  void operator()(mjData* d) const { mj_deleteData(d); }
+};
+using ModelPtr = std::unique_ptr<mjModel, ModelDeleter>;
+using DataPtr = std::unique_ptr<mjData, DataDeleter>;
+
+// Loads MJCF text through a VFS file named `name`; MuJoCo resolves relative asset paths against
+// the directory of `name` (see the VfsAssets test). Null on error, with the message in `error`.
+ModelPtr load_xml(const std::string& xml, const std::string& name, std::string* error = nullptr) {
+  auto vfs = std::make_unique<mjVFS>();  // ~2 MB: keep it off the stack
+  mj_defaultVFS(vfs.get());
+  if (mj_makeEmptyFileVFS(vfs.get(), name.c_str(), static_cast<int>(xml.size())) != 0) return nullptr;
+  const int i = mj_findFileVFS(vfs.get(), name.c_str());
+  std::memcpy(vfs->filedata[i], xml.data(), xml.size());
+  char err[1024] = "";
+  ModelPtr m(mj_loadXML(name.c_str(), vfs.get(), err, sizeof err));
+  mj_deleteVFS(vfs.get());
+  if (error) *error = err;
+  return m;
+}
+
+// Compiles a pre-processed scene, failing the test (with MuJoCo's message) if it does not load.
+ModelPtr compile(const Preprocessed& p) {
+  std::string err;
+  ModelPtr m = load_xml(p.xml, p.path, &err);
+  EXPECT_TRUE(m) << "mj_loadXML: " << err << "\n" << p.xml;
+  return m;
+}
+
+int id(const mjModel* m, mjtObj type, const std::string& name) { return mj_name2id(m, type, name.c_str()); }
+
+// Number of strain coordinates the core solver gives a rod.
+int core_dofs(const RodSpec& spec) {
+  Model model;
+  model.add_rod(-1, SE3::Identity(), spec);
+  return model.nv;
+}
+
+std::string in_world(const std::string& body) {
+  return "<mujoco>\n<worldbody>\n" + body + "\n</worldbody>\n</mujoco>\n";
+}
+
+// ------------------------------------------------------------------------------------------------
+// Bad input: one row per kind of mistake.
+
+struct BadCase {
+  const char* kind;
+  std::string xml;
+  int line;
+  std::string message;                // substring of LoadError::message
+  std::string file = "inline.xml";    // suffix of LoadError::file
+};
+
+std::vector<BadCase> bad_cases() {
+  const std::string rod = R"(<cosserat name="a" length="1")";  // + attributes + "/>"
+  return {
+      {"unknown attribute", in_world(rod + R"( colour="red"/>)"), 3, "unknown attribute 'colour'"},
+      {"unknown child element", in_world(rod + ">\n<geom size=\"1\"/>\n</cosserat>"), 4, "unknown child element <geom>"},
+      {"pos with 2 numbers", in_world(rod + R"( pos="0 1"/>)"), 3, "'pos' needs 3 numbers, got 2"},
+      {"reststrain with 5 numbers", in_world(rod + R"( reststrain="0 0 0 1 0"/>)"), 3, "'reststrain' needs 6"},
+      {"non-numeric value", in_world(R"(<cosserat name="a" length="abc"/>)"), 3, "'length' holds 'abc', which is not a number"},
+      {"non-numeric in a list", in_world(rod + R"( radius="0.1 x"/>)"), 3, "'radius' holds 'x', which is not a number"},
+      {"zero length", in_world(R"(<cosserat name="a" length="0"/>)"), 3, "'length' must be positive"},
+      {"negative length", in_world(R"(<cosserat name="a" length="-2"/>)"), 3, "'length' must be positive"},
+      {"negative radius", in_world(rod + R"( radius="0.01 -0.002"/>)"), 3, "'radius' must be positive"},
+      {"zero sections", in_world(rod + R"( sections="0"/>)"), 3, "'sections' must be >= 1"},
+      {"fractional sections", in_world(rod + R"( sections="2.5"/>)"), 3, "'sections' must be an integer"},
+      {"unknown strain name", in_world(rod + R"( strain="wobbly"/>)"), 3, "unknown strain name 'wobbly'"},
+      {"both strain and dofs", in_world(rod + R"( strain="kl" dofs="1 1 1 1 0 0"/>)"), 3, "'strain' and 'dofs'"},
+      {"dofs not 0/1", in_world(rod + R"( dofs="1 1 2 0 0 0"/>)"), 3, "'dofs' must hold six 0/1"},
+      {"dofs with 5 values", in_world(rod + R"( dofs="1 1 1 0 0"/>)"), 3, "'dofs' needs 6"},
+      {"negative order", in_world(rod + R"( order="-1"/>)"), 3, "'order' must be >= 0"},
+      {"poisson too large", in_world(rod + R"( poisson="0.7"/>)"), 3, "'poisson' must be in (-1, 0.5]"},
+      {"poisson -1", in_world(rod + R"( poisson="-1"/>)"), 3, "'poisson'"},
+      {"negative viscosity", in_world(rod + R"( viscosity="-1"/>)"), 3, "'viscosity' must be >= 0"},
+      {"zero density", in_world(rod + R"( density="0"/>)"), 3, "'density' must be positive"},
+      {"zero quadrature", in_world(rod + R"( quadrature="0"/>)"), 3, "'quadrature' must be >= 1"},
+      {"zero capsules", in_world(rod + R"( capsules="0"/>)"), 3, "'capsules' must be >= 1"},
+      {"bad selfcollide", in_world(rod + R"( selfcollide="yes"/>)"), 3, "'selfcollide' must be 'true' or 'false'"},
+      {"bad rgba count", in_world(rod + R"( rgba="1 0 0"/>)"), 3, "'rgba' needs 4"},
+      {"two orientations", in_world(rod + R"( quat="1 0 0 0" euler="0 0 1"/>)"), 3, "'euler' conflicts"},
+      {"quat with 3 numbers", in_world(rod + R"( quat="1 0 0"/>)"), 3, "'quat' needs 4"},
+      {"site without at", in_world(rod + ">\n<site name=\"s\"/>\n</cosserat>"), 4, "missing attribute 'at'"},
+      {"site without name", in_world(rod + ">\n<site at=\"0.5\"/>\n</cosserat>"), 4, "missing attribute 'name'"},
+      {"site at beyond the tip", in_world(rod + ">\n<site name=\"s\" at=\"1.5\"/>\n</cosserat>"), 4, "'at' must be in [0, 1]"},
+      {"site at negative", in_world(rod + ">\n<site name=\"s\" at=\"-0.1\"/>\n</cosserat>"), 4, "'at' must be in"},
+      {"site pos with 4 numbers", in_world(rod + ">\n<site name=\"s\" at=\"0.5\" pos=\"0 0 0 0\"/>\n</cosserat>"), 4, "'pos' needs 2 to 3"},
+      {"site unknown attribute", in_world(rod + ">\n\n<site name=\"s\" at=\"0.5\" euler=\"0 0 0\"/>\n</cosserat>"), 5, "unknown attribute 'euler'"},
+      {"section lengths exceed", in_world(rod + ">\n<section length=\"0.6\"/>\n<section length=\"0.6\"/>\n</cosserat>"), 3, "section lengths add up to 1.2"},
+      {"section lengths fall short", in_world(rod + ">\n<section length=\"0.3\"/>\n<section length=\"0.3\"/>\n</cosserat>"), 3, "section lengths add up to 0.6"},
+      {"section lengths leave nothing", in_world(rod + ">\n<section length=\"1\"/>\n<section/>\n</cosserat>"), 3, "leaving nothing"},
+      {"sections disagree with <section>", in_world(R"(<cosserat name="a" length="1" sections="3">)" "\n<section/>\n<section/>\n</cosserat>"), 3, "'sections' is 3 but there are 2"},
+      {"section negative length", in_world(rod + ">\n<section/>\n<section length=\"-0.5\"/>\n</cosserat>"), 5, "'length' must be positive"},
+      {"section unknown strain", in_world(rod + ">\n<section strain=\"floppy\"/>\n</cosserat>"), 4, "unknown strain name 'floppy'"},
+      {"section unknown attribute", in_world(rod + ">\n<section radius=\"0.1\"/>\n</cosserat>"), 4, "unknown attribute 'radius'"},
+      {"section with a child", in_world(rod + ">\n<section>\n<site name=\"s\" at=\"0\"/>\n</section>\n</cosserat>"), 5, "unknown child element <site>"},
+      {"missing include file", "<mujoco>\n\n<include file=\"missing.xml\"/>\n</mujoco>\n", 3, "missing.xml"},
+      {"include without file", "<mujoco>\n<include/>\n</mujoco>\n", 2, "missing attribute 'file'"},
+      {"error inside an included file", "<mujoco>\n<worldbody>\n<include file=\"bad_inner.xml\"/>\n</worldbody>\n</mujoco>\n", 4, "unknown attribute 'stiffness'", "bad_inner.xml"},
+      {"malformed included file", "<mujoco>\n<include file=\"malformed_inner.xml\"/>\n</mujoco>\n", 3, "XML_ERROR_MISMATCHED_ELEMENT", "malformed_inner.xml"},
+      {"include cycle", "<mujoco>\n<include file=\"cycle_a.xml\"/>\n</mujoco>\n", 2, "include cycle", "cycle_b.xml"},
+      {"malformed XML", "<mujoco>\n<worldbody>\n<cosserat name=\"a\" length=\"1\">\n</worldbody>\n</mujoco>\n", 3, "XML_ERROR_MISMATCHED_ELEMENT"},
+      {"unterminated attribute", "<mujoco>\n<worldbody>\n<cosserat name=\"a length=\"1\"/>\n</worldbody>\n</mujoco>\n", 3, "XML_ERROR"},
+      {"empty document", "", 0, "XML_ERROR_EMPTY_DOCUMENT"},
+      {"root is not <mujoco>", "<mujoko>\n</mujoko>\n", 1, "root element must be <mujoco>"},
+      {"duplicate rod name", in_world(rod + "/>\n" + rod + "/>"), 4, "duplicate rod name 'a'"},
+      {"missing name", in_world(R"(<cosserat length="1"/>)"), 3, "missing attribute 'name'"},
+      {"empty name", in_world(R"(<cosserat name="" length="1"/>)"), 3, "'name' must not be empty"},
+      {"missing length", in_world(R"(<cosserat name="a"/>)"), 3, "missing attribute 'length'"},
+      {"cosserat inside an unnamed body", in_world("<body pos=\"0 0 1\">\n" + rod + "/>\n</body>"), 4, "must be inside a named <body> or <worldbody>"},
+      {"cosserat outside the worldbody", "<mujoco>\n" + rod + "/>\n</mujoco>\n", 2, "must be inside a named <body> or <worldbody>"},
+      {"cosserat inside a cosserat", in_world(rod + ">\n<cosserat name=\"b\" length=\"1\"/>\n</cosserat>"), 4, "unknown child element <cosserat>"},
+      {"site name used by another rod", in_world(rod + ">\n<site name=\"s\" at=\"0\"/>\n</cosserat>\n<cosserat name=\"b\" length=\"1\">\n<site name=\"s\" at=\"0\"/>\n</cosserat>"), 7, "site name 's' is already used"},
+      {"site name of a generated site", in_world(rod + ">\n<site name=\"a/tip\" at=\"1\"/>\n</cosserat>"), 4, "site name 'a/tip' is already used"},
+      {"site name used in the worldbody", in_world("<site name=\"s\"/>\n" + rod + ">\n<site name=\"s\" at=\"0\"/>\n</cosserat>"), 5, "site name 's' is already used"},
+      {"unknown default class", in_world(rod + R"( class="nosuch"/>)"), 3, "'class' names no <default class=...>: 'nosuch'"},
+      {"site with an unknown class", in_world(rod + ">\n<site name=\"s\" at=\"0\" class=\"nosuch\"/>\n</cosserat>"), 4, "'class' names no"},
+      {"too many sections for MuJoCo's XML depth", in_world("<body name=\"b\">\n" + rod + R"( sections="120"/>)" "\n</body>"), 4, "use at most about 94 sections"},
+      {"generated body name taken", in_world("<body name=\"a/s0\"/>\n" + rod + "/>"), 4, "generated body name 'a/s0'"},
+  };
+}
+
+TEST(MjcfErrors, TableOfBadInput) {
+  const auto cases = bad_cases();
+  ASSERT_GE(cases.size(), 20u);
+  for (const BadCase& c : cases) {
+    SCOPED_TRACE(std::string(c.kind) + "\n" + c.xml);
+    try {
+      preprocess_string(c.xml, kInline);
+      ADD_FAILURE() << "no LoadError for: " << c.kind;
+    } catch (const LoadError& e) {
+      EXPECT_EQ(e.line, c.line) << e.what();
+      EXPECT_NE(e.message.find(c.message), std::string::npos) << e.what();
+      EXPECT_TRUE(e.file.ends_with(c.file)) << e.what();
+      const std::string prefix = e.file + ":" + std::to_string(e.line) + ": ";
+      EXPECT_EQ(std::string(e.what()).rfind(prefix, 0), 0u) << e.what();
+    }
+  }
+}
+
+TEST(MjcfErrors, MissingTopLevelFile) {
+  try {
+    preprocess_file(kData + "does_not_exist.xml");
+    ADD_FAILURE() << "no LoadError";
+  } catch (const LoadError& e) {
+    EXPECT_TRUE(e.file.ends_with("does_not_exist.xml"));
+    EXPECT_NE(e.message.find("cannot open"), std::string::npos);
+  }
+}
+
+// Never crash: every prefix and many random mutations of a good scene either pre-process or give
+// a LoadError (nothing else escapes).
+TEST(MjcfErrors, TruncatedAndMutatedInputOnlyGivesLoadErrors) {
+  const std::string good = in_world(R"(<body name="b" pos="0 0 1">
+<cosserat name="a" length="1" sections="2" radius="0.02 0.01" strain="sr" order="1">
+<site name="s" at="0.25" pos="0 0.01"/>
+<section length="0.4" dofs="1 1 1 1 0 0"/>
+<section young="2e6"/>
+<body name="tip"><geom size="0.01"/></body>
+</cosserat>
+</body>)");
+  ASSERT_NO_THROW(preprocess_string(good, kInline));
+  auto survives = [](const std::string& xml) {
+    try {
+      preprocess_string(xml, kInline);
+    } catch (const LoadError& e) {
+      EXPECT_GE(e.line, 0);
+      EXPECT_FALSE(e.message.empty());
+    }
+  };
+  for (std::size_t n = 0; n < good.size(); ++n) survives(good.substr(0, n));
+  std::mt19937 rng(7);
+  const std::string alphabet = "<>/=\" -.0123456789eaxz";
+  for (int k = 0; k < 3000; ++k) {
+    std::string xml = good;
+    for (int m = 0; m < 3; ++m) xml[rng() % xml.size()] = alphabet[rng() % alphabet.size()];
+    survives(xml);
+  }
+}
+
+// ------------------------------------------------------------------------------------------------
+// Good scenes
+
+TEST(MjcfScenes, OneRodNamesCountsAndSites) {
+  const std::string xml = R"(<mujoco>
+  <worldbody>
+    <cosserat name="arm" pos="0 0 1" length="0.6" sections="3" radius="0.02 0.01">
+      <site name="mid" at="0.3" pos="0.01 0.02"/>
+      <site name="edge" at="0.2"/>
+      <site name="start" at="0"/>
+      <site name="end" at="0.6" pos="0.001 0 0"/>
+    </cosserat>
+    <body name="ball" pos="1 0 1"><freejoint/><geom size="0.05"/></body>
+  </worldbody>
+</mujoco>
+)";
+  const Preprocessed p = preprocess_string(xml, kInline);
+  ASSERT_EQ(p.rods.size(), 1u);
+  const RodDecl& rod = p.rods[0];
+
+  // declaration
+  EXPECT_EQ(rod.name, "arm");
+  EXPECT_EQ(rod.parent_body, "world");
+  EXPECT_EQ(rod.file, kInline);
+  EXPECT_EQ(rod.line, 3);
+  EXPECT_EQ(rod.spec.sections, 3);
+  ASSERT_EQ(rod.spec.overrides.size(), 3u);
+  for (const auto& s : rod.spec.overrides) EXPECT_NEAR(s.length, 0.2, 1e-15);
+  EXPECT_DOUBLE_EQ(rod.spec.radius_base, 0.02);
+  EXPECT_DOUBLE_EQ(rod.spec.radius_tip, 0.01);
+  EXPECT_EQ(rod.proxies, (std::vector<std::string>{"arm/s0", "arm/s1", "arm/s2"}));
+  EXPECT_EQ(rod.joints.size(), 12u);
+  EXPECT_EQ(static_cast<int>(rod.joints.size()), core_dofs(rod.spec));
+  EXPECT_EQ(rod.joints[0], "arm/s0/kx");
+  EXPECT_EQ(rod.joints[3], "arm/s0/px");
+  EXPECT_EQ(rod.joints[11], "arm/s2/px");
+  ASSERT_EQ(rod.geoms.size(), 6u);
+  EXPECT_EQ(rod.geoms[3].name, "arm/s1/g1");
+  EXPECT_EQ(rod.geoms[3].section, 1);
+  EXPECT_NEAR(rod.geoms[3].X_begin, 0.3, 1e-15);
+  EXPECT_NEAR(rod.geoms[3].X_end, 0.4, 1e-15);
+  ASSERT_EQ(rod.sites.size(), 6u);
+  EXPECT_EQ(rod.sites.front().name, "arm/base");
+  EXPECT_EQ(rod.sites.back().name, "arm/tip");
+  EXPECT_DOUBLE_EQ(rod.sites.back().X, 0.6);
+
+  // compiled model: counts and names
+  ModelPtr m = compile(p);
+  ASSERT_TRUE(m);
+  EXPECT_EQ(m->nq, 12 + 7);
+  EXPECT_EQ(m->nv, 12 + 6);
+  for (const auto& b : {"arm/base", "arm/s0", "arm/s1", "arm/s2"}) EXPECT_GE(id(m.get(), mjOBJ_BODY, b), 0) << b;
+  for (const auto& j : rod.joints) EXPECT_GE(id(m.get(), mjOBJ_JOINT, j), 0) << j;
+  for (const auto& g : rod.geoms) EXPECT_GE(id(m.get(), mjOBJ_GEOM, g.name), 0) << g.name;
+  for (const auto& s : rod.sites) EXPECT_GE(id(m.get(), mjOBJ_SITE, s.name), 0) << s.name;
+  for (int j = 0; j < 12; ++j) {
+    EXPECT_EQ(m->jnt_type[j], mjJNT_SLIDE);
+    EXPECT_EQ(m->jnt_limited[j], 0);
+    EXPECT_EQ(m->jnt_stiffness[j], 0.0);
+    EXPECT_EQ(m->dof_damping[j], 0.0);
+  }
+  // exclusions: 3 proxy pairs, 3 proxy-base pairs, first proxy-world
+  EXPECT_EQ(m->nexclude, 3 + 3 + 1);
+
+  // sites in the right proxies (a boundary belongs to the earlier section), poses in the proxy frame
+  auto site_body = [&](const char* s) { return m->site_bodyid[id(m.get(), mjOBJ_SITE, s)]; };
+  const int s0 = id(m.get(), mjOBJ_BODY, "arm/s0"), s1 = id(m.get(), mjOBJ_BODY, "arm/s1"),
+            s2 = id(m.get(), mjOBJ_BODY, "arm/s2");
+  EXPECT_EQ(site_body("arm/base"), id(m.get(), mjOBJ_BODY, "arm/base"));
+  EXPECT_EQ(site_body("start"), s0);
+  EXPECT_EQ(site_body("edge"), s0);
+  EXPECT_EQ(site_body("mid"), s1);
+  EXPECT_EQ(site_body("end"), s2);
+  EXPECT_EQ(site_body("arm/tip"), s2);
+  const mjtNum* mid_pos = m->site_pos + 3 * id(m.get(), mjOBJ_SITE, "mid");
+  EXPECT_NEAR(mid_pos[0], -0.1, 1e-12);
+  EXPECT_NEAR(mid_pos[1], 0.01, 1e-12);
+  EXPECT_NEAR(mid_pos[2], 0.02, 1e-12);
+
+  // capsules: radius of the taper at their middle, centred on their X range
+  const int g = id(m.get(), mjOBJ_GEOM, "arm/s0/g0");
+  EXPECT_EQ(m->geom_type[g], mjGEOM_CAPSULE);
+  EXPECT_NEAR(m->geom_size[3 * g], 0.02 - 0.01 * 0.05 / 0.6, 1e-12);
+  EXPECT_NEAR(m->geom_size[3 * g + 1], 0.05, 1e-12);  // half length
+  EXPECT_NEAR(m->geom_pos[3 * g], 0.05 - 0.2, 1e-12);
+
+  // straight rest shape at qpos0
+  DataPtr d(mj_makeData(m.get()));
+  mj_kinematics(m.get(), d.get());
+  auto xpos = [&](const char* s) { return d->site_xpos + 3 * id(m.get(), mjOBJ_SITE, s); };
+  EXPECT_NEAR(xpos("arm/tip")[0], 0.6, 1e-12);
+  EXPECT_NEAR(xpos("arm/tip")[2], 1.0, 1e-12);
+  EXPECT_NEAR(xpos("mid")[0], 0.3, 1e-12);
+  EXPECT_NEAR(xpos("mid")[1], 0.01, 1e-12);
+  EXPECT_NEAR(xpos("mid")[2], 1.02, 1e-12);
+  EXPECT_NEAR(xpos("end")[0], 0.601, 1e-12);
+}
+
+TEST(MjcfScenes, RodOnTheTipOfAnotherRod) {
+  const std::string xml = R"(<mujoco>
+  <worldbody>
+    <body name="mount" pos="0 0 1">
+      <cosserat name="arm" length="0.5" sections="2" strain="kl">
+        <body name="hand" pos="0.05 0 0">
+          <joint name="wrist" type="hinge" axis="0 0 1"/>
+          <geom size="0.02"/>
+          <cosserat name="finger" pos="0.02 0 0" length="0.2" sections="2" strain="sr" order="1">
+            <site name="fingertip_probe" at="0.2"/>
+          </cosserat>
+        </body>
+      </cosserat>
+    </body>
+  </worldbody>
+</mujoco>
+)";
+  const Preprocessed p = preprocess_string(xml, kInline);
+  ASSERT_EQ(p.rods.size(), 2u);
+  EXPECT_EQ(p.rods[0].parent_body, "mount");
+  EXPECT_EQ(p.rods[1].parent_body, "hand");
+  EXPECT_EQ(p.rods[1].joints.size(), 24u);  // 6 components x 2 Legendre terms x 2 sections
+  EXPECT_EQ(p.rods[1].joints[0], "finger/s0/kx0");
+  EXPECT_EQ(p.rods[1].joints[1], "finger/s0/kx1");
+  EXPECT_EQ(p.rods[1].joints[11], "finger/s0/pz1");
+
+  ModelPtr m = compile(p);
+  ASSERT_TRUE(m);
+  int rod_dofs = 0;
+  for (const auto& r : p.rods) rod_dofs += core_dofs(r.spec);
+  EXPECT_EQ(rod_dofs, 8 + 24);
+  EXPECT_EQ(m->nv, rod_dofs + 1);
+  EXPECT_EQ(m->nq, rod_dofs + 1);
+  // 12 dofs per section: MuJoCo 2.2.2 takes at most 6 per body, so a helper body carries the
+  // first 6 joints of each section just above its proxy
+  const int helper = id(m.get(), mjOBJ_BODY, "finger/s0/h0");
+  ASSERT_GE(helper, 0);
+  EXPECT_EQ(m->jnt_bodyid[id(m.get(), mjOBJ_JOINT, "finger/s0/ky1")], helper);
+  EXPECT_EQ(m->jnt_bodyid[id(m.get(), mjOBJ_JOINT, "finger/s0/px0")], id(m.get(), mjOBJ_BODY, "finger/s0"));
+  EXPECT_EQ(m->body_parentid[id(m.get(), mjOBJ_BODY, "finger/s0")], helper);
+  EXPECT_EQ(m->body_parentid[id(m.get(), mjOBJ_BODY, "finger/s1/h0")], id(m.get(), mjOBJ_BODY, "finger/s0"));
+  EXPECT_LT(m->body_mass[helper], 1e-6);
+  for (std::size_t j = 0; j < p.rods[1].joints.size(); ++j)  // MuJoCo's dof order is the core's
+    EXPECT_EQ(m->jnt_dofadr[id(m.get(), mjOBJ_JOINT, p.rods[1].joints[j])],
+              m->jnt_dofadr[id(m.get(), mjOBJ_JOINT, p.rods[1].joints[0])] + static_cast<int>(j));
+  const int hand = id(m.get(), mjOBJ_BODY, "hand");
+  EXPECT_EQ(m->body_parentid[hand], id(m.get(), mjOBJ_BODY, "arm/s1"));
+  EXPECT_EQ(m->body_parentid[id(m.get(), mjOBJ_BODY, "finger/base")], hand);
+  EXPECT_EQ(m->site_bodyid[id(m.get(), mjOBJ_SITE, "fingertip_probe")], id(m.get(), mjOBJ_BODY, "finger/s1"));
+
+  DataPtr d(mj_makeData(m.get()));
+  mj_kinematics(m.get(), d.get());
+  EXPECT_NEAR(d->xpos[3 * hand], 0.55, 1e-12);  // tip frame + the body's own pos
+  EXPECT_NEAR(d->site_xpos[3 * id(m.get(), mjOBJ_SITE, "finger/tip")], 0.77, 1e-12);
+}
+
+TEST(MjcfScenes, SectionOverrides) {
+  const std::string xml = in_world(R"(<cosserat name="arm" length="1" strain="kl" density="500">
+  <section length="0.5" strain="pcc" order="2"/>
+  <section dofs="1 0 0 0 0 1" young="2e6"/>
+  <section reststrain="0 0 1 1 0 0" quadrature="5"/>
+</cosserat>)");
+  const Preprocessed p = preprocess_string(xml, kInline);
+  const RodDecl& rod = p.rods.at(0);
+  const auto& s = rod.spec.overrides;
+  ASSERT_EQ(s.size(), 3u);
+  EXPECT_EQ(rod.spec.sections, 3);
+  EXPECT_DOUBLE_EQ(s[0].length, 0.5);
+  EXPECT_DOUBLE_EQ(s[1].length, 0.25);
+  EXPECT_DOUBLE_EQ(s[2].length, 0.25);
+  EXPECT_EQ(s[0].order, 2);
+  EXPECT_EQ(s[1].order, 0);
+  EXPECT_EQ(s[1].dofs, (StrainMask{true, false, false, false, false, true}));
+  EXPECT_EQ(s[2].dofs, (StrainMask{true, true, true, true, false, false}));
+  for (const auto& ss : s) EXPECT_EQ(ss.material.density, 500.0);
+  EXPECT_EQ(s[0].material.young, 1e6);
+  EXPECT_EQ(s[1].material.young, 2e6);
+  EXPECT_EQ(s[2].rest_strain(2), 1.0);
+  EXPECT_EQ(s[2].quadrature, 5);
+  EXPECT_EQ(rod.joints, (std::vector<std::string>{"arm/s0/kz0", "arm/s0/kz1", "arm/s0/kz2", "arm/s0/px0",
+                                                  "arm/s0/px1", "arm/s0/px2", "arm/s1/kx", "arm/s1/pz",
+                                                  "arm/s2/kx", "arm/s2/ky", "arm/s2/kz", "arm/s2/px"}));
+  EXPECT_EQ(static_cast<int>(rod.joints.size()), core_dofs(rod.spec));
+
+  ModelPtr m = compile(p);
+  ASSERT_TRUE(m);
+  EXPECT_EQ(m->nv, 12);
+  // the proxy of section 1 sits at X = 0.75, one of section 0 at X = 0.5
+  DataPtr d(mj_makeData(m.get()));
+  mj_kinematics(m.get(), d.get());
+  EXPECT_NEAR(d->xpos[3 * id(m.get(), mjOBJ_BODY, "arm/s0")], 0.5, 1e-12);
+  EXPECT_NEAR(d->xpos[3 * id(m.get(), mjOBJ_BODY, "arm/s1")], 0.75, 1e-12);
+}
+
+TEST(MjcfScenes, RigidSectionHasNoJoints) {
+  const Preprocessed p = preprocess_string(in_world(R"(<cosserat name="a" length="1" sections="2" strain="rigid"/>)"), kInline);
+  EXPECT_TRUE(p.rods.at(0).joints.empty());
+  ModelPtr m = compile(p);
+  ASSERT_TRUE(m);
+  EXPECT_EQ(m->nv, 0);
+}
+
+// The deepest chain MuJoCo's XML parser takes (the bad-input table has one section more than this
+// is refused with a LoadError instead of MuJoCo's parse error).
+TEST(MjcfScenes, DeepestChainMuJoCoAccepts) {
+  const Preprocessed p = preprocess_string(
+      in_world("<body name=\"b\">\n<cosserat name=\"a\" length=\"1\" sections=\"94\" capsules=\"1\"/>\n</body>"), kInline);
+  EXPECT_TRUE(compile(p));
+  EXPECT_THROW(preprocess_string(
+                   in_world("<body name=\"b\">\n<cosserat name=\"a\" length=\"1\" sections=\"95\" capsules=\"1\"/>\n</body>"),
+                   kInline),
+               LoadError);
+}
+
+TEST(MjcfScenes, IncludesAndDefaultClasses) {
+  const Preprocessed p = preprocess_file(kData + "scene_include.xml");
+  EXPECT_EQ(p.xml.find("<include"), std::string::npos);
+  EXPECT_EQ(p.xml.find("<cosserat"), std::string::npos);
+  ASSERT_EQ(p.rods.size(), 1u);
+  const RodDecl& rod = p.rods[0];
+  EXPECT_TRUE(rod.file.ends_with("parts/arm.xml")) << rod.file;
+  EXPECT_EQ(rod.line, 3);
+  EXPECT_EQ(rod.parent_body, "mount");
+
+  ModelPtr m = compile(p);
+  ASSERT_TRUE(m);
+  // the class of the rod's capsules comes from the included <default>
+  const int g = id(m.get(), mjOBJ_GEOM, "arm/s1/g0");
+  ASSERT_GE(g, 0);
+  EXPECT_FLOAT_EQ(m->geom_rgba[4 * g + 2], 0.3f);
+  EXPECT_EQ(m->geom_contype[g], 0);
+  // the tip weight, included from parts/tipweight.xml inside the <cosserat>
+  const int w = id(m.get(), mjOBJ_BODY, "weight");
+  ASSERT_GE(w, 0);
+  EXPECT_EQ(m->body_parentid[w], id(m.get(), mjOBJ_BODY, "arm/s1"));
+  EXPECT_NEAR(m->body_mass[w], 0.05, 1e-12);
+  EXPECT_EQ(m->nv, 8);
+}
+
+// euler with <compiler angle="degree">: the base frame is rotated by MuJoCo's own rules.
+TEST(MjcfScenes, OrientationUsesCompilerAngleUnits) {
+  for (const std::string compiler : {R"(<compiler angle="degree"/>)", R"(<compiler angle="radian"/>)"}) {
+    const std::string angle = compiler.find("degree") != std::string::npos ? "90" : "1.5707963267948966";
+    const std::string xml = "<mujoco>\n" + compiler + "\n<worldbody>\n<cosserat name=\"arm\" pos=\"0 0 1\" euler=\"0 0 " +
+                            angle + "\" length=\"0.5\" sections=\"2\"/>\n</worldbody>\n</mujoco>\n";
+    const Preprocessed p = preprocess_string(xml, kInline);
+    ModelPtr m = compile(p);
+    ASSERT_TRUE(m);
+    DataPtr d(mj_makeData(m.get()));
+    mj_kinematics(m.get(), d.get());
+    const mjtNum* R = d->xmat + 9 * id(m.get(), mjOBJ_BODY, "arm/base");
+    const double expected[9] = {0, -1, 0, 1, 0, 0, 0, 0, 1};  // rotation of 90 degrees about z
+    for (int k = 0; k < 9; ++k) EXPECT_NEAR(R[k], expected[k], 1e-9) << compiler << " k=" << k;
+    const mjtNum* tip = d->site_xpos + 3 * id(m.get(), mjOBJ_SITE, "arm/tip");
+    EXPECT_NEAR(tip[0], 0.0, 1e-9);
+    EXPECT_NEAR(tip[1], 0.5, 1e-9);
+    EXPECT_NEAR(tip[2], 1.0, 1e-9);
+  }
+}
+
+// selfcollide keeps only the first-proxy/parent exclusion; exclusions merge into an existing
+// <contact>; tendons, actuators and sensors referring to generated names pass through.
+TEST(MjcfScenes, SelfCollideContactMergeAndPassThrough) {
+  const std::string xml = R"(<mujoco>
+  <worldbody>
+    <body name="ball" pos="0 0 0.5"><freejoint/><geom name="ball" size="0.05"/></body>
+    <cosserat name="arm" pos="0 0 1" length="0.5" sections="4" selfcollide="true" condim="1"
+              friction="0.5" contype="2" conaffinity="3" group="2"/>
+  </worldbody>
+  <contact>
+    <exclude body1="ball" body2="world"/>
+  </contact>
+  <tendon>
+    <spatial name="cable"><site site="arm/base"/><site site="arm/tip"/></spatial>
+  </tendon>
+  <actuator>
+    <motor name="bend" joint="arm/s0/kz"/>
+    <motor name="pull" tendon="cable"/>
+  </actuator>
+  <sensor>
+    <framepos name="tip" objtype="site" objname="arm/tip"/>
+  </sensor>
+</mujoco>
+)";
+  const Preprocessed p = preprocess_string(xml, kInline);
+  std::size_t contacts = 0;
+  for (std::size_t at = 0; (at = p.xml.find("<contact", at)) != std::string::npos; ++at) ++contacts;
+  EXPECT_EQ(contacts, 1u);
+  ModelPtr m = compile(p);
+  ASSERT_TRUE(m);
+  EXPECT_EQ(m->nexclude, 1 + 1);
+  EXPECT_EQ(m->nu, 2);
+  EXPECT_EQ(m->ntendon, 1);
+  EXPECT_EQ(m->nsensor, 1);
+  const int g = id(m.get(), mjOBJ_GEOM, "arm/s3/g1");
+  EXPECT_EQ(m->geom_condim[g], 1);
+  EXPECT_EQ(m->geom_contype[g], 2);
+  EXPECT_EQ(m->geom_conaffinity[g], 3);
+  EXPECT_EQ(m->geom_group[g], 2);
+  EXPECT_DOUBLE_EQ(m->geom_friction[3 * g], 0.5);
+}
+
+TEST(MjcfScenes, ShippedCantileverLoads) {
+  const Preprocessed p = preprocess_file(std::string(COSSERAT_SOURCE_DIR) + "/models/cantilever.xml");
+  ASSERT_EQ(p.rods.size(), 1u);
+  EXPECT_EQ(p.rods[0].parent_body, "world");
+  ModelPtr m = compile(p);
+  ASSERT_TRUE(m);
+  EXPECT_EQ(m->nv, core_dofs(p.rods[0].spec));
+  const int w = id(m.get(), mjOBJ_BODY, "weight");
+  ASSERT_GE(w, 0);
+  EXPECT_EQ(m->body_parentid[w], id(m.get(), mjOBJ_BODY, "beam/s7"));
+}
+
+// A VFS-loaded model resolves relative asset paths against the directory of the name it is
+// loaded under (MuJoCo looks in the VFS by base name first, then on disk): loading under the
+// original file's path makes meshdir-relative meshes work.
+TEST(MjcfScenes, VfsAssetsResolveAgainstTheLoadName) {
+  namespace fs = std::filesystem;
+  const fs::path dir = fs::temp_directory_path() / ("mjcf_test_" + std::to_string(::getpid()));
+  fs::create_directories(dir / "meshes");
+  {
+    // a binary STL tetrahedron
+    std::ofstream stl(dir / "meshes" / "mjcf_test_tet.stl", std::ios::binary);
+    const float v[4][3] = {{0, 0, 0}, {0.1f, 0, 0}, {0, 0.1f, 0}, {0, 0, 0.1f}};
+    const int f[4][3] = {{0, 2, 1}, {0, 1, 3}, {0, 3, 2}, {1, 2, 3}};
+    const char header[80] = {};
+    stl.write(header, 80);
+    const unsigned n = 4;
+    stl.write(reinterpret_cast<const char*>(&n), 4);
+    for (const auto& t : f) {
+      const float normal[3] = {0, 0, 0};
+      stl.write(reinterpret_cast<const char*>(normal), 12);
+      for (int k : t) stl.write(reinterpret_cast<const char*>(v[k]), 12);
+      const char attr[2] = {};
+      stl.write(attr, 2);
+    }
+    std::ofstream scene(dir / "scene.xml");
+    scene << R"(<mujoco><compiler meshdir="meshes"/><asset><mesh name="tet" file="mjcf_test_tet.stl"/></asset>
+<worldbody><body name="b"><cosserat name="arm" length="0.3"><body name="w"><geom type="mesh" mesh="tet"/></body></cosserat></body></worldbody></mujoco>)";
+  }
+  const Preprocessed p = preprocess_file((dir / "scene.xml").string());
+  std::string err;
+  EXPECT_TRUE(load_xml(p.xml, p.path, &err)) << err;  // under the original path: found
+  EXPECT_FALSE(load_xml(p.xml, "scene.xml", &err));   // under a bare name: relative to the cwd
+  EXPECT_NE(err.find("mjcf_test_tet.stl"), std::string::npos) << err;
+  fs::remove_all(dir);
+}
+
+}  // namespace
