@@ -589,7 +589,7 @@ XMLElement* new_element(XMLDocument& doc, const char* tag, const Attributes& att
 XMLElement* new_slide_joint(XMLDocument& doc, const std::string& name) {
   return new_element(doc, "joint",
                      {{"name", name}, {"type", "slide"}, {"pos", "0 0 0"}, {"axis", "1 0 0"},
-                      {"limited", "false"}, {"stiffness", "0"}, {"damping", "0"}, {"armature", "0"},
+                      {"limited", "false"}, {"stiffness", "0"}, {"damping", "0"}, {"armature", "1"},
                       {"frictionloss", "0"}, {"ref", "0"}, {"springref", "0"}});
 }
 
@@ -597,9 +597,10 @@ XMLElement* new_slide_joint(XMLDocument& doc, const std::string& name) {
 // with all the section's slide joints and the explicit inertia the compiler requires of moving
 // bodies (the coupling zeroes it). MuJoCo 2.2.2 refuses more than 6 dofs in a body, so a section
 // with more joints gets a chain of helper bodies "<prefix>/h<k>" at the same frame above the proxy
-// (6 joints each, in dof order, the proxy keeping the rest). Helpers carry a negligible mass
-// (1e-9 kg) so that physics stays right even if the coupling does not know about them; their
-// names are appended to `helpers`. Returns the proxy.
+// (6 joints each, in dof order, the proxy keeping the rest). Proxies and helpers get a unit mass
+// and the slide joints a unit armature so that MuJoCo's compiler accepts them (the coupling
+// zeroes both: all rod inertia comes from the solver); helper names are appended to `helpers`.
+// Returns the proxy.
 XMLElement* add_section_bodies(XMLDocument& doc, XMLElement* parent, const std::string& prefix, double offset,
                                const std::vector<std::string>& joints, std::vector<std::string>& helpers) {
   constexpr std::size_t kMaxDofs = 6;
@@ -611,8 +612,8 @@ XMLElement* add_section_bodies(XMLDocument& doc, XMLElement* parent, const std::
     body = new_element(doc, "body", {{"name", name}, {"pos", fmt3(b == 0 ? offset : 0.0, 0, 0)}});
     body->InsertEndChild(new_element(doc, "inertial",
                                      {{"pos", "0 0 0"},
-                                      {"mass", proxy ? "1" : "1e-9"},
-                                      {"diaginertia", proxy ? "1 1 1" : "1e-9 1e-9 1e-9"}}));
+                                      {"mass", "1"},
+                                      {"diaginertia", "1 1 1"}}));
     for (std::size_t j = b * kMaxDofs; j < std::min(joints.size(), (b + 1) * kMaxDofs); ++j)
       body->InsertEndChild(new_slide_joint(doc, joints[j]));
     if (!proxy) helpers.push_back(name);

@@ -31,14 +31,14 @@ using Mat3r = Eigen::Matrix<double, 3, 3, Eigen::RowMajor>;  // MuJoCo's xmat la
 mjModel* compile_xml(const std::string& xml, const std::string& path) {
   // MuJoCo 2.2 reads files; a VFS entry named after the original file keeps its directory as the
   // model directory for relative asset paths.
-  mjVFS vfs;
-  mj_defaultVFS(&vfs);
-  const int err = mj_makeEmptyFileVFS(&vfs, path.c_str(), static_cast<int>(xml.size()));
+  auto vfs = std::make_unique<mjVFS>();  // about 2 MB: not on the stack
+  mj_defaultVFS(vfs.get());
+  const int err = mj_makeEmptyFileVFS(vfs.get(), path.c_str(), static_cast<int>(xml.size()));
   if (err) throw LoadError(path, 0, "cannot create the virtual file for MuJoCo (code " + std::to_string(err) + ")");
-  std::memcpy(vfs.filedata[vfs.nfile - 1], xml.data(), xml.size());
+  std::memcpy(vfs->filedata[vfs->nfile - 1], xml.data(), xml.size());
   char error[1024] = "";
-  mjModel* m = mj_loadXML(path.c_str(), &vfs, error, sizeof(error));
-  mj_deleteVFS(&vfs);
+  mjModel* m = mj_loadXML(path.c_str(), vfs.get(), error, sizeof(error));
+  mj_deleteVFS(vfs.get());
   if (!m) throw LoadError(path, 0, std::string("MuJoCo: ") + error);
   return m;
 }
@@ -63,6 +63,16 @@ RodBinding bind_rod(const mjModel* m, const RodDecl& decl) {
   rb.model.finalize();
   rb.base_body = require_id(m, mjOBJ_BODY, decl.name + "/base", decl);
   for (const auto& p : decl.proxies) rb.proxy_body.push_back(require_id(m, mjOBJ_BODY, p, decl));
+  // helper bodies: the bodies between a proxy and the previous proxy (or the base)
+  for (size_t i = 0; i < rb.proxy_body.size(); ++i) {
+    const int stop = i == 0 ? rb.base_body : rb.proxy_body[i - 1];
+    std::vector<int> h;
+    for (int b = m->body_parentid[rb.proxy_body[i]]; b != stop; b = m->body_parentid[b]) {
+      if (b <= 0) throw LoadError(decl.file, decl.line, "internal: proxy chain is broken");
+      h.push_back(b);
+    }
+    rb.helper_body.push_back(h);
+  }
   if (static_cast<int>(decl.joints.size()) != rb.model.nv)
     throw LoadError(decl.file, decl.line, "internal: joint count differs from the rod's dof count");
   // the rod's dofs must be one contiguous block in core order
@@ -88,16 +98,17 @@ RodBinding bind_rod(const mjModel* m, const RodDecl& decl) {
 // the subtree masses MuJoCo divides by, and disable the "simple body" shortcuts that ignore cdof.
 void strip_proxies(mjModel* m, const std::vector<RodBinding>& rods) {
   for (const auto& r : rods) {
-    for (int p : r.proxy_body) {
-      m->body_mass[p] = 0.0;
-      for (int k = 0; k < 3; ++k) m->body_inertia[3 * p + k] = 0.0;
+    for (int b = r.base_body + 1; b <= r.proxy_body.back(); ++b) {  // proxies and helpers
+      m->body_mass[b] = 0.0;
+      for (int k = 0; k < 3; ++k) m->body_inertia[3 * b + k] = 0.0;
     }
-    for (int b = r.proxy_body.front(); b < r.below_end; ++b) m->body_simple[b] = 0;
+    for (int b = r.base_body + 1; b < r.below_end; ++b) m->body_simple[b] = 0;
+    for (int k = 0; k < r.model.nv; ++k) m->dof_armature[r.dof0 + k] = 0.0;
   }
   for (int i = 0; i < m->nv; ++i) {
     const int b = m->dof_bodyid[i];
     for (const auto& r : rods)
-      if (b >= r.proxy_body.front() && b < r.below_end) m->dof_simplenum[i] = 0;
+      if (b > r.base_body && b < r.below_end) m->dof_simplenum[i] = 0;
   }
   for (int b = 0; b < m->nbody; ++b) m->body_subtreemass[b] = m->body_mass[b];
   for (int b = m->nbody - 1; b > 0; --b) m->body_subtreemass[m->body_parentid[b]] += m->body_subtreemass[b];
@@ -119,6 +130,18 @@ SE3 get_pose(const mjtNum* xpos, const mjtNum* xmat) {
     for (int j = 0; j < 3; ++j) g.R(i, j) = xmat[3 * i + j];
   }
   return g;
+}
+
+// Pose of a proxy (or helper) body: frame, inertial frame (inertia is zero) and joint axes.
+void set_body_pose(const mjModel* m, mjData* d, int b, const SE3& g) {
+  set_pose(d->xpos + 3 * b, d->xmat + 9 * b, g);
+  mju_mat2Quat(d->xquat + 4 * b, d->xmat + 9 * b);
+  mju_copy3(d->xipos + 3 * b, d->xpos + 3 * b);
+  mju_copy(d->ximat + 9 * b, d->xmat + 9 * b, 9);
+  for (int j = m->body_jntadr[b]; j < m->body_jntadr[b] + m->body_jntnum[b]; ++j) {
+    mju_copy3(d->xanchor + 3 * j, d->xpos + 3 * b);
+    mju_rotVecMat(d->xaxis + 3 * j, m->jnt_axis + 3 * j, d->xmat + 9 * b);
+  }
 }
 
 // MuJoCo's mj_kinematics for one body whose parent pose is final (bodies below a rod).
@@ -197,14 +220,9 @@ void patch_rod_kinematics(const Scene& s, SceneData& sd, int r) {
   for (size_t i = 0; i < rb.proxy_body.size(); ++i) {
     const int p = rb.proxy_body[i];
     const SE3& g = rd.g[rb.model.sections[i].end_node];
-    set_pose(d->xpos + 3 * p, d->xmat + 9 * p, g);
-    mju_mat2Quat(d->xquat + 4 * p, d->xmat + 9 * p);
-    mju_copy3(d->xipos + 3 * p, d->xpos + 3 * p);
-    mju_copy(d->ximat + 9 * p, d->xmat + 9 * p, 9);
-    for (int j = m->body_jntadr[p]; j < m->body_jntadr[p] + m->body_jntnum[p]; ++j) {
-      mju_copy3(d->xanchor + 3 * j, d->xpos + 3 * p);
-      mju_rotVecMat(d->xaxis + 3 * j, m->jnt_axis + 3 * j, d->xmat + 9 * p);
-    }
+    // helpers sit at the proxy's frame (they only hold dofs)
+    for (int b : rb.helper_body[i]) set_body_pose(m, d, b, g);
+    set_body_pose(m, d, p, g);
   }
   // capsules along the chord of their stretch of centreline (MuJoCo capsules lie along local z)
   for (size_t k = 0; k < rb.geom_id.size(); ++k) {
@@ -270,6 +288,130 @@ void patch_cdof_dot(const Scene& s, SceneData& sd, int r) {
     for (int k = 0; k < sec.ndof; ++k) {
       const Vec6 v = A * (ade * J.col(k) + Jd.col(k));
       for (int e = 0; e < 6; ++e) d->cdof_dot[6 * (rb.dof0 + sec.dof0 + k) + e] = v(e);
+    }
+  }
+}
+
+// Jacobian columns of the dofs of the section containing X, for a point p (world) riding with
+// the cross-section at X, minus what MuJoCo computed treating p as fixed to that section's proxy
+// (the section end). dJ rows: translation (0-2) and rotation (3-5), world axes. Returns the first
+// MuJoCo dof of the section (ndof = dJ.cols()). Needs fwd_position and the patched cdof.
+int point_correction(const Scene& s, const SceneData& sd, int r, double X, const Vec3& p, Mat6X& dJ) {
+  const mjData* d = sd.d;
+  const RodBinding& rb = s.rods[r];
+  const cosserat::Data& rd = sd.rod[r];
+  Mat6X J;
+  const int si = section_jacobian(rb.model, rd, 0, X, J);
+  const Section& sec = rb.model.sections[si];
+  const SE3 gX = rod_pose(rb.model, rd, 0, X);
+  const mjtNum* c = d->subtree_com + 3 * s.m->body_rootid[rb.proxy_body[si]];
+  const Vec3 pc = p - Vec3(c[0], c[1], c[2]), r_w = p - gX.u;
+  dJ.resize(6, sec.ndof);
+  for (int k = 0; k < sec.ndof; ++k) {
+    const Vec3 w = gX.R * J.col(k).head<3>();
+    const Vec3 v = gX.R * J.col(k).tail<3>() + w.cross(r_w);  // true velocity of the material point
+    const mjtNum* cd = d->cdof + 6 * (rb.dof0 + sec.dof0 + k);
+    const Vec3 wm(cd[0], cd[1], cd[2]);
+    const Vec3 vm = Vec3(cd[3], cd[4], cd[5]) + wm.cross(pc);  // MuJoCo's: rigid with the proxy
+    dJ.col(k) << v - vm, w - wm;
+  }
+  return rb.dof0 + sec.dof0;
+}
+
+// Add `val` at (row, col) of efc_J, dense or sparse (the column is in the row's pattern: the
+// section's dofs are in the chain of the contact's body).
+void efc_add(const mjModel* m, mjData* d, int row, int col, double val) {
+  if (!mj_isSparse(m)) {
+    d->efc_J[row * m->nv + col] += val;
+    return;
+  }
+  const int adr = d->efc_J_rowadr[row], nnz = d->efc_J_rownnz[row];
+  for (int k = 0; k < nnz; ++k)
+    if (d->efc_J_colind[adr + k] == col) {
+      d->efc_J[adr + k] += val;
+      return;
+    }
+}
+
+// Patch point 5: contact rows touching rod capsules get the true point Jacobian of the section's
+// own dofs at the contact's material abscissa. MuJoCo's rows are linear in the contact-frame
+// Jacobian difference J2 - J1 (normal, tangents, then rotations about normal, t1, t2); pyramidal
+// rows are the edges J_n +- mu_j J_j (mju_decodePyramid's basis).
+void patch_contacts(const Scene& s, SceneData& sd) {
+  const mjModel* m = s.m;
+  mjData* d = sd.d;
+  Mat6X dJ;
+  for (int i = 0; i < d->ncon; ++i) {
+    const mjContact& con = d->contact[i];
+    if (con.efc_address < 0) continue;
+    for (int side = 0; side < 2; ++side) {
+      const int g = side == 0 ? con.geom1 : con.geom2;
+      const int r = s.geom_rod[g];
+      if (r < 0) continue;
+      const RodGeomDecl& gd = s.rods[r].decl.geoms[s.geom_index[g]];
+      // material abscissa: the contact point projected on the capsule's axis
+      const Vec3 p(con.pos[0], con.pos[1], con.pos[2]);
+      const Vec3 gc(d->geom_xpos[3 * g], d->geom_xpos[3 * g + 1], d->geom_xpos[3 * g + 2]);
+      const Vec3 ax(d->geom_xmat[9 * g + 2], d->geom_xmat[9 * g + 5], d->geom_xmat[9 * g + 8]);
+      const double half = m->geom_size[3 * g + 1];
+      const double t = std::clamp(0.5 + (p - gc).dot(ax) / (2.0 * half), 0.0, 1.0);
+      const double X = gd.X_begin + t * (gd.X_end - gd.X_begin);
+      const int col0 = point_correction(s, sd, r, X, p, dJ);
+      Eigen::Map<const Mat3r> frame(con.frame);
+      Mat6X C(6, dJ.cols());  // contact-frame rows of the correction, signed as J2 - J1
+      C.topRows<3>() = frame * dJ.topRows<3>();
+      C.bottomRows<3>() = frame * dJ.bottomRows<3>();
+      if (side == 0) C = -C;
+      const int row0 = con.efc_address, type = d->efc_type[row0];
+      for (int k = 0; k < C.cols(); ++k) {
+        if (type == mjCNSTR_CONTACT_PYRAMIDAL) {
+          for (int j = 1; j < con.dim; ++j) {
+            efc_add(m, d, row0 + 2 * (j - 1), col0 + k, C(0, k) + con.friction[j - 1] * C(j, k));
+            efc_add(m, d, row0 + 2 * (j - 1) + 1, col0 + k, C(0, k) - con.friction[j - 1] * C(j, k));
+          }
+        } else {  // frictionless or elliptic: one row per contact-frame direction
+          for (int j = 0; j < con.dim; ++j) efc_add(m, d, row0 + j, col0 + k, C(j, k));
+        }
+      }
+    }
+  }
+}
+
+// Spatial tendons through rod sites: dL/dq gets the true site Jacobians. For a site at path point
+// k, dL/dp_k = u_in - u_out (unit vectors of the segments into and out of it).
+void patch_tendons(const Scene& s, SceneData& sd) {
+  const mjModel* m = s.m;
+  mjData* d = sd.d;
+  Mat6X dJ;
+  for (int t = 0; t < m->ntendon; ++t) {
+    const int adr = d->ten_wrapadr[t], num = d->ten_wrapnum[t];
+    for (int k = 0; k < num; ++k) {
+      if (d->wrap_obj[adr + k] != -1) continue;
+      // the site of this path point: match by position among the tendon's wrap objects
+      const mjtNum* pk = d->wrap_xpos + 3 * (adr + k);
+      int site = -1;
+      for (int w = m->tendon_adr[t]; w < m->tendon_adr[t] + m->tendon_num[t]; ++w)
+        if (m->wrap_type[w] == mjWRAP_SITE) {
+          const int sid = m->wrap_objid[w];
+          if (mju_dist3(pk, d->site_xpos + 3 * sid) == 0.0) site = sid;
+        }
+      if (site < 0 || s.site_rod[site] < 0) continue;
+      const int r = s.site_rod[site];
+      const RodSiteDecl& sdl = s.rods[r].decl.sites[s.site_index[site]];
+      Vec3 grad = Vec3::Zero();
+      const Vec3 p(pk[0], pk[1], pk[2]);
+      if (k > 0 && d->wrap_obj[adr + k - 1] != -2) {
+        const mjtNum* q = d->wrap_xpos + 3 * (adr + k - 1);
+        const Vec3 u = p - Vec3(q[0], q[1], q[2]);
+        if (u.norm() > 0) grad += u.normalized();
+      }
+      if (k + 1 < num && d->wrap_obj[adr + k + 1] != -2) {
+        const mjtNum* q = d->wrap_xpos + 3 * (adr + k + 1);
+        const Vec3 u = Vec3(q[0], q[1], q[2]) - p;
+        if (u.norm() > 0) grad -= u.normalized();
+      }
+      const int col0 = point_correction(s, sd, r, sdl.X, p, dJ);
+      for (int c = 0; c < dJ.cols(); ++c) d->ten_J[t * m->nv + col0 + c] += grad.dot(dJ.col(c).head<3>());
     }
   }
 }
@@ -394,11 +536,13 @@ void fwd_position(const Scene& s, SceneData& sd) {
   for (size_t r = 0; r < s.rods.size(); ++r) patch_cdof(s, sd, static_cast<int>(r));
   mj_camlight(m, d);
   mj_tendon(m, d);
+  if (m->ntendon && !s.rods.empty()) patch_tendons(s, sd);
   mj_crb(m, d);
   for (size_t r = 0; r < s.rods.size(); ++r) patch_qM(s, sd, static_cast<int>(r));
   mj_factorM(m, d);
   mj_collision(m, d);
   mj_makeConstraint(m, d);
+  if (d->ncon && !s.rods.empty()) patch_contacts(s, sd);
   mj_transmission(m, d);
   mj_projectConstraint(m, d);
 }
@@ -434,10 +578,6 @@ void forward(const Scene& s, SceneData& sd) {
 
 // --------------------------------------------------------------------------- load / reset --
 
-namespace {
-
-// Model constants that mj_setConst derived from a mass matrix without the rods' inertia: recompute
-// them from the patched mass matrix at qpos0 (they set the softness of contacts and limits).
 void recompute_invweight0(Scene& s) {
   mjModel* m = s.m;
   SceneData sd(s);
@@ -469,10 +609,33 @@ void recompute_invweight0(Scene& s) {
       default: m->dof_invweight0[a] = Minv(a, a);
     }
   }
+  // a proxy's "centre of mass" is its section's (MuJoCo uses xipos; the proxy's own is empty)
+  std::vector<int> proxy_rod(m->nbody, -1), proxy_sec(m->nbody, -1);
+  for (size_t r = 0; r < s.rods.size(); ++r)
+    for (size_t i = 0; i < s.rods[r].proxy_body.size(); ++i) {
+      proxy_rod[s.rods[r].proxy_body[i]] = static_cast<int>(r);
+      proxy_sec[s.rods[r].proxy_body[i]] = static_cast<int>(i);
+    }
   Eigen::MatrixXd J(6, nv);
   std::vector<mjtNum> jp(3 * nv), jr(3 * nv);
   for (int b = 1; b < m->nbody; ++b) {
-    mj_jacBodyCom(m, sd.d, jp.data(), jr.data(), b);
+    if (proxy_rod[b] >= 0) {
+      const cosserat::Model& rm = s.rods[proxy_rod[b]].model;
+      const cosserat::Data& rd = sd.rod[proxy_rod[b]];
+      const Section& sec = rm.sections[proxy_sec[b]];
+      double mass = 0.0;
+      Vec3 com = Vec3::Zero();
+      for (int i = sec.first_node; i <= sec.end_node; ++i) {
+        const Mat6& I = rm.nodes[i].inertia;
+        if (I(3, 3) <= 0) continue;
+        mass += I(3, 3);
+        com += I(3, 3) * rd.g[i].act(unskew(I.topRightCorner<3, 3>()) / I(3, 3));
+      }
+      com /= mass;
+      mj_jac(m, sd.d, jp.data(), jr.data(), com.data(), b);
+    } else {
+      mj_jacBodyCom(m, sd.d, jp.data(), jr.data(), b);
+    }
     for (int i = 0; i < 3; ++i)
       for (int k = 0; k < nv; ++k) J(i, k) = jp[i * nv + k], J(3 + i, k) = jr[i * nv + k];
     const Eigen::MatrixXd A = J * Minv * J.transpose();
@@ -485,6 +648,8 @@ void recompute_invweight0(Scene& s) {
   }
 }
 
+namespace {
+
 std::unique_ptr<Scene> compile(const Preprocessed& pre) {
   auto s = std::make_unique<Scene>();
   s->path = pre.path;
@@ -495,6 +660,13 @@ std::unique_ptr<Scene> compile(const Preprocessed& pre) {
   strip_proxies(s->m, s->rods);
   s->geom_rod.assign(s->m->ngeom, -1);
   s->geom_index.assign(s->m->ngeom, -1);
+  s->site_rod.assign(s->m->nsite, -1);
+  s->site_index.assign(s->m->nsite, -1);
+  for (size_t r = 0; r < s->rods.size(); ++r)
+    for (size_t k = 0; k < s->rods[r].site_id.size(); ++k) {
+      s->site_rod[s->rods[r].site_id[k]] = static_cast<int>(r);
+      s->site_index[s->rods[r].site_id[k]] = static_cast<int>(k);
+    }
   for (size_t r = 0; r < s->rods.size(); ++r)
     for (size_t k = 0; k < s->rods[r].geom_id.size(); ++k) {
       s->geom_rod[s->rods[r].geom_id[k]] = static_cast<int>(r);

@@ -28,6 +28,8 @@ struct RodBinding {
   cosserat::Model model;          // the rod alone; its base frame is the "<rod>/base" body
   int base_body = -1;             // MuJoCo body id of "<rod>/base"
   std::vector<int> proxy_body;    // per section
+  std::vector<std::vector<int>> helper_body;  // per section: bodies above the proxy holding dofs
+                                              // beyond MuJoCo's 6 per body (same frame as proxy)
   int dof0 = 0, qpos0 = 0;        // the rod's contiguous block in qvel / qpos (nv = model.nv)
   int below_begin = 0, below_end = 0;  // MuJoCo bodies hanging below the last proxy: [begin, end)
   std::vector<int> geom_id;       // capsules (decl.geoms order)
@@ -44,6 +46,8 @@ struct Scene {
   std::vector<RodBinding> rods;   // ordered by base body id: outer rods before rods hanging on them
   std::vector<int> geom_rod;      // per MuJoCo geom: rod index or -1
   std::vector<int> geom_index;    // per MuJoCo geom: index into that rod's geoms
+  std::vector<int> site_rod;      // per MuJoCo site: rod index or -1
+  std::vector<int> site_index;    // per MuJoCo site: index into that rod's sites
   std::string path;
   Integrator integrator = Integrator::Implicit;  // default: Implicit with rods, Euler without
 };
@@ -86,6 +90,11 @@ SceneEnergy energy(const Scene& s, SceneData& sd);
 
 // Sampled centreline of rod r: n points from base to tip (world frame), after forward.
 std::vector<Vec3> rod_centerline(const Scene& s, const SceneData& sd, int rod, int n);
+
+// Model constants mj_setConst computed without the rods' inertia (body/dof/tendon invweight0, the
+// scale of constraint softness), recomputed from the patched mass matrix at qpos0. A proxy's
+// body_invweight0 is taken at its section's centre of mass, as MuJoCo takes it at a body's.
+void recompute_invweight0(Scene& s);
 
 // Lower-level stages (exposed for tests and for the static solver).
 void fwd_position(const Scene& s, SceneData& sd);

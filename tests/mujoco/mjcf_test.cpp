@@ -349,7 +349,7 @@ TEST(MjcfScenes, RodOnTheTipOfAnotherRod) {
   EXPECT_EQ(m->jnt_bodyid[id(m.get(), mjOBJ_JOINT, "finger/s0/px0")], id(m.get(), mjOBJ_BODY, "finger/s0"));
   EXPECT_EQ(m->body_parentid[id(m.get(), mjOBJ_BODY, "finger/s0")], helper);
   EXPECT_EQ(m->body_parentid[id(m.get(), mjOBJ_BODY, "finger/s1/h0")], id(m.get(), mjOBJ_BODY, "finger/s0"));
-  EXPECT_LT(m->body_mass[helper], 1e-6);
+  // (the coupling zeroes helper and proxy masses after compiling: tests/mujoco/scene_test.cpp)
   for (std::size_t j = 0; j < p.rods[1].joints.size(); ++j)  // MuJoCo's dof order is the core's
     EXPECT_EQ(m->jnt_dofadr[id(m.get(), mjOBJ_JOINT, p.rods[1].joints[j])],
               m->jnt_dofadr[id(m.get(), mjOBJ_JOINT, p.rods[1].joints[0])] + static_cast<int>(j));

@@ -1,0 +1,249 @@
+// The coupled MuJoCo step (plugin/mujoco/scene.cpp) against references it does not share code
+// with: MuJoCo's own mj_step on rod-free scenes, native MuJoCo bodies on rigid rods, and the
+// standalone solver core on soft-rigid trees without contact.
+#include "scene.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstring>
+#include <string>
+
+#include "dynamics.hpp"
+#include "integrators.hpp"
+#include "kinematics.hpp"
+
+using namespace cosserat;
+using namespace cosserat::mj;
+
+namespace {
+
+const char* kPath = "/tmp/cosserat_scene_test.xml";
+
+std::string fmt(double v) {
+  char b[64];
+  std::snprintf(b, sizeof b, "%.17g", v);
+  return b;
+}
+
+std::string replace_all(std::string s, const std::string& a, const std::string& b) {
+  for (size_t p = s.find(a); p != std::string::npos; p = s.find(a, p + b.size())) s.replace(p, a.size(), b);
+  return s;
+}
+
+struct Loaded {
+  mjModel* m = nullptr;
+  mjData* d = nullptr;
+  explicit Loaded(const std::string& xml) {
+    auto s = load_scene_string(xml, kPath);  // pre-processing is harmless without rods
+    m = mj_copyModel(nullptr, s->m);
+    d = mj_makeData(m);
+  }
+  ~Loaded() {
+    mj_deleteData(d);
+    mj_deleteModel(m);
+  }
+};
+
+// A rod-free scene exercising contacts, a tendon, an actuator and joint damping.
+const char* kRigidScene = R"(<mujoco>
+  <option timestep="0.002"/>
+  <worldbody>
+    <geom type="plane" size="2 2 0.1"/>
+    <body name="box" pos="0 0 0.3"><freejoint/><geom type="box" size="0.05 0.04 0.03" mass="0.4"/>
+      <site name="s1" pos="0.05 0 0"/></body>
+    <body name="arm" pos="0.3 0 0.5"><joint name="h" type="hinge" axis="0 1 0" damping="0.05"/>
+      <geom type="capsule" fromto="0 0 0 0.2 0 0" size="0.02" mass="0.2"/>
+      <site name="s2" pos="0.2 0 0"/>
+      <body pos="0.2 0 0"><joint name="b" type="ball"/><geom type="sphere" size="0.03" pos="0.05 0 0" mass="0.1"/></body>
+    </body>
+  </worldbody>
+  <tendon><spatial name="t" stiffness="5"><site site="s1"/><site site="s2"/></spatial></tendon>
+  <actuator><motor joint="h" gear="1"/></actuator>
+</mujoco>)";
+
+TEST(Scene, StagedPipelineReproducesMjStepBitForBit) {
+  auto s = load_scene_string(kRigidScene, kPath);
+  SceneData sd(*s);
+  mjModel* m = mj_copyModel(nullptr, s->m);
+  mjData* d = mj_makeData(m);
+  d->qvel[0] = 0.3;
+  sd.d->qvel[0] = 0.3;
+  for (int k = 0; k < 300; ++k) {
+    d->ctrl[0] = sd.d->ctrl[0] = 0.2 * std::sin(0.01 * k);
+    mj_step(m, d);
+    ASSERT_EQ(step(*s, sd, Integrator::Euler), Status::Ok);
+  }
+  EXPECT_GT(d->ncon, 0);  // the box rests on the plane: contacts were exercised
+  EXPECT_EQ(std::memcmp(d->qpos, sd.d->qpos, sizeof(mjtNum) * m->nq), 0);
+  EXPECT_EQ(std::memcmp(d->qvel, sd.d->qvel, sizeof(mjtNum) * m->nv), 0);
+  mj_deleteData(d);
+  mj_deleteModel(m);
+}
+
+TEST(Scene, RecomputedInvweight0EqualsMujocosOnRigidScene) {
+  auto s = load_scene_string(kRigidScene, kPath);
+  const mjModel* m = s->m;
+  std::vector<double> body(m->body_invweight0, m->body_invweight0 + 2 * m->nbody),
+      dof(m->dof_invweight0, m->dof_invweight0 + m->nv), ten(m->tendon_invweight0, m->tendon_invweight0 + m->ntendon);
+  recompute_invweight0(*s);
+  for (int i = 2; i < 2 * m->nbody; ++i) EXPECT_NEAR(m->body_invweight0[i], body[i], 1e-10 * (1 + body[i])) << i;
+  for (int i = 0; i < m->nv; ++i) EXPECT_NEAR(m->dof_invweight0[i], dof[i], 1e-10 * (1 + dof[i])) << i;
+  for (int i = 0; i < m->ntendon; ++i) EXPECT_NEAR(m->tendon_invweight0[i], ten[i], 1e-10 * (1 + ten[i])) << i;
+}
+
+// ---- soft-rigid trees: MuJoCo-coupled against the standalone core --------------------------
+
+const char* kArm = R"(<mujoco>
+  <option timestep="0.001" gravity="0 0 -9.81"/>
+  <worldbody>
+    <body name="hub" pos="0 0 1">
+      <joint name="shoulder" type="hinge" axis="0 1 0.2"/>
+      <inertial pos="0.02 0 0.01" mass="0.3" diaginertia="1e-3 2e-3 3e-3"/>
+      <cosserat name="rod" pos="0.05 0 0" euler="0 0 0.3" length="0.4" sections="SECTIONS" strain="STRAIN"
+                order="ORDER" radius="0.01 0.006" density="1100" young="3e5" poisson="0.45" viscosity="VISC"
+                reststrain="0 0.5 -1 1 0 0">
+        <body name="tip"><inertial pos="0.01 0 0" mass="0.05" diaginertia="2e-5 1e-5 1e-5"/></body>
+      </cosserat>
+    </body>
+  </worldbody>
+</mujoco>)";
+
+std::string arm_xml(const char* strain, int sections, int order, double visc) {
+  std::string x = kArm;
+  x = replace_all(x, "SECTIONS", std::to_string(sections));
+  x = replace_all(x, "STRAIN", strain);
+  x = replace_all(x, "ORDER", std::to_string(order));
+  return replace_all(x, "VISC", fmt(visc));
+}
+
+// The same tree built with the core API.
+Model core_arm(const Scene& s) {
+  const RodBinding& rb = s.rods[0];
+  Model m;
+  m.gravity = Vec3(0, 0, -9.81);
+  SE3 hub;
+  hub.u = Vec3(0, 0, 1);
+  const int j = m.add_joint(-1, hub, JointType::Revolute, Vec3(0, 1, 0.2));
+  m.add_body(j, 0.3, Vec3(0.02, 0, 0.01), Vec3(1e-3, 2e-3, 3e-3).asDiagonal());
+  // the rod's base pose as MuJoCo compiled it (euler, in the compiler's angle unit)
+  const int base = rb.base_body;
+  SE3 pb;
+  for (int k = 0; k < 3; ++k) pb.u(k) = s.m->body_pos[3 * base + k];
+  mjtNum mat[9];
+  mju_quat2Mat(mat, s.m->body_quat + 4 * base);
+  for (int a = 0; a < 3; ++a)
+    for (int b = 0; b < 3; ++b) pb.R(a, b) = mat[3 * a + b];
+  const int r = m.add_rod(j, pb, rb.decl.spec);
+  m.add_body(m.rods[r].tip_node, 0.05, Vec3(0.01, 0, 0), Vec3(2e-5, 1e-5, 1e-5).asDiagonal());
+  m.finalize();
+  return m;
+}
+
+void expect_same_trajectory(const char* strain, int sections, int order, double visc, Integrator it, double tol) {
+  SCOPED_TRACE(std::string(strain) + " sections " + std::to_string(sections) + " order " + std::to_string(order));
+  auto s = load_scene_string(arm_xml(strain, sections, order, visc), kPath);
+  SceneData sd(*s);
+  const Model cm = core_arm(*s);
+  Data cd(cm);
+  ASSERT_EQ(cm.nv, s->m->nv);
+  sd.d->qvel[0] = cd.v(0) = 1.5;  // spin the shoulder
+  double worst = 0.0, qmax = 0.0;
+  for (int k = 0; k < 1000; ++k) {
+    ASSERT_EQ(step(*s, sd, it), Status::Ok);
+    ASSERT_EQ(step(cm, cd, 1e-3, it), Status::Ok);
+    for (int i = 0; i < cm.nv; ++i) {
+      worst = std::max(worst, std::abs(sd.d->qpos[i] - cd.q(i)));
+      qmax = std::max(qmax, std::abs(cd.q(i)));
+    }
+  }
+  EXPECT_GT(qmax, 0.1);  // it really moved
+  // both integrate the same equations with the same scheme: differences are round-off growth
+  EXPECT_LT(worst, tol) << "max |q_mujoco - q_core| over 1000 steps";
+}
+
+TEST(Scene, SoftRigidTreeMatchesStandaloneCore) {
+  expect_same_trajectory("kl", 3, 0, 0.0, Integrator::RK4, 1e-9);
+  expect_same_trajectory("sr", 2, 0, 0.5, Integrator::Implicit, 1e-9);
+  expect_same_trajectory("icc", 3, 0, 0.0, Integrator::Euler, 1e-9);
+  // GVS with 8 dofs per section: MuJoCo needs helper bodies (6 dofs per body at most)
+  expect_same_trajectory("kl", 2, 1, 0.2, Integrator::Implicit, 1e-9);
+}
+
+TEST(Scene, ProxiesAndHelpersCarryNoInertia) {
+  auto s = load_scene_string(arm_xml("kl", 2, 1, 0.0), kPath);
+  const RodBinding& rb = s->rods[0];
+  ASSERT_FALSE(rb.helper_body[0].empty());
+  for (size_t i = 0; i < rb.proxy_body.size(); ++i) {
+    EXPECT_EQ(s->m->body_mass[rb.proxy_body[i]], 0.0);
+    for (int h : rb.helper_body[i]) EXPECT_EQ(s->m->body_mass[h], 0.0);
+  }
+  for (int k = 0; k < rb.model.nv; ++k) EXPECT_EQ(s->m->dof_armature[rb.dof0 + k], 0.0);
+}
+
+// Conservation: no gravity, no damping, RK4: the whole scene's energy stays put.
+TEST(Scene, EnergyConservedUndampedRK4) {
+  std::string x = replace_all(arm_xml("kl", 3, 0, 0.0), "gravity=\"0 0 -9.81\"", "gravity=\"0 0 0\"");
+  auto s = load_scene_string(x, kPath);
+  SceneData sd(*s);
+  sd.d->qvel[0] = 2.0;
+  sd.d->qpos[s->rods[0].qpos0 + 1] = 0.8;  // bend the first section
+  forward(*s, sd);
+  const double E0 = energy(*s, sd).total();
+  double drift = 0.0;
+  for (int k = 0; k < 2000; ++k) {
+    ASSERT_EQ(step(*s, sd, Integrator::RK4), Status::Ok);
+    forward(*s, sd);
+    drift = std::max(drift, std::abs(energy(*s, sd).total() - E0));
+  }
+  std::printf("relative energy drift over 2000 RK4 steps (h = 1 ms): %.2e\n", drift / E0);
+  EXPECT_LT(drift, 1e-6 * E0);  // RK4 at h = 1 ms on modes of ~50 Hz: O((w h)^4) per period
+}
+
+// ---- rigid rods against native MuJoCo bodies ------------------------------------------------
+
+// rod: length L, radius r, density rho, `rigid` sections. Native: one body with the rod's inertia.
+constexpr double kL = 0.3, kR = 0.01, kRho = 1000.0;
+
+std::string rigid_rod_scene(bool native, const std::string& joint, const char* gravity) {
+  const double m = kRho * M_PI * kR * kR * kL;
+  const double ixx = 0.5 * m * kR * kR, iyy = 0.25 * m * kR * kR + m * kL * kL / 12.0;
+  std::string rod;
+  if (native)
+    rod = "<body name=\"rod\" pos=\"0.02 0 0\"><inertial pos=\"" + fmt(kL / 2) + " 0 0\" mass=\"" + fmt(m) +
+          "\" diaginertia=\"" + fmt(ixx) + " " + fmt(iyy) + " " + fmt(iyy) + "\"/></body>";
+  else
+    rod = "<cosserat name=\"rod\" pos=\"0.02 0 0\" length=\"" + fmt(kL) + "\" sections=\"3\" strain=\"rigid\" radius=\"" +
+          fmt(kR) + "\" density=\"" + fmt(kRho) + "\"/>";
+  return std::string("<mujoco><option timestep=\"0.001\" gravity=\"") + gravity +
+         "\"/><worldbody><body name=\"hub\" pos=\"0 0 1\">" + joint +
+         "<inertial pos=\"0 0 0\" mass=\"0.05\" diaginertia=\"1e-5 1e-5 1e-5\"/>" + rod + "</body></worldbody></mujoco>";
+}
+
+void expect_rigid_equivalence(const std::string& joint, const char* gravity, const std::vector<double>& v0) {
+  SCOPED_TRACE(joint + " gravity " + gravity);
+  auto sr = load_scene_string(rigid_rod_scene(false, joint, gravity), kPath);
+  auto sn = load_scene_string(rigid_rod_scene(true, joint, gravity), kPath);
+  SceneData dr(*sr), dn(*sn);
+  ASSERT_EQ(sr->m->nv, sn->m->nv);
+  for (size_t i = 0; i < v0.size(); ++i) dr.d->qvel[i] = dn.d->qvel[i] = v0[i];
+  double worst = 0.0;
+  for (int k = 0; k < 1000; ++k) {
+    ASSERT_EQ(step(*sr, dr, Integrator::Euler), Status::Ok);
+    ASSERT_EQ(step(*sn, dn, Integrator::Euler), Status::Ok);
+    for (int i = 0; i < sr->m->nq; ++i) worst = std::max(worst, std::abs(dr.d->qpos[i] - dn.d->qpos[i]));
+  }
+  EXPECT_LT(worst, 1e-9);
+}
+
+TEST(Scene, RigidRodOnHingeBehavesLikeNativeBody) {
+  for (const char* g : {"0 0 -9.81", "0 0 0"})
+    expect_rigid_equivalence("<joint type=\"hinge\" axis=\"0.3 1 0\"/>", g, {2.0});
+}
+
+TEST(Scene, RigidRodOnFreeBodyBehavesLikeNativeBody) {
+  for (const char* g : {"0 0 -9.81", "0 0 0"})
+    expect_rigid_equivalence("<freejoint/>", g, {0.1, -0.2, 0.3, 1.0, 2.0, -0.5});
+}
+
+}  // namespace
