@@ -45,7 +45,8 @@ void crba(const Model& m, Data& d) {
     d.M.block(na.dof0, na.dof0, na.ndof, na.ndof).noalias() += d.S[a].transpose() * Fa;
     for (int j = a;; j = m.nodes[j].parent) {
       const int b = m.nodes[j].parent;
-      Fa = coAd(d.g_rel[j]) * Fa;  // force subspace transported to the parent frame
+      for (int c = 0; c < na.ndof; ++c)  // force subspace to the parent frame (in place, no temporary)
+        Fa.col(c) = coAd_apply(d.g_rel[j], Vec6(Fa.col(c)));
       if (b < 0) {
         d.F_base.middleCols(na.dof0, na.ndof) += Fa;
         break;

@@ -99,10 +99,19 @@ struct PartialStep {
   Mat6X G;
 };
 
-PartialStep partial_step(const Model& m, const Data& d, int r, double X) {
+PartialStep partial_step(const Model& m, const Data& d, int r, double X, int section = -1) {
   const Rod& rod = m.rods[r];
   X = std::clamp(X, 0.0, rod.length);
-  const int i = m.rod_node_at(r, X);
+  int i = m.rod_node_at(r, X);
+  if (section >= 0) {  // the first node of that section at or beyond X
+    const Section& sec = m.sections[section];
+    i = sec.end_node;
+    for (int k = sec.first_node; k <= sec.end_node; ++k)
+      if (m.nodes[k].X >= X) {
+        i = k;
+        break;
+      }
+  }
   const Node& n = m.nodes[i];
   const Section& sec = m.sections[n.section];
   const double Xp = n.X - n.h;  // abscissa of the parent frame
@@ -137,8 +146,9 @@ void rod_jacobian(const Model& m, const Data& d, int r, double X, MatX& J) {
   if (n.ndof > 0) J.middleCols(n.dof0, n.ndof) += dexp(-ps.Om) * ps.G;
 }
 
-int section_jacobian(const Model& m, const Data& d, int r, double X, Mat6X& J, Mat6X* Jdot, SE3* gX) {
-  const PartialStep ps = partial_step(m, d, r, X);
+int section_jacobian(const Model& m, const Data& d, int r, double X, Mat6X& J, Mat6X* Jdot, SE3* gX,
+                     int section) {
+  const PartialStep ps = partial_step(m, d, r, X, section);
   const int si = m.nodes[ps.node].section;
   const Section& sec = m.sections[si];
   J.setZero(6, sec.ndof);

@@ -27,8 +27,10 @@ void rod_jacobian(const Model& m, const Data& d, int rod, double X, MatX& J);
 // its time derivative Jdot (if given; after fwd_velocity). The pose of the frame at X relative to
 // the section start goes to g_start_X if given. Returns the section index. At a section end this
 // is what a MuJoCo proxy's strain dofs contribute (cdof, cdof_dot: DESIGN.md section 6).
+// `section` (a global section index) picks the section explicitly when X lies on a boundary
+// between two sections (a point fixed to the later one); by default the earlier one is used.
 int section_jacobian(const Model& m, const Data& d, int rod, double X, Mat6X& J, Mat6X* Jdot = nullptr,
-                     SE3* g_start_X = nullptr);
+                     SE3* g_start_X = nullptr, int section = -1);
 
 // Strain xi(X) = Phi(X) q + xi* of rod r.
 Vec6 rod_strain(const Model& m, const Data& d, int rod, double X);

@@ -292,16 +292,17 @@ void patch_cdof_dot(const Scene& s, SceneData& sd, int r) {
   }
 }
 
-// Jacobian columns of the dofs of the section containing X, for a point p (world) riding with
-// the cross-section at X, minus what MuJoCo computed treating p as fixed to that section's proxy
-// (the section end). dJ rows: translation (0-2) and rotation (3-5), world axes. Returns the first
-// MuJoCo dof of the section (ndof = dJ.cols()). Needs fwd_position and the patched cdof.
-int point_correction(const Scene& s, const SceneData& sd, int r, double X, const Vec3& p, Mat6X& dJ) {
+// Jacobian columns of the dofs of section `si` (the section whose proxy carries the point), for a
+// point p (world) riding with the cross-section at X in that section, minus what MuJoCo computed
+// treating p as fixed to the proxy (the section end). dJ rows: translation (0-2) and rotation
+// (3-5), world axes. Returns the section's first MuJoCo dof (ndof = dJ.cols()). Needs
+// fwd_position and the patched cdof.
+int point_correction(const Scene& s, const SceneData& sd, int r, int si, double X, const Vec3& p, Mat6X& dJ) {
   const mjData* d = sd.d;
   const RodBinding& rb = s.rods[r];
   const cosserat::Data& rd = sd.rod[r];
   Mat6X J;
-  const int si = section_jacobian(rb.model, rd, 0, X, J);
+  section_jacobian(rb.model, rd, 0, X, J, nullptr, nullptr, si);
   const Section& sec = rb.model.sections[si];
   const SE3 gX = rod_pose(rb.model, rd, 0, X);
   const mjtNum* c = d->subtree_com + 3 * s.m->body_rootid[rb.proxy_body[si]];
@@ -319,18 +320,22 @@ int point_correction(const Scene& s, const SceneData& sd, int r, double X, const
 }
 
 // Add `val` at (row, col) of efc_J, dense or sparse (the column is in the row's pattern: the
-// section's dofs are in the chain of the contact's body).
+// section's dofs are in the chain of the contact's body). A sparse efc_J has a transposed copy,
+// efc_JT, made by mj_makeConstraint and used by the solvers (the Newton Hessian): patch it too.
 void efc_add(const mjModel* m, mjData* d, int row, int col, double val) {
   if (!mj_isSparse(m)) {
     d->efc_J[row * m->nv + col] += val;
     return;
   }
-  const int adr = d->efc_J_rowadr[row], nnz = d->efc_J_rownnz[row];
-  for (int k = 0; k < nnz; ++k)
-    if (d->efc_J_colind[adr + k] == col) {
-      d->efc_J[adr + k] += val;
-      return;
-    }
+  const auto add = [val](mjtNum* data, const int* colind, int adr, int nnz, int c) {
+    for (int k = 0; k < nnz; ++k)
+      if (colind[adr + k] == c) {
+        data[adr + k] += val;
+        return;
+      }
+  };
+  add(d->efc_J, d->efc_J_colind, d->efc_J_rowadr[row], d->efc_J_rownnz[row], col);
+  add(d->efc_JT, d->efc_JT_colind, d->efc_JT_rowadr[col], d->efc_JT_rownnz[col], row);
 }
 
 // Patch point 5: contact rows touching rod capsules get the true point Jacobian of the section's
@@ -356,7 +361,7 @@ void patch_contacts(const Scene& s, SceneData& sd) {
       const double half = m->geom_size[3 * g + 1];
       const double t = std::clamp(0.5 + (p - gc).dot(ax) / (2.0 * half), 0.0, 1.0);
       const double X = gd.X_begin + t * (gd.X_end - gd.X_begin);
-      const int col0 = point_correction(s, sd, r, X, p, dJ);
+      const int col0 = point_correction(s, sd, r, gd.section, X, p, dJ);
       Eigen::Map<const Mat3r> frame(con.frame);
       Mat6X C(6, dJ.cols());  // contact-frame rows of the correction, signed as J2 - J1
       C.topRows<3>() = frame * dJ.topRows<3>();
@@ -410,7 +415,7 @@ void patch_tendons(const Scene& s, SceneData& sd) {
         const Vec3 u = Vec3(q[0], q[1], q[2]) - p;
         if (u.norm() > 0) grad -= u.normalized();
       }
-      const int col0 = point_correction(s, sd, r, sdl.X, p, dJ);
+      const int col0 = point_correction(s, sd, r, s.site_section[site], sdl.X, p, dJ);
       for (int c = 0; c < dJ.cols(); ++c) d->ten_J[t * m->nv + col0 + c] += grad.dot(dJ.col(c).head<3>());
     }
   }
@@ -662,10 +667,16 @@ std::unique_ptr<Scene> compile(const Preprocessed& pre) {
   s->geom_index.assign(s->m->ngeom, -1);
   s->site_rod.assign(s->m->nsite, -1);
   s->site_index.assign(s->m->nsite, -1);
+  s->site_section.assign(s->m->nsite, -1);
   for (size_t r = 0; r < s->rods.size(); ++r)
     for (size_t k = 0; k < s->rods[r].site_id.size(); ++k) {
       s->site_rod[s->rods[r].site_id[k]] = static_cast<int>(r);
       s->site_index[s->rods[r].site_id[k]] = static_cast<int>(k);
+      // the section whose proxy (or helper: none carry sites) holds the site
+      const int body = s->m->site_bodyid[s->rods[r].site_id[k]];
+      const auto& pb = s->rods[r].proxy_body;
+      const auto it = std::find(pb.begin(), pb.end(), body);
+      s->site_section[s->rods[r].site_id[k]] = it == pb.end() ? 0 : static_cast<int>(it - pb.begin());
     }
   for (size_t r = 0; r < s->rods.size(); ++r)
     for (size_t k = 0; k < s->rods[r].geom_id.size(); ++k) {

@@ -48,6 +48,7 @@ struct Scene {
   std::vector<int> geom_index;    // per MuJoCo geom: index into that rod's geoms
   std::vector<int> site_rod;      // per MuJoCo site: rod index or -1
   std::vector<int> site_index;    // per MuJoCo site: index into that rod's sites
+  std::vector<int> site_section;  // per MuJoCo site: section (proxy) of the rod carrying it
   std::string path;
   Integrator integrator = Integrator::Implicit;  // default: Implicit with rods, Euler without
 };

@@ -1,0 +1,274 @@
+// Rod contacts through MuJoCo's constraint solver (plugin/mujoco/scene.cpp: patch_contacts):
+// contact rows against finite-difference velocities of the material contact points, dense
+// against sparse Jacobians, and resting/friction physics against Newton and Coulomb.
+#include "scene.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <string>
+
+#include "kinematics.hpp"
+
+using namespace cosserat;
+using namespace cosserat::mj;
+
+namespace {
+
+const char* kPath = "/tmp/cosserat_contact_test.xml";
+
+std::string replace_all(std::string s, const std::string& a, const std::string& b) {
+  for (size_t p = s.find(a); p != std::string::npos; p = s.find(a, p + b.size())) s.replace(p, a.size(), b);
+  return s;
+}
+
+// A soft rod on a free body, near a plane.
+const char* kScene = R"(<mujoco>
+  <option timestep="0.0005" gravity="0 0 -9.81" cone="CONE" jacobian="JAC" solver="SOLVER"/>
+  <worldbody>
+    <geom name="floor" type="plane" size="1 1 0.1" friction="MU 0.005 0.0001" condim="CONDIM"/>
+    <body name="hub" pos="0 0 HEIGHT"><freejoint/>
+      <inertial pos="0 0 0" mass="0.01" diaginertia="1e-6 1e-6 1e-6"/>
+      <cosserat name="rod" pos="0.0 0 0" length="0.3" sections="4" strain="kl" radius="0.01" density="1000"
+                young="YOUNG" viscosity="VISC" condim="CONDIM" friction="MU 0.005 0.0001" capsules="3"/>
+    </body>
+  </worldbody>
+</mujoco>)";
+
+std::string scene(const char* cone, const char* jac, int condim, double height, double visc = 5.0,
+                  double mu = 0.5, const char* solver = "Newton", double young = 2e5) {
+  std::string x = kScene;
+  x = replace_all(x, "YOUNG", std::to_string(young));
+  x = replace_all(x, "CONE", cone);
+  x = replace_all(x, "JAC", jac);
+  x = replace_all(x, "SOLVER", solver);
+  x = replace_all(x, "CONDIM", std::to_string(condim));
+  x = replace_all(x, "HEIGHT", std::to_string(height));
+  x = replace_all(x, "VISC", std::to_string(visc));
+  return replace_all(x, "MU", std::to_string(mu));
+}
+
+// Material point of the rod that touches at contact i: abscissa (projection on the capsule axis, as
+// the coupling defines it) and offset in the cross-section frame.
+struct MaterialPoint {
+  int rod;
+  double X;
+  Vec3 offset;
+};
+
+MaterialPoint contact_point(const Scene& s, const SceneData& sd, const mjContact& con, int g) {
+  const int r = s.geom_rod[g];
+  const RodGeomDecl& gd = s.rods[r].decl.geoms[s.geom_index[g]];
+  const Vec3 p(con.pos[0], con.pos[1], con.pos[2]);
+  const Vec3 gc(sd.d->geom_xpos[3 * g], sd.d->geom_xpos[3 * g + 1], sd.d->geom_xpos[3 * g + 2]);
+  const Vec3 ax(sd.d->geom_xmat[9 * g + 2], sd.d->geom_xmat[9 * g + 5], sd.d->geom_xmat[9 * g + 8]);
+  const double t = std::clamp(0.5 + (p - gc).dot(ax) / (2.0 * s.m->geom_size[3 * g + 1]), 0.0, 1.0);
+  const double X = gd.X_begin + t * (gd.X_end - gd.X_begin);
+  const SE3 gX = rod_pose(s.rods[r].model, sd.rod[r], 0, X);
+  return {r, X, gX.R.transpose() * (p - gX.u)};
+}
+
+// World pose of that material point's frame at configuration qpos.
+SE3 material_pose(const Scene& s, const std::vector<mjtNum>& qpos, const MaterialPoint& mp) {
+  SceneData sd(s);
+  mju_copy(sd.d->qpos, qpos.data(), s.m->nq);
+  fwd_position(s, sd);
+  SE3 g = rod_pose(s.rods[mp.rod].model, sd.rod[mp.rod], 0, mp.X);
+  g.u += g.R * mp.offset;
+  return g;
+}
+
+// efc_vel = efc_J qvel (MuJoCo's own product, dense or sparse) against the relative velocity of
+// the touching material point, by central differences along qvel.
+void check_contact_rows(const char* cone, const char* jac, int condim) {
+  SCOPED_TRACE(std::string(cone) + " " + jac + " condim " + std::to_string(condim));
+  auto s = load_scene_string(scene(cone, jac, condim, 0.005), kPath);
+  SceneData sd(*s);
+  const mjModel* m = s->m;
+  // a bent, tilted rod pressed into the floor, moving
+  for (int k = 0; k < s->rods[0].model.nv; ++k) sd.d->qpos[s->rods[0].qpos0 + k] = 0.15 * std::sin(1.0 + 2.3 * k);
+  for (int k = 0; k < m->nv; ++k) sd.d->qvel[k] = 0.3 * std::cos(0.7 + 1.9 * k);
+  forward(*s, sd);
+  ASSERT_GT(sd.d->ncon, 0);
+  const double e = 1e-6;
+  std::vector<mjtNum> qp(sd.d->qpos, sd.d->qpos + m->nq), qm = qp;
+  mj_integratePos(m, qp.data(), sd.d->qvel, e);
+  mj_integratePos(m, qm.data(), sd.d->qvel, -e);
+  int checked = 0;
+  for (int i = 0; i < sd.d->ncon; ++i) {
+    const mjContact& con = sd.d->contact[i];
+    if (con.efc_address < 0) continue;
+    const bool rod_is_2 = s->geom_rod[con.geom2] >= 0;
+    const int g = rod_is_2 ? con.geom2 : con.geom1;
+    ASSERT_GE(s->geom_rod[g], 0);
+    const MaterialPoint mp = contact_point(*s, sd, con, g);
+    const SE3 gp = material_pose(*s, qp, mp), gm = material_pose(*s, qm, mp);
+    Vec3 v = (gp.u - gm.u) / (2 * e);
+    Vec3 w = unskew(gp.R * gm.R.transpose()) / (2 * e);  // world angular velocity
+    if (!rod_is_2) v = -v, w = -w;  // relative velocity: body2 - body1 (the floor is at rest)
+    Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> frame(con.frame);
+    Eigen::Matrix<double, 6, 1> rel;
+    rel << frame * v, frame * w;  // normal, t1, t2, spin, roll1, roll2
+    const double* ev = sd.d->efc_vel + con.efc_address;
+    // central differences: O(e^2) truncation, eps/e round-off: sqrt-eps level on m/s values
+    const double tol = 1e-7;
+    if (std::string(cone) == "pyramidal" && con.dim > 1) {
+      for (int j = 1; j < con.dim; ++j) {
+        EXPECT_NEAR(ev[2 * (j - 1)], rel(0) + con.friction[j - 1] * rel(j), tol) << "contact " << i << " edge " << j;
+        EXPECT_NEAR(ev[2 * (j - 1) + 1], rel(0) - con.friction[j - 1] * rel(j), tol) << "contact " << i << " edge " << j;
+      }
+    } else {
+      for (int j = 0; j < con.dim; ++j) EXPECT_NEAR(ev[j], rel(j), tol) << "contact " << i << " row " << j;
+    }
+    ++checked;
+  }
+  EXPECT_GT(checked, 0);
+}
+
+TEST(Contact, RowsGiveMaterialPointVelocities) {
+  for (const char* jac : {"dense", "sparse"})
+    for (const char* cone : {"elliptic", "pyramidal"})
+      for (int condim : {1, 3, 4, 6}) check_contact_rows(cone, jac, condim);
+}
+
+// Dense and sparse Jacobians must give the same motion (all three solvers).
+TEST(Contact, DenseAndSparseGiveIdenticalResults) {
+  for (const char* solver : {"PGS", "CG", "Newton"}) {
+    SCOPED_TRACE(solver);
+    auto sd_ = load_scene_string(scene("elliptic", "dense", 3, 0.03, 5.0, 0.5, solver), kPath);
+    auto ss_ = load_scene_string(scene("elliptic", "sparse", 3, 0.03, 5.0, 0.5, solver), kPath);
+    SceneData a(*sd_), b(*ss_);
+    double worst = 0.0, moved = 0.0;
+    for (int k = 0; k < 600; ++k) {
+      ASSERT_EQ(step(*sd_, a), Status::Ok);
+      ASSERT_EQ(step(*ss_, b), Status::Ok);
+      for (int i = 0; i < sd_->m->nq; ++i) worst = std::max(worst, std::abs(a.d->qpos[i] - b.d->qpos[i]));
+    }
+    moved = std::abs(a.d->qpos[2] - 0.03);
+    EXPECT_GT(moved, 0.01);  // it fell onto the floor
+    EXPECT_GT(a.d->ncon, 0);
+    // same equations, different sparse/dense summation order: round-off level
+    EXPECT_LT(worst, 1e-9);
+  }
+}
+
+double total_mass(const Scene& s) {
+  double mtot = 0.0;
+  for (int b = 1; b < s.m->nbody; ++b) mtot += s.m->body_mass[b];
+  for (const auto& r : s.rods)
+    for (const auto& n : r.model.nodes) mtot += n.inertia(3, 3);
+  return mtot;
+}
+
+TEST(Contact, RodDroppedOnPlaneRestsWithItsWeightOnTheFloor) {
+  auto s = load_scene_string(scene("elliptic", "sparse", 3, 0.05, 20.0), kPath);
+  SceneData sd(*s);
+  for (int k = 0; k < 4000; ++k) ASSERT_EQ(step(*s, sd), Status::Ok);  // 2 s
+  forward(*s, sd);
+  double fn = 0.0, deepest = 0.0;
+  for (int i = 0; i < sd.d->ncon; ++i) {
+    mjtNum f[6];
+    mj_contactForce(s->m, sd.d, i, f);
+    fn += f[0];
+    deepest = std::min(deepest, sd.d->contact[i].dist);
+  }
+  const double W = total_mass(*s) * 9.81;
+  double vmax = 0.0;
+  for (int i = 0; i < s->m->nv; ++i) vmax = std::max(vmax, std::abs(sd.d->qvel[i]));
+  std::printf("at rest: sum of normal forces %.6f N, weight %.6f N, deepest penetration %.2e m, |qvel| %.1e\n", fn, W,
+              -deepest, vmax);
+  EXPECT_NEAR(fn, W, 0.01 * W);
+  EXPECT_LT(vmax, 1e-3);
+  // MuJoCo's soft contacts settle slightly inside the surface (solref/solimp); a native capsule
+  // of the same weight per contact sinks by the same order: a millimetre bounds it here
+  EXPECT_GT(deepest, -1e-3);
+}
+
+// Coulomb: a horizontal push below mu W does not slide the rod; above it the rod accelerates at
+// (F - mu W) / m. The push acts along the straight rod's axis, through its centre of mass (a push
+// across one end would also turn it, which starts at about 0.41 mu W). MuJoCo's friction is a
+// soft constraint: below the limit bodies creep slowly (faster the more flexible they are, since
+// the constraint softness scales with invweight0), so "sticking" is asserted as a creep speed far
+// below the sliding speed.
+TEST(Contact, FrictionObeysCoulombsLimit) {
+  const double mu = 0.5, T = 0.2;
+  double creep_speed = 0.0, creep = 0.0, slide_speed = 0.0;
+  for (double ratio : {0.5, 2.0}) {
+    SCOPED_TRACE(ratio);
+    // a stiff rod (E = 1e8 Pa): a soft one also shortens under the push (EA/L ~ 200 N/m at 2e5 Pa)
+    auto s = load_scene_string(scene("elliptic", "sparse", 3, 0.0105, 20.0, mu, "Newton", 1e8), kPath);
+    SceneData sd(*s);
+    for (int k = 0; k < 2000; ++k) ASSERT_EQ(step(*s, sd), Status::Ok);  // settle for 1 s
+    const double mtot = total_mass(*s), W = mtot * 9.81, F = ratio * mu * W;
+    const int hub = mj_name2id(s->m, mjOBJ_BODY, "hub");
+    const double x0 = sd.d->qpos[0];
+    sd.d->xfrc_applied[6 * hub + 0] = F;  // push along +x, the rod's axis
+    for (int k = 0; k < static_cast<int>(T / s->m->opt.timestep); ++k) ASSERT_EQ(step(*s, sd), Status::Ok);
+    const double dx = sd.d->qpos[0] - x0;
+    if (ratio < 1) {
+      creep = dx;
+      creep_speed = std::abs(sd.d->qvel[0]);
+    } else {
+      const double expected = 0.5 * (F - mu * W) / mtot * T * T;
+      slide_speed = std::abs(sd.d->qvel[0]);
+      std::printf("sliding at 2 mu W: displacement %.5f m (Coulomb: %.5f m), speed %.3f m/s\n", dx, expected, slide_speed);
+      // a native rigid chain slides 0.25% beyond Coulomb here (MuJoCo's soft friction)
+      EXPECT_NEAR(dx, expected, 0.02 * expected);
+    }
+  }
+  std::printf("at 0.5 mu W: creep %.2e m in %.1f s, speed %.1e m/s\n", creep, T, creep_speed);
+  EXPECT_LT(creep_speed, 0.01 * slide_speed);
+  EXPECT_LT(std::abs(creep), 0.01 * 0.5 * (mu * 9.81) * T * T);
+}
+
+// Exactness with contact: a rod of `rigid` sections on a free hub, dropped on a floor and pushed,
+// against the native MuJoCo equivalent with the same mass distribution: one welded body per
+// section carrying its capsules and its mass at its centre (so that MuJoCo's constraint softness,
+// which depends on each body's invweight0 at its centre of mass, is the same).
+std::string fmt(double v) {
+  char b[64];
+  std::snprintf(b, sizeof b, "%.17g", v);
+  return b;
+}
+
+TEST(Contact, RigidRodWithContactBehavesLikeNativeBodies) {
+  const double L = 0.3, r = 0.01, rho = 1000.0;
+  const int N = 3, C = 3;
+  const std::string head =
+      "<mujoco><option timestep=\"0.0005\"/><worldbody>"
+      "<geom type=\"plane\" size=\"1 1 0.1\" friction=\"0.5 0.005 0.0001\"/>"
+      "<body name=\"hub\" pos=\"0 0 0.03\" euler=\"3 5 20\"><freejoint/>"
+      "<inertial pos=\"0 0 0\" mass=\"0.01\" diaginertia=\"1e-6 1e-6 1e-6\"/>";
+  const std::string rod = head + "<cosserat name=\"rod\" length=\"" + fmt(L) + "\" sections=\"" + std::to_string(N) +
+                          "\" strain=\"rigid\" radius=\"" + fmt(r) + "\" density=\"" + fmt(rho) +
+                          "\" friction=\"0.5 0.005 0.0001\" capsules=\"" + std::to_string(C) + "\"/></body></worldbody></mujoco>";
+  const double ls = L / N, ms = rho * M_PI * r * r * ls;
+  const double ixx = 0.5 * ms * r * r, iyy = 0.25 * ms * r * r + ms * ls * ls / 12;
+  std::string native = head, close;
+  for (int i = 0; i < N; ++i) {  // body i sits at the end of section i, like the proxy
+    native += "<body pos=\"" + fmt(ls) + " 0 0\"><inertial pos=\"" + fmt(-ls / 2) + " 0 0\" mass=\"" + fmt(ms) +
+              "\" diaginertia=\"" + fmt(ixx) + " " + fmt(iyy) + " " + fmt(iyy) + "\"/>";
+    for (int j = 0; j < C; ++j)
+      native += "<geom type=\"capsule\" fromto=\"" + fmt(-ls + j * ls / C) + " 0 0 " + fmt(-ls + (j + 1) * ls / C) +
+                " 0 0\" size=\"" + fmt(r) + "\" friction=\"0.5 0.005 0.0001\" mass=\"0\"/>";
+    close += "</body>";
+  }
+  native += close + "</body></worldbody></mujoco>";
+  auto sr = load_scene_string(rod, kPath);
+  auto sn = load_scene_string(native, kPath);
+  SceneData a(*sr), b(*sn);
+  ASSERT_EQ(sr->m->nq, sn->m->nq);
+  double worst = 0.0;
+  int contacts = 0;
+  for (int k = 0; k < 2000; ++k) {
+    if (k == 1000) a.d->xfrc_applied[6 + 1] = b.d->xfrc_applied[6 + 1] = 0.8;  // push the hub along y
+    ASSERT_EQ(step(*sr, a, Integrator::Euler), Status::Ok);
+    ASSERT_EQ(step(*sn, b, Integrator::Euler), Status::Ok);
+    contacts = std::max(contacts, a.d->ncon);
+    for (int i = 0; i < sr->m->nq; ++i) worst = std::max(worst, std::abs(a.d->qpos[i] - b.d->qpos[i]));
+  }
+  EXPECT_GT(contacts, 0);
+  EXPECT_LT(worst, 1e-9);
+}
+
+}  // namespace
