@@ -688,11 +688,17 @@ XMLElement* Preprocessor::build_rod(XMLDocument& doc, RodInput& rod) {
   return base;
 }
 
-// Collision exclusions of one rod: its proxies pairwise and with its base (unless selfcollide),
-// and the first proxy with the parent body.
+// Collision exclusions of one rod. The rod always overlaps what it is mounted on and what hangs at
+// its tip, so every proxy is excluded against the parent body (unless that is the world, whose
+// geoms, e.g. a floor, must stay in contact) and against named <body> children at the tip. Unless
+// selfcollide="true", the proxies are also excluded pairwise and with the rod's base.
 void Preprocessor::add_excludes(const RodInput& rod) {
   const auto& p = rod.decl.proxies;
-  excludes_.emplace_back(rod.decl.parent_body, p.front());
+  for (const auto& proxy : p) {
+    if (rod.decl.parent_body != "world") excludes_.emplace_back(rod.decl.parent_body, proxy);
+    for (const XMLElement* b : rod.bodies)
+      if (const char* name = b->Attribute("name"); name && *name) excludes_.emplace_back(name, proxy);
+  }
   if (rod.selfcollide) return;
   for (std::size_t i = 0; i < p.size(); ++i) {
     excludes_.emplace_back(rod.decl.name + "/base", p[i]);

@@ -14,8 +14,9 @@
 //                            [X0 + j L_i / n, X0 + (j+1) L_i / n] with n capsules per section
 //   site  "<rod>/base", "<rod>/tip" automatic; user <site name=... at=X pos=...> keep their name
 //   <body> children of <cosserat> hang under the last proxy (at the tip frame).
-// Pairs of proxies of the same rod are excluded from collision (<contact><exclude>) unless
-// selfcollide="true".
+// Collision exclusions (<contact><exclude>): every proxy against the rod's parent body (unless it is
+// the world) and against named <body> children at the tip; and, unless selfcollide="true", the
+// proxies of a rod pairwise and with its base.
 #pragma once
 
 #include <stdexcept>

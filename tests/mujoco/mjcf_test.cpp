@@ -271,8 +271,8 @@ TEST(MjcfScenes, OneRodNamesCountsAndSites) {
     EXPECT_EQ(m->jnt_stiffness[j], 0.0);
     EXPECT_EQ(m->dof_damping[j], 0.0);
   }
-  // exclusions: 3 proxy pairs, 3 proxy-base pairs, first proxy-world
-  EXPECT_EQ(m->nexclude, 3 + 3 + 1);
+  // exclusions: 3 proxy pairs, 3 proxy-base pairs; none against the world (a floor must collide)
+  EXPECT_EQ(m->nexclude, 3 + 3);
 
   // sites in the right proxies (a boundary belongs to the earlier section), poses in the proxy frame
   auto site_body = [&](const char* s) { return m->site_bodyid[id(m.get(), mjOBJ_SITE, s)]; };
@@ -468,7 +468,7 @@ TEST(MjcfScenes, OrientationUsesCompilerAngleUnits) {
   }
 }
 
-// selfcollide keeps only the first-proxy/parent exclusion; exclusions merge into an existing
+// selfcollide keeps only the exclusions against the parent (none here: the world); they merge into an existing
 // <contact>; tendons, actuators and sensors referring to generated names pass through.
 TEST(MjcfScenes, SelfCollideContactMergeAndPassThrough) {
   const std::string xml = R"(<mujoco>
@@ -498,7 +498,7 @@ TEST(MjcfScenes, SelfCollideContactMergeAndPassThrough) {
   EXPECT_EQ(contacts, 1u);
   ModelPtr m = compile(p);
   ASSERT_TRUE(m);
-  EXPECT_EQ(m->nexclude, 1 + 1);
+  EXPECT_EQ(m->nexclude, 1);  // the user's own
   EXPECT_EQ(m->nu, 2);
   EXPECT_EQ(m->ntendon, 1);
   EXPECT_EQ(m->nsensor, 1);
