@@ -863,6 +863,27 @@ SceneEnergy energy(const Scene& s, SceneData& sd) {
   return e;
 }
 
+Vec6 momentum(const Scene& s, const SceneData& sd) {
+  const mjModel* m = s.m;
+  mjData* d = sd.d;
+  Vec6 h = Vec6::Zero();
+  for (int b = 1; b < m->nbody; ++b) {
+    const double mass = m->body_mass[b];
+    if (mass <= 0) continue;
+    mjtNum vel[6];  // [w; v] of the body's inertial frame, world axes
+    mj_objectVelocity(m, d, mjOBJ_BODY, b, vel, 0);
+    const Vec3 w(vel[0], vel[1], vel[2]), v(vel[3], vel[4], vel[5]);
+    const Vec3 x(d->xipos[3 * b], d->xipos[3 * b + 1], d->xipos[3 * b + 2]);
+    const Mat3 R = Eigen::Map<const Mat3r>(d->ximat + 9 * b);
+    const Vec3 I(m->body_inertia[3 * b], m->body_inertia[3 * b + 1], m->body_inertia[3 * b + 2]);
+    const Vec3 p = mass * v;
+    h.head<3>() += R * I.asDiagonal() * R.transpose() * w + x.cross(p);
+    h.tail<3>() += p;
+  }
+  for (size_t r = 0; r < s.rods.size(); ++r) h += cosserat::momentum(s.rods[r].model, sd.rod[r]);
+  return h;
+}
+
 std::vector<Vec3> rod_centerline(const Scene& s, const SceneData& sd, int r, int n) {
   std::vector<Vec3> pts;
   const double L = s.rods[r].model.rods[0].length;

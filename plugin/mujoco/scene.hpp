@@ -89,6 +89,10 @@ struct SceneEnergy {
 };
 SceneEnergy energy(const Scene& s, SceneData& sd);
 
+// Total spatial momentum of the scene [angular about the world origin; linear], world axes, after
+// forward: MuJoCo's rigid bodies plus the rods (the core's, with their bases' motion).
+Vec6 momentum(const Scene& s, const SceneData& sd);
+
 // Sampled centreline of rod r: n points from base to tip (world frame), after forward.
 std::vector<Vec3> rod_centerline(const Scene& s, const SceneData& sd, int rod, int n);
 
