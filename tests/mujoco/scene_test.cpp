@@ -170,6 +170,54 @@ TEST(Scene, SoftRigidTreeMatchesStandaloneCore) {
   expect_same_trajectory("kl", 2, 1, 0.2, Integrator::Implicit, 1e-9);
 }
 
+// A rod hanging from a rigid body at the tip of another rod (nested rods): the inner rod's base
+// moves with the outer rod's strain dofs through MuJoCo's cdof of the outer proxies.
+TEST(Scene, NestedRodsMatchStandaloneCore) {
+  const char* xml = R"(<mujoco><option timestep="0.001" gravity="0 0 -9.81"/><worldbody>
+    <cosserat name="outer" pos="0 0 1" length="0.3" sections="2" strain="kl" radius="0.01" density="1000"
+              young="5e5" reststrain="0 0.5 1 1 0 0">
+      <body name="knuckle" pos="0.01 0 0"><inertial pos="0 0 0" mass="0.03" diaginertia="1e-5 1e-5 1e-5"/>
+        <cosserat name="inner" euler="0 30 0" length="0.2" sections="2" order="1" strain="icc" radius="0.006"
+                  density="1100" young="3e5"/>
+      </body>
+    </cosserat></worldbody></mujoco>)";
+  auto s = load_scene_string(xml, kPath);
+  SceneData sd(*s);
+  ASSERT_EQ(s->rods.size(), 2u);
+  const RodBinding& outer = s->rods[0];
+  const RodBinding& inner = s->rods[1];
+  ASSERT_LT(outer.base_body, inner.base_body);  // outer first: its patch moves the inner base
+  Model m;
+  SE3 p0;
+  p0.u = Vec3(0, 0, 1);
+  const int a = m.add_rod(-1, p0, outer.decl.spec);
+  SE3 knuckle;
+  knuckle.u = Vec3(0.01, 0, 0);
+  const int kn = m.add_frame(m.rods[a].tip_node, knuckle);
+  m.add_body(kn, 0.03, Vec3::Zero(), 1e-5 * Mat3::Identity());
+  SE3 pb;  // the inner base as MuJoCo compiled it (relative to the knuckle)
+  for (int k = 0; k < 3; ++k) pb.u(k) = s->m->body_pos[3 * inner.base_body + k];
+  mjtNum mat[9];
+  mju_quat2Mat(mat, s->m->body_quat + 4 * inner.base_body);
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) pb.R(i, j) = mat[3 * i + j];
+  m.add_rod(kn, pb, inner.decl.spec);
+  m.finalize();
+  Data cd(m);
+  ASSERT_EQ(m.nv, s->m->nv);
+  double worst = 0.0, qmax = 0.0;
+  for (int k = 0; k < 1000; ++k) {
+    ASSERT_EQ(step(*s, sd, Integrator::RK4), Status::Ok);
+    ASSERT_EQ(step(m, cd, 1e-3, Integrator::RK4), Status::Ok);
+    for (int i = 0; i < m.nv; ++i) {
+      worst = std::max(worst, std::abs(sd.d->qpos[i] - cd.q(i)));
+      qmax = std::max(qmax, std::abs(cd.q(i)));
+    }
+  }
+  EXPECT_GT(qmax, 0.1);
+  EXPECT_LT(worst, 1e-9);
+}
+
 TEST(Scene, ProxiesAndHelpersCarryNoInertia) {
   auto s = load_scene_string(arm_xml("kl", 2, 1, 0.0), kPath);
   const RodBinding& rb = s->rods[0];
