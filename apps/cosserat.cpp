@@ -1,52 +1,783 @@
-// The `cosserat` command-line tool. Until the MuJoCo coupling lands (issue 3) it offers the
-// core-only `demo`: a tapered soft arm clamped horizontally, released under gravity, lifted by a
-// cable whose tension ramps up; prints the static equilibrium, natural frequencies and the motion.
+// The `cosserat` command-line tool (DESIGN.md section 8): check, run, equilibrium, linearize and
+// compare MJCF scenes with Cosserat rods, plus the core-only `demo`.
+//
+// Every command declares its options in one table (CommandLine) that parses them strictly and
+// prints its --help. Failures throw Failure; main prints a one-line reason on stderr and exits
+// with status 1 (LoadError as "file:line: message").
+#include <unistd.h>
+
+#include <algorithm>
+#include <cctype>
+#include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <iostream>
+#include <memory>
+#include <optional>
+#include <sstream>
+#include <stdexcept>
 #include <string>
-#include <algorithm>
-#include <chrono>
-#include <unistd.h>
+#include <vector>
+
+#include <nlohmann/json.hpp>
 
 #include "dynamics.hpp"
 #include "integrators.hpp"
 #include "kinematics.hpp"
 #include "linearize.hpp"
+#include "scene.hpp"
+#include "scene_statics.hpp"
 #include "statics.hpp"
-
-using namespace cosserat;
 
 namespace {
 
-const char* kUsage =
-    "usage: cosserat demo [--duration T] [--timestep h] [--integrator implicit|euler|rk4]\n"
-    "                     [--sections N] [--order P] [--tension T] [--out DIR]\n"
-    "  demo   core-only simulation of a tapered soft arm (no MuJoCo yet): writes DIR/demo.csv\n"
-    "         with time,energy,tip.x,tip.y,tip.z,tension and prints a summary.\n";
+namespace mj = cosserat::mj;
+using cosserat::Integrator;
+using cosserat::Vec3;
+using json = nlohmann::ordered_json;
 
-[[noreturn]] void fail(const std::string& msg) {
-  std::cerr << "cosserat: " << msg << "\n";
+// -------------------------------------------------------------------------------- failures --
+
+// A bad command line or a failed command: main prints "cosserat: <what>" and exits with 1.
+struct Failure : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+[[noreturn]] void fail(const std::string& msg) { throw Failure(msg); }
+
+// MuJoCo's warnings go to the run's report instead of the console and MUJOCO_LOG.TXT; its errors
+// end the program with a one-line reason.
+std::vector<std::string> g_mujoco_warnings;
+void on_mujoco_warning(const char* msg) {
+  if (std::find(g_mujoco_warnings.begin(), g_mujoco_warnings.end(), msg) == g_mujoco_warnings.end())
+    g_mujoco_warnings.emplace_back(msg);
+}
+void on_mujoco_error(const char* msg) {
+  std::cerr << "cosserat: MuJoCo error: " << msg << "\n";
   std::exit(1);
 }
 
-double parse_double(const std::string& flag, const char* s) {
+// ---------------------------------------------------------------------------- option parsing --
+
+struct Option {
+  std::string name;     // "--duration"
+  std::string metavar;  // "T"; empty for a flag
+  std::string help;
+  std::function<void(const std::string&)> set;
+};
+
+// One command's synopsis, positional arguments and options. parse() accepts "--opt value" and
+// "--opt=value" anywhere among the positional arguments.
+struct CommandLine {
+  std::string name;                     // "run"
+  std::string summary;                  // one line
+  std::vector<std::string> positional;  // metavars of the required positional arguments
+  std::vector<Option> options;
+  std::string details;                  // extra help text
+
+  std::string usage() const {
+    std::string u = "cosserat " + name;
+    for (const auto& p : positional) u += " " + p;
+    for (const auto& o : options) u += " [" + o.name + (o.metavar.empty() ? "" : " " + o.metavar) + "]";
+    return u;
+  }
+
+  std::string help() const {
+    std::ostringstream h;
+    h << "usage: " << usage() << "\n  " << summary << "\noptions:\n";
+    auto row = [&h](std::string left, const std::string& text) {
+      left.resize(std::max<size_t>(left.size() + 2, 22), ' ');
+      h << "  " << left << text << "\n";
+    };
+    for (const auto& o : options) row(o.name + (o.metavar.empty() ? "" : " " + o.metavar), o.help);
+    row("--help", "this text");
+    h << details;
+    return h.str();
+  }
+
+  // The positional arguments, or nullopt after printing --help. Throws Failure on bad input.
+  std::optional<std::vector<std::string>> parse(int argc, char** argv) const {
+    std::vector<std::string> pos;
+    const std::string hint = " (see 'cosserat " + name + " --help')";
+    for (int i = 0; i < argc; ++i) {
+      std::string a = argv[i];
+      if (a == "--help" || a == "-h") {
+        std::cout << help();
+        return std::nullopt;
+      }
+      if (a.size() < 2 || a[0] != '-') {
+        pos.push_back(a);
+        continue;
+      }
+      std::optional<std::string> inline_value;
+      if (const size_t eq = a.find('='); eq != std::string::npos) {
+        inline_value = a.substr(eq + 1);
+        a.resize(eq);
+      }
+      const auto o = std::find_if(options.begin(), options.end(), [&](const Option& x) { return x.name == a; });
+      if (o == options.end()) fail(name + ": unknown option '" + a + "'" + hint);
+      if (o->metavar.empty()) {
+        if (inline_value) fail(name + ": " + a + " takes no value");
+        o->set("");
+      } else if (inline_value) {
+        o->set(*inline_value);
+      } else {
+        if (i + 1 >= argc) fail(name + ": " + a + " needs a value " + o->metavar + hint);
+        o->set(argv[++i]);
+      }
+    }
+    if (pos.size() != positional.size()) {
+      std::string want;
+      for (const auto& p : positional) want += (want.empty() ? "" : " ") + p;
+      fail(name + ": expected " + (want.empty() ? "no arguments" : want) + ", got " + std::to_string(pos.size()) +
+           " argument" + (pos.size() == 1 ? "" : "s") + hint);
+    }
+    return pos;
+  }
+};
+
+double parse_number(const std::string& flag, const std::string& text) {
   char* end = nullptr;
-  const double v = std::strtod(s, &end);
-  if (end == s || *end) fail(flag + ": '" + s + "' is not a number");
+  const double v = std::strtod(text.c_str(), &end);
+  if (text.empty() || *end || !std::isfinite(v)) fail(flag + ": '" + text + "' is not a number");
   return v;
 }
+
+double parse_positive(const std::string& flag, const std::string& text) {
+  const double v = parse_number(flag, text);
+  if (!(v > 0)) fail(flag + ": must be positive, got '" + text + "'");
+  return v;
+}
+
+int parse_int(const std::string& flag, const std::string& text, int min) {
+  char* end = nullptr;
+  const long v = std::strtol(text.c_str(), &end, 10);
+  if (text.empty() || *end) fail(flag + ": '" + text + "' is not an integer");
+  if (v < min || v > 1000000000L) fail(flag + ": must be an integer >= " + std::to_string(min) + ", got '" + text + "'");
+  return static_cast<int>(v);
+}
+
+Integrator parse_integrator(const std::string& flag, const std::string& text) {
+  const auto in = cosserat::integrator_from_name(text);
+  if (!in) fail(flag + ": unknown integrator '" + text + "' (euler, implicit, rk4)");
+  return *in;
+}
+
+const char* integrator_name(Integrator in) {
+  switch (in) {
+    case Integrator::Euler: return "euler";
+    case Integrator::Implicit: return "implicit";
+    case Integrator::RK4: return "rk4";
+  }
+  return "?";
+}
+
+Option positive_option(const std::string& name, const std::string& metavar, const std::string& help, double& target) {
+  return {name, metavar, help, [&target, name](const std::string& v) { target = parse_positive(name, v); }};
+}
+Option optional_positive_option(const std::string& name, const std::string& metavar, const std::string& help,
+                                std::optional<double>& target) {
+  return {name, metavar, help, [&target, name](const std::string& v) { target = parse_positive(name, v); }};
+}
+Option int_option(const std::string& name, const std::string& metavar, const std::string& help, int& target, int min) {
+  return {name, metavar, help, [&target, name, min](const std::string& v) { target = parse_int(name, v, min); }};
+}
+Option text_option(const std::string& name, const std::string& metavar, const std::string& help, std::string& target) {
+  return {name, metavar, help, [&target, name](const std::string& v) {
+            if (v.empty()) fail(name + ": empty value");
+            target = v;
+          }};
+}
+Option flag_option(const std::string& name, const std::string& help, bool& target) {
+  return {name, "", help, [&target](const std::string&) { target = true; }};
+}
+Option integrator_option(std::optional<Integrator>& target) {
+  return {"--integrator", "NAME", "euler | implicit | rk4 (default: implicit with rods, euler without)",
+          [&target](const std::string& v) { target = parse_integrator("--integrator", v); }};
+}
+
+// ------------------------------------------------------------------------------------ output --
+
+void write_json(const std::string& path, const json& j) {
+  if (path == "-") {
+    std::cout << j.dump(2) << "\n";
+    return;
+  }
+  std::ofstream f(path);
+  if (!f) fail("cannot write " + path);
+  f << j.dump(2) << "\n";
+  if (!f) fail("cannot write " + path);
+}
+
+// A progress bar on stderr, shown only when stderr is a terminal.
+class Progress {
+ public:
+  Progress(std::string label, long total) : label_(std::move(label)), total_(std::max(total, 1L)), tty_(isatty(STDERR_FILENO)) {}
+  ~Progress() {
+    if (tty_ && shown_ >= 0) std::fprintf(stderr, "\r%*s\r", 60, "");
+  }
+  void update(long k, double t) {
+    const int pct = static_cast<int>(100 * k / total_);
+    if (!tty_ || pct == shown_) return;
+    shown_ = pct;
+    const int w = 30, filled = w * pct / 100;
+    std::fprintf(stderr, "\r%s [%.*s%*s] %3d%%  t = %.3f s", label_.c_str(), filled, "##############################",
+                 w - filled, "", pct, t);
+    std::fflush(stderr);
+  }
+
+ private:
+  std::string label_;
+  long total_;
+  bool tty_;
+  int shown_ = -1;
+};
+
+// ---------------------------------------------------------------------------- scene outputs --
+
+// The named sites (rod sites included) and named bodies (not world, not the bodies generated for
+// rods, whose poses the rod sites report) whose positions the commands write.
+struct Named {
+  std::string name;
+  int id;
+};
+struct Outputs {
+  std::vector<Named> sites, bodies;
+};
+
+bool generated_body(const mj::Scene& s, int b) {
+  return std::any_of(s.rods.begin(), s.rods.end(), [b](const mj::RodBinding& r) { return b >= r.base_body && b < r.below_begin; });
+}
+
+Outputs named_outputs(const mj::Scene& s) {
+  const mjModel* m = s.m;
+  Outputs o;
+  for (int i = 0; i < m->nsite; ++i)
+    if (const char* n = mj_id2name(m, mjOBJ_SITE, i); n && *n) o.sites.push_back({n, i});
+  for (int b = 1; b < m->nbody; ++b)
+    if (const char* n = mj_id2name(m, mjOBJ_BODY, b); n && *n && !generated_body(s, b)) o.bodies.push_back({n, b});
+  return o;
+}
+
+Vec3 site_position(const mj::SceneData& sd, int id) { return Eigen::Map<const Vec3>(sd.d->site_xpos + 3 * id); }
+Vec3 body_position(const mj::SceneData& sd, int id) { return Eigen::Map<const Vec3>(sd.d->xpos + 3 * id); }
+
+json vec_json(const Vec3& v) { return json::array({v.x(), v.y(), v.z()}); }
+
+void add_positions(json& j, const Outputs& o, const mj::SceneData& sd) {
+  j["sites"] = json::object();
+  for (const auto& n : o.sites) j["sites"][n.name] = vec_json(site_position(sd, n.id));
+  j["bodies"] = json::object();
+  for (const auto& n : o.bodies) j["bodies"][n.name] = vec_json(body_position(sd, n.id));
+}
+
+void print_positions(const Outputs& o, const mj::SceneData& sd) {
+  auto line = [](const std::string& kind, const std::string& name, const Vec3& p) {
+    std::printf("  %-6s %-24s %12.6f %12.6f %12.6f\n", kind.c_str(), name.c_str(), p.x(), p.y(), p.z());
+  };
+  for (const auto& n : o.sites) line("site", n.name, site_position(sd, n.id));
+  for (const auto& n : o.bodies) line("body", n.name, body_position(sd, n.id));
+}
+
+// Warnings MuJoCo counted in mjData (too many contacts, bad numbers, ...), plus its messages.
+std::vector<std::string> collect_warnings(const mjData* d) {
+  std::vector<std::string> w;
+  for (int i = 0; i < mjNWARNING; ++i)
+    if (d->warning[i].number > 0)
+      w.push_back(std::string(mju_warningText(i, d->warning[i].lastinfo)) + " (" + std::to_string(d->warning[i].number) +
+                  " times)");
+  w.insert(w.end(), g_mujoco_warnings.begin(), g_mujoco_warnings.end());
+  return w;
+}
+
+// ------------------------------------------------------------------------------- simulation --
+
+struct SimOptions {
+  double duration = 1.0;
+  std::optional<double> timestep;
+  std::optional<Integrator> integrator;
+
+  void add_to(CommandLine& c) {
+    c.options.push_back(positive_option("--duration", "T", "simulated time [s] (default 1)", duration));
+    c.options.push_back(optional_positive_option("--timestep", "h", "time step [s] (default: the model's <option timestep>)", timestep));
+    c.options.push_back(integrator_option(integrator));
+  }
+};
+
+// The initial state and the controls: a keyframe (qpos, qvel, act, ctrl) and/or explicit controls.
+struct StateOptions {
+  std::string key, ctrl;
+
+  void add_to(CommandLine& c) {
+    c.options.push_back(text_option("--key", "K", "start from keyframe K (name or index): qpos, qvel, act, ctrl", key));
+    c.options.push_back(text_option("--ctrl", "U", "actuator controls: nu numbers separated by commas (applied after --key)", ctrl));
+  }
+
+  void apply(const mj::Scene& s, mj::SceneData& sd) const {
+    const mjModel* m = s.m;
+    if (!key.empty()) {
+      int id = mj_name2id(m, mjOBJ_KEY, key.c_str());
+      if (id < 0 && key.find_first_not_of("0123456789") == std::string::npos) id = parse_int("--key", key, 0);
+      if (id < 0 || id >= m->nkey)
+        fail("--key: no keyframe '" + key + "' (the model has " + std::to_string(m->nkey) + ")");
+      mj_resetDataKeyframe(m, sd.d, id);
+    }
+    if (!ctrl.empty()) {
+      std::vector<double> u;
+      std::istringstream in(ctrl);
+      for (std::string v; std::getline(in, v, ',');) u.push_back(parse_number("--ctrl", v));
+      if (static_cast<int>(u.size()) != m->nu)
+        fail("--ctrl: " + std::to_string(u.size()) + " values for " + std::to_string(m->nu) + " actuators");
+      std::copy(u.begin(), u.end(), sd.d->ctrl);
+    }
+  }
+};
+
+// A loaded scene stepping with the command's time step and integrator.
+class Simulation {
+ public:
+  Simulation(const std::string& path, const SimOptions& o, const StateOptions& state) : scene_(mj::load_scene(path)) {
+    if (o.timestep) scene_->m->opt.timestep = *o.timestep;
+    integrator_ = o.integrator.value_or(scene_->integrator);
+    data_ = std::make_unique<mj::SceneData>(*scene_);
+    state.apply(*scene_, *data_);
+    steps_ = std::llround(o.duration / timestep());
+    outputs_ = named_outputs(*scene_);
+  }
+
+  const mj::Scene& scene() const { return *scene_; }
+  mj::SceneData& data() { return *data_; }
+  const Outputs& outputs() const { return outputs_; }
+  Integrator integrator() const { return integrator_; }
+  double timestep() const { return scene_->m->opt.timestep; }
+  double time() const { return data_->d->time; }
+  long steps() const { return steps_; }
+
+  bool step() { return mj::step(*scene_, *data_, integrator_) == cosserat::Status::Ok; }
+  // Evaluates the pipeline at the current state: positions and energy are current afterwards.
+  void observe() { mj::forward(*scene_, *data_); }
+  double energy() { return mj::energy(*scene_, *data_).total(); }
+
+ private:
+  std::unique_ptr<mj::Scene> scene_;
+  std::unique_ptr<mj::SceneData> data_;
+  Integrator integrator_ = Integrator::Implicit;
+  long steps_ = 0;
+  Outputs outputs_;
+};
+
+// Relative energy drift: |E - E0| over |E0| (or over the largest |E| seen when E0 is zero).
+class EnergyTracker {
+ public:
+  void add(double e) {
+    if (n_++ == 0) initial_ = e;
+    final_ = e;
+    max_dev_ = std::max(max_dev_, std::abs(e - initial_));
+    max_abs_ = std::max(max_abs_, std::abs(e));
+  }
+  double initial() const { return initial_; }
+  double final() const { return final_; }
+  double max_rel_drift() const {
+    const double ref = std::abs(initial_) > 1e-12 ? std::abs(initial_) : max_abs_;
+    return ref > 0 ? max_dev_ / ref : 0.0;
+  }
+
+ private:
+  long n_ = 0;
+  double initial_ = 0, final_ = 0, max_dev_ = 0, max_abs_ = 0;
+};
+
+// --------------------------------------------------------------------------------- commands --
+
+int cmd_check(int argc, char** argv) {
+  CommandLine cl{"check", "load and compile a model; print a summary (rods, sections, strain dofs, sizes)",
+                 {"MODEL.xml"}, {}, ""};
+  const auto pos = cl.parse(argc, argv);
+  if (!pos) return 0;
+  const auto s = mj::load_scene((*pos)[0]);
+  const mjModel* m = s->m;
+  mj::SceneData sd(*s);
+  mj::forward(*s, sd);
+  std::printf("model: %s (%s)\n", m->names, (*pos)[0].c_str());
+  std::printf("rods: %zu\n", s->rods.size());
+  for (const auto& r : s->rods)
+    std::printf("  %s: %zu sections, %d strain dofs, length %g m\n", r.decl.name.c_str(), r.proxy_body.size(),
+                r.model.nv, r.model.rods[0].length);
+  std::printf("nq: %d  nv: %d  nbody: %d  ngeom: %d  nsite: %d  nu: %d\n", m->nq, m->nv, m->nbody, m->ngeom, m->nsite,
+              m->nu);
+  std::printf("timestep: %g s  integrator: %s\n", m->opt.timestep, integrator_name(s->integrator));
+  for (int i = 0; i < m->nv; ++i)
+    if (!std::isfinite(sd.d->qacc[i])) fail("the model's accelerations at qpos0 are not finite");
+  return 0;
+}
+
+int cmd_run(int argc, char** argv) {
+  SimOptions sim;
+  StateOptions state;
+  std::string csv, json_path;
+  int every = 1;
+  CommandLine cl{"run", "simulate a model from its initial state", {"MODEL.xml"}, {}, ""};
+  sim.add_to(cl);
+  state.add_to(cl);
+  cl.options.push_back(text_option("--csv", "F", "write time,energy,<name>.x,<name>.y,<name>.z,... (sites, then bodies)", csv));
+  cl.options.push_back(int_option("--every", "N", "CSV rows every N steps (steps 0, N, 2N, ...; default 1)", every, 1));
+  cl.options.push_back(text_option("--json", "F", "write a JSON report ('-': stdout)", json_path));
+  cl.details = "Exit status 1 when the simulation diverges (the outputs cover the run up to there).\n";
+  const auto pos = cl.parse(argc, argv);
+  if (!pos) return 0;
+
+  Simulation s(pos->front(), sim, state);
+  const Outputs& out = s.outputs();
+  std::ofstream f;
+  if (!csv.empty()) {
+    f.open(csv);
+    if (!f) fail("cannot write " + csv);
+    f << "time,energy";
+    for (const auto& n : out.sites) f << "," << n.name << ".x," << n.name << ".y," << n.name << ".z";
+    for (const auto& n : out.bodies) f << "," << n.name << ".x," << n.name << ".y," << n.name << ".z";
+    f << "\n";
+    f.precision(10);
+  }
+  auto write_row = [&](double e) {
+    if (!f.is_open()) return;
+    f << s.time() << "," << e;
+    for (const auto& n : out.sites) {
+      const Vec3 p = site_position(s.data(), n.id);
+      f << "," << p.x() << "," << p.y() << "," << p.z();
+    }
+    for (const auto& n : out.bodies) {
+      const Vec3 p = body_position(s.data(), n.id);
+      f << "," << p.x() << "," << p.y() << "," << p.z();
+    }
+    f << "\n";
+  };
+
+  EnergyTracker energy;
+  Progress progress("run", s.steps());
+  const auto t0 = std::chrono::steady_clock::now();
+  s.observe();
+  energy.add(s.energy());
+  write_row(energy.final());
+  long k = 0;
+  bool diverged = false;
+  while (k < s.steps()) {
+    if (!s.step()) {
+      diverged = true;
+      break;
+    }
+    ++k;
+    if (k % every == 0 || k == s.steps()) {
+      s.observe();
+      energy.add(s.energy());
+      if (k % every == 0) write_row(energy.final());
+    }
+    progress.update(k, s.time());
+  }
+  if (diverged) {  // the state was restored to the last good step
+    s.observe();
+    energy.add(s.energy());
+  }
+  const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  if (f.is_open() && !f.flush()) fail("cannot write " + csv);
+
+  std::vector<std::string> warnings = collect_warnings(s.data().d);
+  if (diverged) warnings.insert(warnings.begin(), "diverged: " + s.data().warning);
+  if (!json_path.empty()) {
+    json j;
+    j["model"] = pos->front();
+    j["integrator"] = integrator_name(s.integrator());
+    j["timestep"] = s.timestep();
+    j["steps"] = k;
+    j["sim_time"] = s.time();
+    j["wall_time"] = wall;
+    j["energy"] = {{"initial", energy.initial()}, {"final", energy.final()}, {"max_rel_drift", energy.max_rel_drift()}};
+    add_positions(j, out, s.data());
+    j["diverged"] = diverged;
+    j["warnings"] = warnings;
+    write_json(json_path, j);
+  }
+  if (json_path != "-") {
+    std::printf("simulated %.6g s in %ld steps (%s, h = %g s) in %.3f s wall; energy %.6g -> %.6g J (max drift %.2e)\n",
+                s.time(), k, integrator_name(s.integrator()), s.timestep(), wall, energy.initial(), energy.final(),
+                energy.max_rel_drift());
+    print_positions(out, s.data());
+    for (const auto& w : warnings) std::printf("warning: %s\n", w.c_str());
+  }
+  if (diverged) fail("simulation diverged: " + s.data().warning + " (try a smaller --timestep or --integrator implicit)");
+  return 0;
+}
+
+// Loads a model and solves its static equilibrium; shared by `equilibrium` and `linearize`.
+struct Equilibrium {
+  std::unique_ptr<mj::Scene> scene;
+  std::unique_ptr<mj::SceneData> data;
+  mj::SceneStaticsResult result;
+
+  Equilibrium(const std::string& path, const StateOptions& state)
+      : scene(mj::load_scene(path)), data(std::make_unique<mj::SceneData>(*scene)) {
+    state.apply(*scene, *data);
+    result = mj::equilibrium(*scene, *data);
+  }
+  json report() const {
+    return {{"converged", result.converged}, {"iterations", result.iterations}, {"residual", result.residual},
+            {"method", result.method},       {"load_steps", result.load_steps}, {"message", result.message}};
+  }
+  void print() const {
+    const bool plain = result.message.empty() || result.message == "converged";
+    std::printf("equilibrium: %s by %s after %d iterations (residual %.2e)%s%s\n",
+                result.converged ? "converged" : "NOT converged", result.method.c_str(), result.iterations, result.residual,
+                plain ? "" : ": ", plain ? "" : result.message.c_str());
+  }
+};
+
+int cmd_equilibrium(int argc, char** argv) {
+  std::string json_path;
+  StateOptions state;
+  CommandLine cl{"equilibrium", "static equilibrium under gravity, actuator controls and applied loads", {"MODEL.xml"}, {},
+                 "Newton's method with load continuation; scenes whose contacts, limits or equality\n"
+                 "constraints carry load are settled by dynamic relaxation (the report's \"method\").\n"
+                 "Exit status 1 when no equilibrium is found.\n"};
+  cl.options.push_back(text_option("--json", "F", "write {converged, iterations, residual, sites, bodies, ...} ('-': stdout)", json_path));
+  state.add_to(cl);
+  const auto pos = cl.parse(argc, argv);
+  if (!pos) return 0;
+  const Equilibrium eq(pos->front(), state);
+  const Outputs out = named_outputs(*eq.scene);
+  if (!json_path.empty()) {
+    json j = eq.report();
+    add_positions(j, out, *eq.data);
+    write_json(json_path, j);
+  }
+  if (json_path != "-") {
+    eq.print();
+    print_positions(out, *eq.data);
+  }
+  if (!eq.result.converged) fail("no static equilibrium: " + eq.result.message);
+  return 0;
+}
+
+json matrix_json(const Eigen::MatrixXd& A) {
+  json rows = json::array();
+  for (int i = 0; i < A.rows(); ++i) {
+    json r = json::array();
+    for (int k = 0; k < A.cols(); ++k) r.push_back(A(i, k));
+    rows.push_back(r);
+  }
+  return rows;
+}
+
+int cmd_linearize(int argc, char** argv) {
+  std::string json_path;
+  bool matrices = false;
+  StateOptions state;
+  CommandLine cl{"linearize", "linearise at the static equilibrium: natural frequencies and modal damping", {"MODEL.xml"}, {},
+                 "Second-order form M ddq + D dq' + K dq = Bu du about the equilibrium (tangent space of qpos).\n"};
+  cl.options.push_back(text_option("--json", "F", "write {frequencies_hz: [ascending], damping_ratios, ...} ('-': stdout)", json_path));
+  cl.options.push_back(flag_option("--matrices", "include M, D, K and Bu in the JSON", matrices));
+  state.add_to(cl);
+  const auto pos = cl.parse(argc, argv);
+  if (!pos) return 0;
+  const Equilibrium eq(pos->front(), state);
+  if (!eq.result.converged) fail("no static equilibrium to linearise about: " + eq.result.message);
+  const mj::SceneLinearization lin = mj::linearize(*eq.scene, *eq.data);
+  const mjModel* m = eq.scene->m;
+  if (!json_path.empty()) {
+    json j;
+    j["frequencies_hz"] = std::vector<double>(lin.frequencies_hz.data(), lin.frequencies_hz.data() + lin.frequencies_hz.size());
+    json zeta = json::array();
+    for (int i = 0; i < lin.damping_ratios.size(); ++i)  // NaN (rigid-body modes) becomes null
+      zeta.push_back(std::isfinite(lin.damping_ratios(i)) ? json(lin.damping_ratios(i)) : json(nullptr));
+    j["damping_ratios"] = zeta;
+    j["nv"] = m->nv;
+    j["nu"] = m->nu;
+    j["equilibrium"] = eq.report();
+    if (eq.result.method != "newton")
+      j["warnings"] = {"equilibrium found by " + eq.result.method + "; constraint forces are not linearised"};
+    if (matrices) {
+      j["M"] = matrix_json(lin.M);
+      j["D"] = matrix_json(lin.D);
+      j["K"] = matrix_json(lin.Kt);
+      j["Bu"] = matrix_json(lin.Bu);
+    }
+    write_json(json_path, j);
+  }
+  if (json_path != "-") {
+    eq.print();
+    std::printf("natural frequencies [Hz] (damping ratio):\n");
+    for (int i = 0; i < lin.frequencies_hz.size(); ++i) {
+      std::printf("  %3d  %12.6g", i + 1, lin.frequencies_hz(i));
+      if (i < lin.damping_ratios.size()) std::printf("  (%.4g)", lin.damping_ratios(i));
+      std::printf("\n");
+    }
+  }
+  return 0;
+}
+
+// Position samples of one simulation at requested times, linearly interpolated between steps.
+class Sampler {
+ public:
+  Sampler(const std::string& path, const SimOptions& o, const StateOptions& state) : sim(path, o, state) {
+    sim.observe();
+    prev_t_ = cur_t_ = sim.time();
+    prev_ = cur_ = positions();
+  }
+  Simulation sim;
+  bool diverged = false;
+
+  // Positions (sites then bodies, as in outputs()) at time t >= the previous request.
+  std::vector<Vec3> at(double t) {
+    const double tol = 1e-9 * sim.timestep();
+    while (!diverged && cur_t_ < t - tol) {
+      if (!sim.step()) {
+        diverged = true;
+        break;
+      }
+      sim.observe();
+      prev_ = cur_;
+      prev_t_ = cur_t_;
+      cur_ = positions();
+      cur_t_ = sim.time();
+    }
+    if (diverged || cur_t_ - prev_t_ <= tol) return cur_;
+    const double w = std::clamp((t - prev_t_) / (cur_t_ - prev_t_), 0.0, 1.0);
+    std::vector<Vec3> p(cur_.size());
+    for (size_t i = 0; i < p.size(); ++i) p[i] = (1 - w) * prev_[i] + w * cur_[i];
+    return p;
+  }
+
+ private:
+  std::vector<Vec3> positions() {
+    std::vector<Vec3> p;
+    for (const auto& n : sim.outputs().sites) p.push_back(site_position(sim.data(), n.id));
+    for (const auto& n : sim.outputs().bodies) p.push_back(body_position(sim.data(), n.id));
+    return p;
+  }
+  double prev_t_ = 0, cur_t_ = 0;
+  std::vector<Vec3> prev_, cur_;
+};
+
+// Bodies of a model with a free joint (swimmers): their index among outputs().bodies.
+std::vector<int> free_bodies(const Simulation& s) {
+  std::vector<int> idx;
+  const mjModel* m = s.scene().m;
+  const auto& bodies = s.outputs().bodies;
+  for (size_t i = 0; i < bodies.size(); ++i) {
+    const int b = bodies[i].id;
+    if (m->body_jntnum[b] > 0 && m->jnt_type[m->body_jntadr[b]] == mjJNT_FREE) idx.push_back(static_cast<int>(i));
+  }
+  return idx;
+}
+
+int cmd_compare(int argc, char** argv) {
+  SimOptions sim;
+  StateOptions state;
+  std::string json_path;
+  CommandLine cl{"compare", "simulate two models side by side and compare their same-named sites and bodies",
+                 {"A.xml", "B.xml"}, {}, ""};
+  sim.add_to(cl);
+  state.add_to(cl);
+  cl.options.push_back(text_option("--json", "F", "write {sites, bodies: {name: {max, rms}}, swimming_speed, ...} ('-': stdout)", json_path));
+  cl.details =
+      "Positions are sampled every max(h_A, h_B) (linear interpolation between steps); deviations are\n"
+      "|p_A - p_B|. The swimming speed of a free body is |mean velocity of its position| over the\n"
+      "second half of the run. Exit status 1 when either simulation diverges.\n";
+  const auto pos = cl.parse(argc, argv);
+  if (!pos) return 0;
+  Sampler a((*pos)[0], sim, state), b((*pos)[1], sim, state);
+
+  // name pairs: index in A's and B's output lists, sites then bodies
+  struct Pair {
+    std::string name;
+    bool site;
+    int ia, ib;
+    double max = 0, sum2 = 0;
+  };
+  std::vector<Pair> pairs;
+  std::vector<std::string> unmatched;
+  auto match = [&](const std::vector<Named>& na, const std::vector<Named>& nb, int offa, int offb, bool site) {
+    for (size_t i = 0; i < na.size(); ++i) {
+      const auto j = std::find_if(nb.begin(), nb.end(), [&](const Named& n) { return n.name == na[i].name; });
+      if (j == nb.end()) unmatched.push_back(na[i].name);
+      else pairs.push_back({na[i].name, site, offa + static_cast<int>(i), offb + static_cast<int>(j - nb.begin())});
+    }
+    for (const auto& n : nb)
+      if (std::none_of(na.begin(), na.end(), [&](const Named& x) { return x.name == n.name; })) unmatched.push_back(n.name);
+  };
+  const Outputs &oa = a.sim.outputs(), &ob = b.sim.outputs();
+  match(oa.sites, ob.sites, 0, 0, true);
+  match(oa.bodies, ob.bodies, static_cast<int>(oa.sites.size()), static_cast<int>(ob.sites.size()), false);
+
+  const double dt = std::max(a.sim.timestep(), b.sim.timestep());
+  const long n = std::max(1L, static_cast<long>(std::llround(sim.duration / dt)));
+  const long half = n / 2;
+  const std::vector<int> fa = free_bodies(a.sim), fb = free_bodies(b.sim);
+  std::vector<Vec3> half_a, half_b, pa, pb;
+  Progress progress("compare", n);
+  for (long k = 0; k <= n && !a.diverged && !b.diverged; ++k) {
+    const double t = k * sim.duration / n;
+    pa = a.at(t);
+    pb = b.at(t);
+    for (auto& p : pairs) {
+      const double d = (pa[p.ia] - pb[p.ib]).norm();
+      p.max = std::max(p.max, d);
+      p.sum2 += d * d;
+    }
+    if (k == half) half_a = pa, half_b = pb;
+    progress.update(k, t);
+  }
+  const bool diverged = a.diverged || b.diverged;
+  const double span = sim.duration * (n - half) / n;
+  auto speeds = [&](const Sampler& s, const std::vector<int>& fr, const std::vector<Vec3>& p0, const std::vector<Vec3>& p1) {
+    json j = json::object();
+    const int off = static_cast<int>(s.sim.outputs().sites.size());
+    for (int i : fr)
+      j[s.sim.outputs().bodies[i].name] = diverged ? json(nullptr) : json((p1[off + i] - p0[off + i]).norm() / span);
+    return j;
+  };
+  json j;
+  j["models"] = {(*pos)[0], (*pos)[1]};
+  j["duration"] = sim.duration;
+  j["samples"] = n + 1;
+  j["sample_interval"] = sim.duration / n;
+  j["sites"] = json::object();
+  j["bodies"] = json::object();
+  for (const auto& p : pairs) j[p.site ? "sites" : "bodies"][p.name] = {{"max", p.max}, {"rms", std::sqrt(p.sum2 / (n + 1))}};
+  j["swimming_speed"] = {{"a", speeds(a, fa, half_a, pa)}, {"b", speeds(b, fb, half_b, pb)}};
+  j["unmatched"] = unmatched;
+  j["diverged"] = diverged;
+  std::vector<std::string> warnings;
+  for (const auto& w : collect_warnings(a.sim.data().d)) warnings.push_back("A: " + w);
+  for (const auto& w : collect_warnings(b.sim.data().d)) warnings.push_back("B: " + w);
+  j["warnings"] = warnings;
+  if (!json_path.empty()) write_json(json_path, j);
+  if (json_path != "-") {
+    std::printf("%-8s %-28s %14s %14s\n", "kind", "name", "max dev [m]", "rms dev [m]");
+    for (const auto& p : pairs)
+      std::printf("%-8s %-28s %14.6g %14.6g\n", p.site ? "site" : "body", p.name.c_str(), p.max, std::sqrt(p.sum2 / (n + 1)));
+    for (const char* k : {"a", "b"})
+      for (const auto& [name, v] : j["swimming_speed"][k].items())
+        std::printf("swimming speed (%s) %s: %s m/s\n", k, name.c_str(), v.dump().c_str());
+  }
+  if (diverged) fail(std::string("simulation of ") + (a.diverged ? "A" : "B") + " diverged: " +
+                     (a.diverged ? a.sim.data().warning : b.sim.data().warning));
+  return 0;
+}
+
+// ------------------------------------------------------------------------- core-only demo --
 
 struct DemoOptions {
   double duration = 2.0, timestep = 1e-3, tension = 1.5;
   int sections = 6, order = 0;
-  Integrator integrator = Integrator::Implicit;
+  std::optional<Integrator> integrator;
   std::string out = "out/demo";
 };
 
-Model demo_model(const DemoOptions& o) {
+cosserat::Model demo_model(const DemoOptions& o) {
+  using namespace cosserat;
   Model m;
   RodSpec s;
   s.name = "arm";
@@ -68,7 +799,24 @@ Model demo_model(const DemoOptions& o) {
   return m;
 }
 
-int demo(const DemoOptions& o) {
+// A tapered soft arm clamped horizontally, released under gravity, lifted by a cable whose
+// tension ramps up; prints the static equilibrium, natural frequencies and the motion.
+int cmd_demo(int argc, char** argv) {
+  using namespace cosserat;
+  DemoOptions o;
+  CommandLine cl{"demo", "core-only simulation of a tapered soft arm lifted by a cable (no MuJoCo)", {}, {},
+                 "Writes DIR/demo.csv with time,energy,tip.x,tip.y,tip.z,tension and prints a summary.\n"};
+  cl.options = {positive_option("--duration", "T", "simulated time [s] (default 2)", o.duration),
+                positive_option("--timestep", "h", "time step [s] (default 0.001)", o.timestep),
+                integrator_option(o.integrator),
+                int_option("--sections", "N", "rod sections (default 6)", o.sections, 1),
+                int_option("--order", "P", "GVS strain order per section (default 0: PCS)", o.order, 0),
+                {"--tension", "T", "final cable tension [N] (default 1.5)",
+                 [&o](const std::string& v) { o.tension = parse_number("--tension", v); }},
+                text_option("--out", "DIR", "output directory (default out/demo)", o.out)};
+  if (!cl.parse(argc, argv)) return 0;
+  const Integrator integrator = o.integrator.value_or(Integrator::Implicit);
+
   const Model m = demo_model(o);
   Data d(m);
   const int tip = m.rods[0].tip_node;
@@ -76,79 +824,100 @@ int demo(const DemoOptions& o) {
 
   // static equilibrium under gravity alone, and the natural frequencies there
   Data ds(m);
-  const StaticsResult st = equilibrium(m, ds);
-  fwd_position(m, ds);
+  const StaticsResult st = cosserat::equilibrium(m, ds);
+  cosserat::fwd_position(m, ds);
   std::printf("equilibrium under gravity: %s after %d Newton iterations (residual %.1e), tip at (%.4f, %.4f, %.4f) m\n",
               st.converged ? "converged" : "NOT converged", st.iterations, st.residual, ds.g[tip].u.x(),
               ds.g[tip].u.y(), ds.g[tip].u.z());
-  const Linearization lin = linearize(m, ds);
-  std::printf("natural frequencies there [Hz]: %.3f %.3f %.3f %.3f\n", lin.frequencies_hz(0),
-              lin.frequencies_hz(1), lin.frequencies_hz(2), lin.frequencies_hz(3));
+  const Linearization lin = cosserat::linearize(m, ds);
+  std::printf("natural frequencies there [Hz]: %.3f %.3f %.3f %.3f\n", lin.frequencies_hz(0), lin.frequencies_hz(1),
+              lin.frequencies_hz(2), lin.frequencies_hz(3));
 
   std::filesystem::create_directories(o.out);
   const std::string csv = o.out + "/demo.csv";
   std::ofstream f(csv);
   if (!f) fail("cannot write " + csv);
   f << "time,energy,tip.x,tip.y,tip.z,tension\n";
-  const int steps = static_cast<int>(o.duration / o.timestep + 0.5);
-  const bool tty = isatty(STDERR_FILENO);
+  const long steps = std::llround(o.duration / o.timestep);
+  Progress progress("demo", steps);
   const auto t0 = std::chrono::steady_clock::now();
-  for (int k = 0; k <= steps; ++k) {
+  for (long k = 0; k <= steps; ++k) {
     // tension: zero for the first half, then a smooth ramp to its final value
     const double s = std::clamp((d.time - 0.5 * o.duration) / (0.25 * o.duration), 0.0, 1.0);
     d.ctrl(0) = o.tension * s * s * (3 - 2 * s);
-    if (k > 0 && step(m, d, o.timestep, o.integrator) != Status::Ok)
+    if (k > 0 && cosserat::step(m, d, o.timestep, integrator) != Status::Ok)
       fail("simulation diverged at t = " + std::to_string(d.time) + " s (try a smaller --timestep)");
-    fwd_position(m, d);
-    fwd_velocity(m, d);
+    cosserat::fwd_position(m, d);
+    cosserat::fwd_velocity(m, d);
     const Vec3 p = d.g[tip].u;
-    f << d.time << "," << energy(m, d).total() << "," << p.x() << "," << p.y() << "," << p.z() << ","
+    f << d.time << "," << cosserat::energy(m, d).total() << "," << p.x() << "," << p.y() << "," << p.z() << ","
       << d.ctrl(0) << "\n";
-    if (tty && (k % 100 == 0 || k == steps))
-      std::fprintf(stderr, "\r  step %d/%d  t = %.3f s", k, steps, d.time);
+    progress.update(k, d.time);
   }
-  if (tty) std::fprintf(stderr, "\n");
   const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   const Vec3 p = d.g[tip].u;
-  std::printf("simulated %.2f s in %d steps (%s, h = %g s) in %.2f s wall: tip at (%.4f, %.4f, %.4f) m, cable %.2f N\n",
-              o.duration, steps, o.integrator == Integrator::RK4 ? "rk4" : o.integrator == Integrator::Euler ? "euler" : "implicit",
-              o.timestep, wall, p.x(), p.y(), p.z(), d.ctrl(0));
+  std::printf("simulated %.2f s in %ld steps (%s, h = %g s) in %.2f s wall: tip at (%.4f, %.4f, %.4f) m, cable %.2f N\n",
+              o.duration, steps, integrator_name(integrator), o.timestep, wall, p.x(), p.y(), p.z(), d.ctrl(0));
   std::printf("wrote %s\n", csv.c_str());
   return 0;
 }
 
-}  // namespace
+// ------------------------------------------------------------------------------------- main --
 
-int main(int argc, char** argv) {
-  if (argc < 2 || std::string(argv[1]) == "--help" || std::string(argv[1]) == "-h") {
-    std::cout << kUsage;
-    return argc < 2 ? 1 : 0;
+struct Command {
+  const char* name;
+  const char* summary;
+  int (*run)(int argc, char** argv);
+};
+
+const Command kCommands[] = {
+    {"check", "load and compile a model, print a summary", cmd_check},
+    {"run", "simulate; CSV and JSON outputs", cmd_run},
+    {"equilibrium", "static equilibrium (gravity, controls, loads)", cmd_equilibrium},
+    {"linearize", "natural frequencies at the equilibrium", cmd_linearize},
+    {"compare", "two models side by side: deviations and swimming speeds", cmd_compare},
+    {"demo", "core-only soft-arm demo (no MuJoCo)", cmd_demo},
+};
+
+std::string usage() {
+  std::string u = "usage: cosserat COMMAND [ARGS] [OPTIONS]   ('cosserat COMMAND --help' for details)\ncommands:\n";
+  for (const auto& c : kCommands) u += "  " + std::string(c.name) + std::string(14 - std::string(c.name).size(), ' ') + c.summary + "\n";
+  return u;
+}
+
+int dispatch(int argc, char** argv) {
+  if (argc < 2) {
+    std::cerr << usage();
+    return 1;
   }
   const std::string cmd = argv[1];
-  if (cmd != "demo") fail("unknown command '" + cmd + "' (the MuJoCo commands arrive with the coupling)\n" + kUsage);
-  DemoOptions o;
-  for (int i = 2; i < argc; ++i) {
-    const std::string a = argv[i];
-    auto value = [&]() -> const char* {
-      if (i + 1 >= argc) fail(a + " needs a value");
-      return argv[++i];
-    };
-    if (a == "--duration") o.duration = parse_double(a, value());
-    else if (a == "--timestep") o.timestep = parse_double(a, value());
-    else if (a == "--tension") o.tension = parse_double(a, value());
-    else if (a == "--sections") o.sections = static_cast<int>(parse_double(a, value()));
-    else if (a == "--order") o.order = static_cast<int>(parse_double(a, value()));
-    else if (a == "--out") o.out = value();
-    else if (a == "--integrator") {
-      const std::string n = value();
-      auto in = integrator_from_name(n);
-      if (!in) fail("--integrator: unknown '" + n + "' (euler, implicit, rk4)");
-      o.integrator = *in;
-    } else fail("unknown option '" + a + "'\n" + kUsage);
+  if (cmd == "--help" || cmd == "-h" || cmd == "help") {
+    std::cout << usage();
+    return 0;
   }
-  if (!(o.duration > 0)) fail("--duration must be positive");
-  if (!(o.timestep > 0)) fail("--timestep must be positive");
-  if (o.sections < 1) fail("--sections must be >= 1");
-  if (o.order < 0) fail("--order must be >= 0");
-  return demo(o);
+  for (const auto& c : kCommands)
+    if (cmd == c.name) return c.run(argc - 2, argv + 2);
+  fail("unknown command '" + cmd + "' (see 'cosserat --help')");
+}
+
+}  // namespace
+
+// The reason for stderr on one line (MuJoCo's compiler messages span several).
+std::string one_line(std::string s) {
+  while (!s.empty() && std::isspace(static_cast<unsigned char>(s.back()))) s.pop_back();
+  for (size_t p = s.find('\n'); p != std::string::npos; p = s.find('\n', p)) s.replace(p, 1, "; ");
+  return s;
+}
+
+int main(int argc, char** argv) {
+  mju_user_warning = on_mujoco_warning;
+  mju_user_error = on_mujoco_error;
+  try {
+    return dispatch(argc, argv);
+  } catch (const mj::LoadError& e) {
+    std::cerr << one_line(e.what()) << "\n";
+  } catch (const std::exception& e) {  // Failure and anything unexpected
+    std::cerr << "cosserat: " << one_line(e.what()) << "\n";
+  }
+  return 1;
 }

@@ -9,6 +9,7 @@ packages=(
   libmujoco-dev                      # MuJoCo 2.2.2 (the coupling)
   libqhull-dev                       # its CMake config names qhull's include dir
   libtinyxml2-dev                    # MJCF pre-processing
+  nlohmann-json3-dev                 # JSON reports of the command-line tool
 )
 missing=()
 for p in "${packages[@]}"; do

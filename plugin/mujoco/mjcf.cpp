@@ -300,6 +300,7 @@ class Preprocessor {
   void read_sites(const Reader& r, RodInput& rod);
   XMLElement* build_rod(XMLDocument& doc, RodInput& rod);
   void add_excludes(const RodInput& rod);
+  void map_lines(const XMLElement* root, Preprocessed& out) const;
   void emit_excludes(XMLDocument& doc, XMLElement* root);
   void check_depth(const XMLElement* root) const;
 
@@ -809,10 +810,37 @@ Preprocessed Preprocessor::run(const std::string& text, const std::string& path)
 
   tinyxml2::XMLPrinter printer;
   doc.Print(&printer);
-  return Preprocessed{printer.CStr(), path, std::move(rods_)};
+  Preprocessed out{printer.CStr(), path, std::move(rods_), {}};
+  map_lines(root, out);
+  return out;
+}
+
+// Maps each line of the printed MJCF to the origin of the element that starts there: re-parse the
+// printed text and walk both trees together (generated elements inherit their parent's origin).
+void Preprocessor::map_lines(const XMLElement* root, Preprocessed& out) const {
+  XMLDocument printed;
+  printed.Parse(out.xml.c_str());
+  const int nlines = static_cast<int>(std::count(out.xml.begin(), out.xml.end(), '\n')) + 2;
+  out.line_origin.assign(nlines, SourceLine{});
+  const auto walk = [&](auto&& self, const XMLElement* a, const XMLElement* b, const Origin& parent) -> void {
+    for (; a && b; a = a->NextSiblingElement(), b = b->NextSiblingElement()) {
+      const auto it = origins_.find(a);
+      const Origin& o = it == origins_.end() ? parent : it->second;
+      if (b->GetLineNum() > 0 && b->GetLineNum() < nlines) out.line_origin[b->GetLineNum()] = {o.file, o.line};
+      self(self, a->FirstChildElement(), b->FirstChildElement(), o);
+    }
+  };
+  walk(walk, root, printed.RootElement(), origin(root));
+  for (int i = 1; i < nlines; ++i)
+    if (out.line_origin[i].line == 0) out.line_origin[i] = out.line_origin[i - 1];
 }
 
 }  // namespace
+
+SourceLine Preprocessed::origin_of_line(int line) const {
+  if (line >= 1 && line < static_cast<int>(line_origin.size()) && line_origin[line].line > 0) return line_origin[line];
+  return SourceLine{path, 0};
+}
 
 Preprocessed preprocess_file(const std::string& path) {
   const auto text = read_text_file(path);

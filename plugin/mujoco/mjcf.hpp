@@ -60,10 +60,20 @@ struct RodDecl {
   std::vector<std::string> proxies;   // proxy body names, one per section
 };
 
+// Where a line of the generated MJCF comes from in the user's files.
+struct SourceLine {
+  std::string file;
+  int line = 0;
+};
+
 struct Preprocessed {
   std::string xml;                    // MJCF for mj_loadXML, <include>s expanded
   std::string path;                   // the original file (for relative asset paths)
   std::vector<RodDecl> rods;
+  std::vector<SourceLine> line_origin;  // per line of `xml` (1-based): the element's origin
+                                        // (generated elements: their <cosserat>'s)
+  // MuJoCo's compiler names lines of `xml` ("line = N"): the user's file:line for line N.
+  SourceLine origin_of_line(int line) const;
 };
 
 // Reads `path`, expands <include file=...> recursively (relative to the including file), and

@@ -28,9 +28,29 @@ using Mat3r = Eigen::Matrix<double, 3, 3, Eigen::RowMajor>;  // MuJoCo's xmat la
 
 // ---------------------------------------------------------------------------------- loading --
 
-mjModel* compile_xml(const std::string& xml, const std::string& path) {
+// MuJoCo's compiler error, located in the user's file: its "line = N" refers to the generated
+// MJCF; Preprocessed maps that back to the element's origin.
+LoadError mujoco_error(const Preprocessed& pre, const std::string& error) {
+  std::string msg = error;
+  const size_t nl = msg.find('\n');
+  std::string first = msg.substr(0, nl);
+  if (first.rfind("Error: ", 0) == 0) first = first.substr(7);
+  int line = 0;
+  if (const size_t at = msg.find("line = "); at != std::string::npos) line = std::atoi(msg.c_str() + at + 7);
+  std::string object;
+  if (const size_t at = msg.find("Object name = "); at != std::string::npos) {
+    object = msg.substr(at + 14);
+    object = object.substr(0, object.find(','));
+  }
+  const SourceLine where = pre.origin_of_line(line);
+  return LoadError(where.file, where.line, "MuJoCo: " + first + (object.empty() ? "" : " (object '" + object + "')"));
+}
+
+mjModel* compile_xml(const Preprocessed& pre) {
   // MuJoCo 2.2 reads files; a VFS entry named after the original file keeps its directory as the
   // model directory for relative asset paths.
+  const std::string& xml = pre.xml;
+  const std::string& path = pre.path;
   auto vfs = std::make_unique<mjVFS>();  // about 2 MB: not on the stack
   mj_defaultVFS(vfs.get());
   const int err = mj_makeEmptyFileVFS(vfs.get(), path.c_str(), static_cast<int>(xml.size()));
@@ -39,7 +59,7 @@ mjModel* compile_xml(const std::string& xml, const std::string& path) {
   char error[1024] = "";
   mjModel* m = mj_loadXML(path.c_str(), vfs.get(), error, sizeof(error));
   mj_deleteVFS(vfs.get());
-  if (!m) throw LoadError(path, 0, std::string("MuJoCo: ") + error);
+  if (!m) throw mujoco_error(pre, error);
   return m;
 }
 
@@ -658,7 +678,7 @@ namespace {
 std::unique_ptr<Scene> compile(const Preprocessed& pre) {
   auto s = std::make_unique<Scene>();
   s->path = pre.path;
-  s->m = compile_xml(pre.xml, pre.path);
+  s->m = compile_xml(pre);
   for (const auto& decl : pre.rods) s->rods.push_back(bind_rod(s->m, decl));
   std::sort(s->rods.begin(), s->rods.end(),
             [](const RodBinding& a, const RodBinding& b) { return a.base_body < b.base_body; });

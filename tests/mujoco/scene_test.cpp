@@ -92,6 +92,41 @@ TEST(Scene, RecomputedInvweight0EqualsMujocosOnRigidScene) {
   for (int i = 0; i < m->ntendon; ++i) EXPECT_NEAR(m->tendon_invweight0[i], ten[i], 1e-10 * (1 + ten[i])) << i;
 }
 
+// MuJoCo's own compiler errors name lines of the generated MJCF; the user must see their file and
+// line, also inside included files and around <cosserat> elements.
+TEST(Scene, MujocoCompileErrorsPointAtTheUsersFileAndLine) {
+  const std::string dir = "/tmp/cosserat_scene_test_include";
+  std::system(("mkdir -p " + dir).c_str());
+  {
+    FILE* f = std::fopen((dir + "/part.xml").c_str(), "w");
+    std::fputs("<mujoco>\n<worldbody>\n<body name=\"b\">\n<joint type=\"hinge\" range=\"0 1\"/>\n"
+               "<geom size=\"0.1\"/>\n</body>\n</worldbody>\n</mujoco>\n", f);
+    std::fclose(f);
+  }
+  const std::string main_xml =
+      "<mujoco>\n<worldbody>\n<cosserat name=\"rod\" length=\"0.3\" sections=\"3\"/>\n</worldbody>\n"
+      "<include file=\"part.xml\"/>\n</mujoco>\n";
+  try {
+    load_scene_string(main_xml, dir + "/main.xml");
+    ADD_FAILURE() << "no error";
+  } catch (const LoadError& e) {
+    EXPECT_EQ(e.file, dir + "/part.xml") << e.what();
+    EXPECT_EQ(e.line, 4) << e.what();
+    EXPECT_NE(e.message.find("range"), std::string::npos) << e.what();
+  }
+  // an error in the main file after a rod (whose generated bodies add many lines)
+  const std::string bad =
+      "<mujoco>\n<worldbody>\n<cosserat name=\"rod\" length=\"0.3\" sections=\"5\"/>\n"
+      "<body name=\"c\">\n<joint type=\"slide\" range=\"0 1\"/>\n<geom size=\"0.1\"/>\n</body>\n"
+      "</worldbody>\n</mujoco>\n";
+  try {
+    load_scene_string(bad, dir + "/bad.xml");
+    ADD_FAILURE() << "no error";
+  } catch (const LoadError& e) {
+    EXPECT_EQ(e.line, 5) << e.what();
+  }
+}
+
 // ---- soft-rigid trees: MuJoCo-coupled against the standalone core --------------------------
 
 const char* kArm = R"(<mujoco>

@@ -1,0 +1,432 @@
+// Static equilibrium and linearisation of a coupled scene (see scene_statics.hpp). Mirrors the
+// core's statics.cpp (Newton, backtracking, load continuation) and linearize.cpp, with the forces
+// taken from the staged MuJoCo pipeline of scene.cpp.
+#include "scene_statics.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+#include <Eigen/Eigenvalues>
+#include <Eigen/LU>
+#include <Eigen/QR>
+
+namespace cosserat::mj {
+
+namespace {
+
+using Eigen::MatrixXd;
+using Eigen::VectorXd;
+
+// Steady state of an actuator's activation under a constant control: filters and muscles settle
+// at act = ctrl; integrators keep their activation. MuJoCo 2.2 puts stateful actuators last.
+void settle_activations(const mjModel* m, mjData* d) {
+  for (int i = m->nu - m->na; i < m->nu; ++i) {
+    const int t = m->actuator_dyntype[i];
+    if (t == mjDYN_FILTER || t == mjDYN_MUSCLE) d->act[i - (m->nu - m->na)] = d->ctrl[i];
+  }
+}
+
+// The static problem of one scene: the loads as the user set them (scaled by the load factor at
+// every evaluation and restored on destruction) and evaluations of the smooth force at rest.
+class StaticProblem {
+ public:
+  StaticProblem(const Scene& s, SceneData& sd)
+      : s_(s), sd_(sd), m_(s.m), d_(sd.d),
+        gravity_(m_->opt.gravity, m_->opt.gravity + 3),
+        ctrl_(d_->ctrl, d_->ctrl + m_->nu),
+        qfrc_applied_(d_->qfrc_applied, d_->qfrc_applied + m_->nv),
+        xfrc_applied_(d_->xfrc_applied, d_->xfrc_applied + 6 * m_->nbody) {}
+  StaticProblem(const StaticProblem&) = delete;
+  StaticProblem& operator=(const StaticProblem&) = delete;
+  ~StaticProblem() { set_loads(1.0); }
+
+  int nv() const { return m_->nv; }
+
+  // Loads at factor lambda: gravity, controls, applied generalised forces and body wrenches.
+  void set_loads(double lambda) {
+    for (int k = 0; k < 3; ++k) m_->opt.gravity[k] = lambda * gravity_[k];
+    for (int i = 0; i < m_->nu; ++i) d_->ctrl[i] = lambda * ctrl_[i];
+    for (int i = 0; i < m_->nv; ++i) d_->qfrc_applied[i] = lambda * qfrc_applied_[i];
+    for (int i = 0; i < 6 * m_->nbody; ++i) d_->xfrc_applied[i] = lambda * xfrc_applied_[i];
+    settle_activations(m_, d_);
+  }
+
+  // f = qfrc_smooth at the current qpos, at rest, under load factor lambda. Returns the scale.
+  double force(double lambda, VectorXd& f) {
+    set_loads(lambda);
+    mju_zero(d_->qvel, m_->nv);
+    fwd_position(s_, sd_);
+    fwd_velocity(s_, sd_);
+    mj_fwdActuation(m_, d_);
+    mj_fwdAcceleration(m_, d_);  // qfrc_smooth = passive - bias + applied + actuator + J^T xfrc
+    f = Eigen::Map<const VectorXd>(d_->qfrc_smooth, m_->nv);
+    const Eigen::Map<const VectorXd> passive(d_->qfrc_passive, m_->nv);
+    if (weight_scale_ < 0) weight_scale_ = weight_scale();
+    return std::max({passive.norm(), (f - passive).norm(), lambda * weight_scale_, 1e-300});
+  }
+
+  // Tangent stiffness -df/dq at lambda by central differences in the tangent space of qpos.
+  void stiffness(double lambda, MatrixXd& Kt) {
+    const int n = m_->nv;
+    Kt.resize(n, n);
+    VectorXd fp(n), fm(n), e = VectorXd::Zero(n);
+    const std::vector<mjtNum> q0 = qpos();
+    for (int j = 0; j < n; ++j) {
+      const double h = 1e-6 * std::max(1.0, std::abs(scalar_coordinate(q0, j)));
+      e(j) = 1.0;
+      move(q0, e, h);
+      force(lambda, fp);
+      move(q0, e, -h);
+      force(lambda, fm);
+      e(j) = 0.0;
+      Kt.col(j) = -(fp - fm) / (2.0 * h);
+    }
+    set_qpos(q0);
+  }
+
+  // Velocity derivative -df/dqvel at the current qpos (damping: rods' Kelvin-Voigt, joint and
+  // tendon damping, velocity-dependent actuators and fluid forces; Coriolis terms vanish at rest).
+  void damping(MatrixXd& D) {
+    const int n = m_->nv;
+    const double h = 1e-6;
+    D.resize(n, n);
+    set_loads(1.0);
+    mju_zero(d_->qvel, n);
+    fwd_position(s_, sd_);
+    auto force_at_velocity = [&](VectorXd& f) {
+      fwd_velocity(s_, sd_);
+      mj_fwdActuation(m_, d_);
+      mj_fwdAcceleration(m_, d_);
+      f = Eigen::Map<const VectorXd>(d_->qfrc_smooth, n);
+    };
+    VectorXd fp(n), fm(n);
+    for (int j = 0; j < n; ++j) {
+      d_->qvel[j] = h;
+      force_at_velocity(fp);
+      d_->qvel[j] = -h;
+      force_at_velocity(fm);
+      d_->qvel[j] = 0.0;
+      D.col(j) = -(fp - fm) / (2.0 * h);
+    }
+    fwd_velocity(s_, sd_);
+  }
+
+  // Actuation per unit control at the current state: Bu(:, k) = d qfrc_actuator / d ctrl_k
+  // (actuation is affine in ctrl at fixed qpos, with activations at their steady state).
+  MatrixXd actuation_matrix() {
+    const int n = m_->nv, nu = m_->nu;
+    MatrixXd Bu(n, nu);
+    set_loads(1.0);
+    mj_fwdActuation(m_, d_);
+    const VectorXd base = Eigen::Map<const VectorXd>(d_->qfrc_actuator, n);
+    for (int k = 0; k < nu; ++k) {
+      d_->ctrl[k] += 1.0;
+      settle_activations(m_, d_);
+      mj_fwdActuation(m_, d_);
+      Bu.col(k) = Eigen::Map<const VectorXd>(d_->qfrc_actuator, n) - base;
+      d_->ctrl[k] -= 1.0;
+    }
+    set_loads(1.0);
+    mj_fwdActuation(m_, d_);
+    return Bu;
+  }
+
+  std::vector<mjtNum> qpos() const { return std::vector<mjtNum>(d_->qpos, d_->qpos + m_->nq); }
+  void set_qpos(const std::vector<mjtNum>& q) { std::copy(q.begin(), q.end(), d_->qpos); }
+  // qpos = q0 (+) alpha dq, the tangent-space step (quaternions stay unit).
+  void move(const std::vector<mjtNum>& q0, const VectorXd& dq, double alpha) {
+    set_qpos(q0);
+    mj_integratePos(m_, d_->qpos, dq.data(), alpha);
+  }
+
+ private:
+  // qpos value of dof j when its joint is a hinge or slide (0 for ball joints).
+  double scalar_coordinate(const std::vector<mjtNum>& q, int j) const {
+    const int jnt = m_->dof_jntid[j];
+    const int t = m_->jnt_type[jnt];
+    return t == mjJNT_HINGE || t == mjJNT_SLIDE ? q[m_->jnt_qposadr[jnt]] : 0.0;
+  }
+
+  // A force scale that does not vanish at equilibrium (gravity's generalised force does, for a
+  // hanging pendulum): |g| sqrt(total mass * sum_j M_jj), the weight times a lever arm per dof.
+  // Needs the mass matrix of fwd_position.
+  double weight_scale() const {
+    double mass = s_.m->body_subtreemass[0], diag = 0.0;
+    for (const auto& rb : s_.rods)
+      for (const auto& node : rb.model.nodes) mass += node.inertia(3, 3);
+    for (int j = 0; j < m_->nv; ++j) diag += d_->qM[m_->dof_Madr[j]];
+    const bool gravity_on = !(m_->opt.disableflags & mjDSBL_GRAVITY);
+    return gravity_on ? mju_norm3(gravity_.data()) * std::sqrt(mass * diag) : 0.0;
+  }
+
+  const Scene& s_;
+  SceneData& sd_;
+  mjModel* m_;
+  mjData* d_;
+  std::vector<mjtNum> gravity_, ctrl_, qfrc_applied_, xfrc_applied_;  // the user's loads
+  double weight_scale_ = -1.0;  // computed at the first evaluation
+};
+
+// Candidate directions for Kt dq = f, tried in turn (k = 0, 1, ...) until one decreases |f|: the
+// plain Newton step; the minimum-norm step (Kt is singular in directions with neither stiffness nor
+// load, e.g. a ball joint's twist under gravity alone); then Levenberg-Marquardt steps
+// (Kt + mu I) dq = f with growing mu, which turn towards f itself (needed where Kt vanishes, as for
+// a horizontal pendulum).
+constexpr int kDirections = 2 + 7;
+VectorXd newton_direction(const MatrixXd& Kt, const VectorXd& f, int k) {
+  if (k == 0) return Eigen::PartialPivLU<MatrixXd>(Kt).solve(f);
+  if (k == 1) {
+    Eigen::CompleteOrthogonalDecomposition<MatrixXd> cod;
+    cod.setThreshold(1e-9);
+    return cod.compute(Kt).solve(f);
+  }
+  const double c = std::max({Kt.diagonal().cwiseAbs().maxCoeff(), f.norm(), 1e-12});
+  const double mu = 1e-6 * c * std::pow(100.0, k - 2);  // 1e-6 c ... 1e6 c
+  return (Kt + mu * MatrixXd::Identity(Kt.rows(), Kt.cols())).partialPivLu().solve(f);
+}
+
+// Newton with backtracking at a fixed load factor. Returns true on convergence.
+bool newton(StaticProblem& p, double lambda, const SceneStaticsOptions& opt, SceneStaticsResult& res) {
+  const int n = p.nv();
+  VectorXd f(n), ft(n);
+  MatrixXd Kt;
+  double scale = p.force(lambda, f);
+  for (int it = 0; it < opt.max_iterations; ++it) {
+    res.residual = f.norm() / scale;
+    res.scale = scale;
+    if (res.residual <= opt.tolerance) return true;
+    ++res.iterations;
+    p.stiffness(lambda, Kt);
+    const std::vector<mjtNum> q0 = p.qpos();
+    const double f0 = f.norm();
+    bool accepted = false;
+    for (int k = 0; k < kDirections && !accepted; ++k) {
+      const VectorXd dq = newton_direction(Kt, f, k);
+      if (!dq.allFinite()) continue;
+      double alpha = 1.0;
+      for (int ls = 0; ls < 30 && !accepted; ++ls, alpha *= 0.5) {
+        p.move(q0, dq, alpha);
+        const double st = p.force(lambda, ft);
+        if (ft.allFinite() && ft.norm() <= (1.0 - 1e-4 * alpha) * f0) {
+          f = ft;
+          scale = st;
+          accepted = true;
+        }
+      }
+    }
+    if (!accepted) {
+      p.set_qpos(q0);
+      // a residual already at round-off level cannot decrease further
+      res.residual = f0 / scale;
+      return res.residual <= 1e3 * opt.tolerance;
+    }
+  }
+  res.residual = f.norm() / scale;
+  return res.residual <= opt.tolerance;
+}
+
+// Newton with load continuation (statics.cpp's scheme). On failure qpos is the last good step.
+bool solve_smooth(StaticProblem& p, const SceneStaticsOptions& opt, SceneStaticsResult& res) {
+  double lam = 0.0, dlam = 1.0;
+  std::vector<mjtNum> q_good = p.qpos();
+  int halvings = 0;
+  while (lam < 1.0) {
+    const double target = std::min(1.0, lam + dlam);
+    if (newton(p, target, opt, res)) {
+      lam = target;
+      q_good = p.qpos();
+      ++res.load_steps;
+      dlam *= 2.0;
+    } else {
+      p.set_qpos(q_good);
+      dlam *= 0.5;
+      if (++halvings > opt.max_load_halvings) {
+        res.message = "no convergence: load continuation stalled at load factor " + std::to_string(lam);
+        return false;
+      }
+    }
+  }
+  res.message = "converged";
+  return true;
+}
+
+// Constraint rows that can carry load at rest (friction loss only resists motion: any smooth
+// equilibrium is also an equilibrium with it).
+int load_bearing_rows(const mjData* d) {
+  int n = 0;
+  for (int i = 0; i < d->nefc; ++i)
+    if (d->efc_type[i] != mjCNSTR_FRICTION_DOF && d->efc_type[i] != mjCNSTR_FRICTION_TENDON) ++n;
+  return n;
+}
+
+// The full residual at rest: |M qacc| = |qfrc_smooth + qfrc_constraint|, after forward().
+struct FullResidual {
+  double force = 0.0, constraint = 0.0, scale = 1e-300;
+};
+FullResidual full_residual(const Scene& s, SceneData& sd) {
+  const mjModel* m = s.m;
+  mjData* d = sd.d;
+  const int n = m->nv;
+  std::vector<mjtNum> Ma(n);
+  mj_mulM(m, d, Ma.data(), d->qacc);
+  const Eigen::Map<const VectorXd> passive(d->qfrc_passive, n), smooth(d->qfrc_smooth, n),
+      constraint(d->qfrc_constraint, n);
+  FullResidual r;
+  r.force = Eigen::Map<const VectorXd>(Ma.data(), n).norm();
+  r.constraint = constraint.norm();
+  r.scale = std::max({passive.norm(), (smooth - passive).norm(), r.constraint, 1e-300});
+  return r;
+}
+
+double kinetic_energy(const Scene& s, SceneData& sd) {
+  std::vector<mjtNum> Mv(s.m->nv);
+  mj_mulM(s.m, sd.d, Mv.data(), sd.d->qvel);
+  return 0.5 * mju_dot(Mv.data(), sd.d->qvel, s.m->nv);
+}
+
+// Dynamic relaxation with kinetic damping from qpos = q_start: the scene's own dynamics, with all
+// velocities zeroed whenever the kinetic energy passes a peak; converged when |M qacc| at rest is
+// below the tolerance. Contacts, limits and equality constraints take part exactly as in a run.
+bool relax(const Scene& s, SceneData& sd, const std::vector<mjtNum>& q_start, const SceneStaticsOptions& opt,
+           SceneStaticsResult& res) {
+  mjData* d = sd.d;
+  const double t0 = d->time, h = s.m->opt.timestep;
+  std::copy(q_start.begin(), q_start.end(), d->qpos);
+  mju_zero(d->qvel, s.m->nv);
+  settle_activations(s.m, d);
+  res.method = "dynamic relaxation";
+  res.iterations = 0;
+  res.message.clear();
+  const long max_steps = static_cast<long>(std::ceil(opt.relaxation_time / h));
+  double ke_prev = 0.0;
+  bool converged = false;
+  for (long k = 0; k < max_steps && !converged; ++k) {
+    if (step(s, sd) != Status::Ok) {
+      res.message = "dynamic relaxation diverged: " + sd.warning;
+      break;
+    }
+    ++res.iterations;
+    const double ke = kinetic_energy(s, sd);
+    if (ke < ke_prev || ke == 0.0) {  // past a peak (or at rest): stop, and test for equilibrium
+      mju_zero(d->qvel, s.m->nv);
+      forward(s, sd);
+      const FullResidual r = full_residual(s, sd);
+      res.residual = r.force / r.scale;
+      res.scale = r.scale;
+      converged = res.residual <= opt.relaxation_tolerance;
+      ke_prev = 0.0;
+    } else {
+      ke_prev = ke;
+    }
+  }
+  d->time = t0;
+  mju_zero(d->qvel, s.m->nv);
+  if (!converged && res.message.empty())
+    res.message = "dynamic relaxation did not settle within " + std::to_string(opt.relaxation_time) +
+                  " s of simulated time (residual " + std::to_string(res.residual) + ")";
+  return converged;
+}
+
+}  // namespace
+
+double static_force(const Scene& s, SceneData& sd, double lambda, VectorXd& f) {
+  StaticProblem p(s, sd);
+  return p.force(lambda, f);
+}
+
+void tangent_stiffness(const Scene& s, SceneData& sd, double lambda, MatrixXd& Kt) {
+  StaticProblem p(s, sd);
+  p.stiffness(lambda, Kt);
+}
+
+SceneStaticsResult equilibrium(const Scene& s, SceneData& sd, const SceneStaticsOptions& opt) {
+  const mjModel* m = s.m;
+  mjData* d = sd.d;
+  SceneStaticsResult res;
+  for (int j = 0; j < m->njnt; ++j)
+    if (m->jnt_type[j] == mjJNT_FREE) {
+      res.message = "a free-floating body has no static equilibrium";
+      mju_zero(d->qvel, m->nv);
+      forward(s, sd);
+      return res;
+    }
+  const std::vector<mjtNum> q_start(d->qpos, d->qpos + m->nq);
+  {
+    StaticProblem p(s, sd);
+    res.converged = solve_smooth(p, opt, res);
+  }
+  // the smooth solution ignores constraint forces: check that none is needed there
+  mju_zero(d->qvel, m->nv);
+  forward(s, sd);
+  const FullResidual r = full_residual(s, sd);
+  res.constraint_rows = load_bearing_rows(d);
+  const bool constrained = res.constraint_rows > 0 && r.constraint > std::max(1e-8, 100 * opt.tolerance) * r.scale;
+  if (res.converged && !constrained) return res;
+  const std::string why = constrained ? std::to_string(res.constraint_rows) +
+                                            " constraint rows (contacts, limits, equalities) carry load at the "
+                                            "smooth equilibrium, which ignores them"
+                                      : "Newton failed (" + res.message + ")";
+  res.converged = false;
+  if (!opt.relaxation) {
+    res.message = why;
+    return res;
+  }
+  res.converged = relax(s, sd, q_start, opt, res);
+  res.message = (res.converged ? "" : res.message + "; ") + "relaxation used because " + why;
+  forward(s, sd);
+  res.constraint_rows = load_bearing_rows(d);
+  return res;
+}
+
+SceneLinearization linearize(const Scene& s, SceneData& sd) {
+  const mjModel* m = s.m;
+  const int n = m->nv, nu = m->nu;
+  SceneLinearization L;
+  if (n == 0) {  // nothing moves
+    L.M = L.D = L.Kt = MatrixXd(0, 0);
+    L.Bu = L.B = MatrixXd(0, nu);
+    L.A = MatrixXd(0, 0);
+    return L;
+  }
+  StaticProblem p(s, sd);
+  p.stiffness(1.0, L.Kt);
+  p.damping(L.D);  // leaves the stages evaluated at the current qpos, at rest
+  L.M.resize(n, n);
+  std::vector<mjtNum> full(static_cast<size_t>(n) * n);
+  mj_fullM(m, full.data(), sd.d->qM);
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < n; ++j) L.M(i, j) = full[static_cast<size_t>(i) * n + j];
+  L.Bu = p.actuation_matrix();
+
+  Eigen::PartialPivLU<MatrixXd> lu(L.M);
+  L.A = MatrixXd::Zero(2 * n, 2 * n);
+  L.A.topRightCorner(n, n).setIdentity();
+  L.A.bottomLeftCorner(n, n) = -lu.solve(L.Kt);
+  L.A.bottomRightCorner(n, n) = -lu.solve(L.D);
+  L.B = MatrixXd::Zero(2 * n, nu);
+  L.B.bottomRows(n) = lu.solve(L.Bu);
+
+  // Kt is symmetric for conservative loads; follower loads make it slightly unsymmetric.
+  const MatrixXd Ks = 0.5 * (L.Kt + L.Kt.transpose());
+  std::vector<double> w2;
+  L.frequencies_hz.resize(n);
+  if ((L.Kt - Ks).norm() <= 1e-6 * Ks.norm()) {
+    Eigen::GeneralizedSelfAdjointEigenSolver<MatrixXd> es(Ks, L.M);  // ascending, x^T M x = 1
+    L.damping_ratios.resize(n);
+    for (int i = 0; i < n; ++i) {
+      const double w = std::sqrt(std::max(es.eigenvalues()(i), 0.0));
+      const VectorXd x = es.eigenvectors().col(i);
+      L.frequencies_hz(i) = w / (2.0 * M_PI);
+      L.damping_ratios(i) = w > 0 ? x.dot(L.D * x) / (2.0 * w) : std::nan("");
+    }
+  } else {
+    Eigen::EigenSolver<MatrixXd> es(lu.solve(L.Kt));
+    for (int i = 0; i < n; ++i) w2.push_back(es.eigenvalues()(i).real());
+    std::sort(w2.begin(), w2.end());
+    for (int i = 0; i < n; ++i) L.frequencies_hz(i) = std::sqrt(std::max(w2[i], 0.0)) / (2.0 * M_PI);
+  }
+  return L;
+}
+
+}  // namespace cosserat::mj

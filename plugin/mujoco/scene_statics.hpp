@@ -1,0 +1,75 @@
+// Static equilibrium and linearisation of a coupled scene (the MuJoCo counterpart of the core's
+// statics.hpp and linearize.hpp).
+//
+// Equilibrium solves, at rest (qvel = 0), for qpos such that the smooth generalised force vanishes:
+//     f(q) = qfrc_passive + qfrc_actuator + qfrc_applied + J^T xfrc_applied - qfrc_bias = 0,
+// i.e. MuJoCo's qfrc_smooth, with the rods' elastic forces in qfrc_passive and their gravity in
+// qfrc_bias. Newton's method with a central finite-difference tangent stiffness in the tangent
+// space of qpos (ball joints are perturbed with mj_integratePos), a backtracking line search, and
+// load continuation on a factor lambda that scales gravity, controls and applied forces together.
+// Free joints are refused: a free-floating body has no static equilibrium.
+//
+// The smooth residual ignores constraint forces. When contacts, limits or equality constraints
+// carry load at the smooth solution (or the smooth solve fails while constraint rows exist), the
+// solver falls back to dynamic relaxation: the scene's own dynamics from the initial state with
+// kinetic damping (velocities are zeroed at every peak of kinetic energy) until the full residual
+// |M qacc| at rest (smooth plus constraint forces) is small. The result says which method
+// produced it.
+#pragma once
+
+#include <string>
+
+#include <Eigen/Core>
+
+#include "scene.hpp"
+
+namespace cosserat::mj {
+
+struct SceneStaticsOptions {
+  int max_iterations = 50;       // Newton iterations per load step
+  double tolerance = 1e-10;      // on |f| relative to the force scale (see SceneStaticsResult)
+  int max_load_halvings = 12;    // continuation: smallest load increment 2^-12
+  bool relaxation = true;        // fall back to dynamic relaxation when constraints carry load
+  double relaxation_tolerance = 1e-6;  // the relaxation's (looser) target on the full residual
+  double relaxation_time = 30.0;       // [s] of simulated time before the relaxation gives up
+};
+
+struct SceneStaticsResult {
+  bool converged = false;
+  std::string method = "newton";  // "newton" or "dynamic relaxation"
+  int iterations = 0;     // Newton iterations in total (relaxation: time steps)
+  int load_steps = 0;     // continuation steps taken (1: solved directly)
+  double residual = 0.0;  // |f| / scale at the end (relaxation: |M qacc| / scale)
+  double scale = 0.0;     // force scale: max(|qfrc_passive|, |loads|, |qfrc_constraint|)
+  int constraint_rows = 0;  // active constraint rows (contacts, limits, equalities) at the end
+  std::string message;
+};
+
+// The load continuation scales s.m->opt.gravity while solving (restored on return): do not share
+// the Scene with another thread during these calls.
+//
+// Solves for sd.d->qpos in place; qvel = 0 and the stages are evaluated at the result (positions
+// in xpos/site_xpos are current). Actuators with filter or muscle dynamics are put at their steady
+// state act = ctrl. On failure qpos holds the last converged load step (Newton).
+SceneStaticsResult equilibrium(const Scene& s, SceneData& sd, const SceneStaticsOptions& opt = {});
+
+// The smooth generalised force f(q) at rest under load factor lambda (gravity, ctrl, qfrc_applied
+// and xfrc_applied scaled by lambda, restored afterwards). Returns the force scale.
+double static_force(const Scene& s, SceneData& sd, double lambda, Eigen::VectorXd& f);
+
+// Tangent stiffness Kt = -df/dq (nv x nv, tangent space) by central differences at lambda.
+void tangent_stiffness(const Scene& s, SceneData& sd, double lambda, Eigen::MatrixXd& Kt);
+
+// Linearisation at the current qpos (call equilibrium() first), qvel = 0 and the current ctrl:
+//   M dqacc + D dqvel + Kt dq = Bu dctrl,   x = [dq; dqvel],   x_dot = A x + B dctrl.
+// M is the patched mass matrix (rods included), D the rods' Kelvin-Voigt damping plus joint and
+// tendon damping, Kt the tangent stiffness (constraint forces are not linearised).
+struct SceneLinearization {
+  Eigen::MatrixXd M, D, Kt, Bu, A, B;
+  Eigen::VectorXd frequencies_hz;  // undamped natural frequencies from Kt x = w^2 M x, ascending
+  Eigen::VectorXd damping_ratios;  // modal damping x^T D x / (2 w x^T M x) of those modes (NaN
+                                   // for w = 0); empty when Kt is not symmetric
+};
+SceneLinearization linearize(const Scene& s, SceneData& sd);
+
+}  // namespace cosserat::mj

@@ -1,0 +1,223 @@
+// The `cosserat` command-line tool (apps/cosserat.cpp) against DESIGN.md section 8: runs the built
+// binary (build/cosserat, next to the build/tests directory holding this test) and checks exit
+// statuses, messages, the CSV layout and the JSON reports.
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+namespace {
+
+const std::string kCantilever = COSSERAT_SOURCE_DIR "/models/cantilever.xml";
+
+fs::path tool() { return fs::read_symlink("/proc/self/exe").parent_path().parent_path() / "cosserat"; }
+
+std::string read(const fs::path& p) {
+  std::ifstream f(p);
+  std::stringstream s;
+  s << f.rdbuf();
+  return s.str();
+}
+
+// A scratch directory per test.
+fs::path scratch() {
+  const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+  const fs::path dir = fs::temp_directory_path() / ("cosserat_cli_" + std::to_string(getpid()) + "_" + info->name());
+  fs::create_directories(dir);
+  return dir;
+}
+
+struct Result {
+  int status = -1;
+  std::string out, err;
+};
+
+// Runs `cosserat <args>` with stdout and stderr captured.
+Result cosserat(const std::string& args) {
+  const fs::path dir = scratch();
+  const fs::path out = dir / "stdout.txt", err = dir / "stderr.txt";
+  const std::string cmd = "'" + tool().string() + "' " + args + " > '" + out.string() + "' 2> '" + err.string() + "'";
+  const int raw = std::system(cmd.c_str());
+  Result r;
+  r.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
+  r.out = read(out);
+  r.err = read(err);
+  return r;
+}
+
+std::vector<std::string> lines(const std::string& text) {
+  std::vector<std::string> v;
+  std::istringstream s(text);
+  for (std::string l; std::getline(s, l);) v.push_back(l);
+  return v;
+}
+
+class Cli : public ::testing::Test {
+ protected:
+  void SetUp() override { ASSERT_TRUE(fs::exists(tool())) << "build the cosserat tool first: " << tool(); }
+};
+
+TEST_F(Cli, CheckPrintsSummary) {
+  const Result r = cosserat("check '" + kCantilever + "'");
+  EXPECT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.out.find("nv: 32"), std::string::npos) << r.out;  // 8 Kirchhoff-Love sections
+  EXPECT_NE(r.out.find("beam: 8 sections, 32 strain dofs"), std::string::npos) << r.out;
+  EXPECT_TRUE(r.err.empty()) << r.err;
+}
+
+TEST_F(Cli, CheckBadModelReportsFileAndLine) {
+  const fs::path bad = scratch() / "bad.xml";
+  std::ofstream(bad) << "<mujoco>\n  <worldbody>\n    <cosserat name=\"r\" length=\"-0.3\"/>\n  </worldbody>\n</mujoco>\n";
+  const Result r = cosserat("check '" + bad.string() + "'");
+  EXPECT_EQ(r.status, 1);
+  EXPECT_EQ(r.err.rfind(bad.string() + ":3: ", 0), 0u) << r.err;
+  EXPECT_EQ(lines(r.err).size(), 1u) << r.err;
+}
+
+TEST_F(Cli, BadCommandLinesExitOneWithOneLineReason) {
+  for (const std::string args : {"run '" + kCantilever + "' --bogus", "run '" + kCantilever + "' --duration",
+                                 "run '" + kCantilever + "' --duration abc", "run '" + kCantilever + "' --every 0",
+                                 "run '" + kCantilever + "' --integrator foo", std::string("run"),
+                                 std::string("frobnicate"), std::string("check /nonexistent/model.xml")}) {
+    const Result r = cosserat(args);
+    EXPECT_EQ(r.status, 1) << args;
+    EXPECT_EQ(lines(r.err).size(), 1u) << args << ": " << r.err;
+  }
+}
+
+TEST_F(Cli, EveryCommandHasHelp) {
+  for (const char* c : {"check", "run", "equilibrium", "linearize", "compare", "demo"}) {
+    const Result r = cosserat(std::string(c) + " --help");
+    EXPECT_EQ(r.status, 0) << c;
+    EXPECT_EQ(r.out.rfind(std::string("usage: cosserat ") + c, 0), 0u) << r.out;
+  }
+}
+
+TEST_F(Cli, RunWritesCsvWithExactHeaderAndRows) {
+  const fs::path csv = scratch() / "run.csv";
+  const Result r = cosserat("run '" + kCantilever + "' --duration 0.05 --every 10 --csv '" + csv.string() + "'");
+  ASSERT_EQ(r.status, 0) << r.err;
+  const auto rows = lines(read(csv));
+  ASSERT_EQ(rows.size(), 1u + 6u);  // header, steps 0, 10, ..., 50
+  EXPECT_EQ(rows[0],
+            "time,energy,beam/base.x,beam/base.y,beam/base.z,beam_mid.x,beam_mid.y,beam_mid.z,"
+            "beam/tip.x,beam/tip.y,beam/tip.z,weight.x,weight.y,weight.z,weight.x,weight.y,weight.z");
+  EXPECT_EQ(rows[1].rfind("0,", 0), 0u) << rows[1];
+  EXPECT_NEAR(std::stod(rows.back()), 0.05, 1e-9);
+  // the tip starts at (0.5, 0, 1) and drops
+  std::vector<double> first, last;
+  for (auto* v : {&first, &last}) {
+    std::istringstream s(v == &first ? rows[1] : rows.back());
+    for (std::string c; std::getline(s, c, ',');) v->push_back(std::stod(c));
+  }
+  ASSERT_EQ(first.size(), 17u);
+  EXPECT_DOUBLE_EQ(first[8], 0.5);
+  EXPECT_DOUBLE_EQ(first[10], 1.0);
+  EXPECT_LT(last[10], 1.0);
+  EXPECT_TRUE(std::isfinite(last[1]));
+}
+
+TEST_F(Cli, RunJsonHasRequiredKeys) {
+  const fs::path out = scratch() / "run.json";
+  const Result r = cosserat("run '" + kCantilever + "' --duration 0.01 --integrator rk4 --timestep 0.0001 --json '" +
+                            out.string() + "'");
+  ASSERT_EQ(r.status, 0) << r.err;
+  const json j = json::parse(read(out));
+  for (const char* k : {"steps", "sim_time", "wall_time", "energy", "sites", "bodies", "diverged", "warnings"})
+    EXPECT_TRUE(j.contains(k)) << k;
+  for (const char* k : {"initial", "final", "max_rel_drift"}) EXPECT_TRUE(j["energy"].contains(k)) << k;
+  EXPECT_EQ(j["steps"], 100);
+  EXPECT_NEAR(j["sim_time"].get<double>(), 0.01, 1e-12);
+  EXPECT_EQ(j["diverged"], false);
+  EXPECT_EQ(j["sites"]["beam/tip"].size(), 3u);
+  EXPECT_EQ(j["bodies"]["weight"].size(), 3u);
+  EXPECT_FALSE(j["bodies"].contains("beam/s0"));  // generated proxies are reported through rod sites
+  EXPECT_LT(j["energy"]["max_rel_drift"].get<double>(), 1e-3);  // rk4, no damping
+}
+
+TEST_F(Cli, CompareModelWithItselfHasZeroDeviation) {
+  const fs::path out = scratch() / "compare.json";
+  const Result r = cosserat("compare '" + kCantilever + "' '" + kCantilever + "' --duration 0.02 --json '" + out.string() + "'");
+  ASSERT_EQ(r.status, 0) << r.err;
+  const json j = json::parse(read(out));
+  ASSERT_TRUE(j["sites"].contains("beam/tip"));
+  ASSERT_TRUE(j["bodies"].contains("weight"));
+  for (const char* kind : {"sites", "bodies"})
+    for (const auto& [name, dev] : j[kind].items()) {
+      EXPECT_EQ(dev["max"].get<double>(), 0.0) << name;
+      EXPECT_EQ(dev["rms"].get<double>(), 0.0) << name;
+    }
+  EXPECT_TRUE(j["swimming_speed"]["a"].empty());  // no free bodies
+}
+
+TEST_F(Cli, EquilibriumAndLinearizeJson) {
+  const fs::path eq = scratch() / "eq.json", lin = scratch() / "lin.json";
+  Result r = cosserat("equilibrium '" + kCantilever + "' --json '" + eq.string() + "'");
+  ASSERT_EQ(r.status, 0) << r.err;
+  const json je = json::parse(read(eq));
+  EXPECT_EQ(je["converged"], true);
+  EXPECT_LE(je["residual"].get<double>(), 1e-10);
+  EXPECT_GT(je["iterations"].get<int>(), 0);
+  EXPECT_NEAR(je["sites"]["beam/tip"][2].get<double>(), 0.9427, 1e-3);
+  EXPECT_TRUE(je["bodies"].contains("weight"));
+
+  r = cosserat("linearize '" + kCantilever + "' --json '" + lin.string() + "'");
+  ASSERT_EQ(r.status, 0) << r.err;
+  const json jl = json::parse(read(lin));
+  const auto f = jl["frequencies_hz"].get<std::vector<double>>();
+  ASSERT_EQ(f.size(), 32u);
+  EXPECT_TRUE(std::is_sorted(f.begin(), f.end()));
+  EXPECT_NEAR(f[0], 2.28, 0.05);
+}
+
+// A hinge spring and a motor against gravity: k theta + m g l cos(theta) = u, with u from a
+// keyframe or from --ctrl (which wins).
+TEST_F(Cli, EquilibriumWithKeyframeAndControls) {
+  const fs::path m = scratch() / "motor.xml";
+  std::ofstream(m) << R"(<mujoco><worldbody><body name="arm"><joint name="h" type="hinge" axis="0 -1 0" stiffness="2"/>
+    <geom type="sphere" pos="0.25 0 0" size="0.02" mass="0.5"/><site name="end" pos="0.25 0 0"/></body></worldbody>
+    <actuator><motor joint="h" gear="1"/></actuator><keyframe><key name="up" ctrl="0.7"/></keyframe></mujoco>)";
+  auto theta = [](double u) {  // scalar Newton on k theta + m g l cos(theta) - u
+    const double k = 2.0, mgl = 0.5 * 9.81 * 0.25;
+    double th = 0.0;
+    for (int i = 0; i < 50; ++i) th -= (k * th + mgl * std::cos(th) - u) / (k - mgl * std::sin(th));
+    return th;
+  };
+  const fs::path out = scratch() / "eq.json";
+  for (const auto& [args, u] : {std::pair<std::string, double>{"--key up", 0.7}, {"--key 0 --ctrl=1.2", 1.2}, {"", 0.0}}) {
+    const Result r = cosserat("equilibrium '" + m.string() + "' " + args + " --json '" + out.string() + "'");
+    ASSERT_EQ(r.status, 0) << args << ": " << r.err;
+    const json j = json::parse(read(out));
+    EXPECT_NEAR(j["sites"]["end"][2].get<double>(), 0.25 * std::sin(theta(u)), 1e-9) << args;
+  }
+  EXPECT_EQ(cosserat("equilibrium '" + m.string() + "' --ctrl 1,2").status, 1);
+  EXPECT_EQ(cosserat("equilibrium '" + m.string() + "' --key nope").status, 1);
+}
+
+TEST_F(Cli, EquilibriumRefusesFreeBodies) {
+  const fs::path m = scratch() / "free.xml";
+  std::ofstream(m) << "<mujoco><worldbody><body name=\"b\"><freejoint/><geom size=\"0.1\"/></body></worldbody></mujoco>\n";
+  const Result r = cosserat("equilibrium '" + m.string() + "'");
+  EXPECT_EQ(r.status, 1);
+  EXPECT_NE(r.err.find("a free-floating body has no static equilibrium"), std::string::npos) << r.err;
+}
+
+TEST_F(Cli, DemoStillWorks) {
+  const fs::path dir = scratch() / "demo";
+  const Result r = cosserat("demo --duration 0.02 --out '" + dir.string() + "'");
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_EQ(lines(read(dir / "demo.csv")).size(), 22u);  // header + steps 0..20
+}
+
+}  // namespace

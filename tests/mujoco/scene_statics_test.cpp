@@ -1,0 +1,217 @@
+// Static equilibrium and linearisation of coupled scenes (plugin/mujoco/scene_statics.cpp) against
+// the standalone core's statics, Euler-Bernoulli beam theory and closed-form rigid equilibria.
+#include "scene_statics.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <string>
+
+#include "linearize.hpp"
+#include "statics.hpp"
+
+using namespace cosserat;
+using namespace cosserat::mj;
+
+namespace {
+
+const char* kPath = "/tmp/cosserat_scene_statics_test.xml";
+
+int site(const Scene& s, const char* name) { return mj_name2id(s.m, mjOBJ_SITE, name); }
+int body(const Scene& s, const char* name) { return mj_name2id(s.m, mjOBJ_BODY, name); }
+Vec3 site_pos(const Scene& s, const SceneData& sd, const char* name) {
+  return Eigen::Map<const Vec3>(sd.d->site_xpos + 3 * site(s, name));
+}
+Vec3 body_pos(const Scene& s, const SceneData& sd, const char* name) {
+  return Eigen::Map<const Vec3>(sd.d->xpos + 3 * body(s, name));
+}
+
+// models/cantilever.xml rebuilt with the core API: the same rod and tip weight.
+Model core_cantilever() {
+  Model m;
+  RodSpec spec;
+  spec.name = "beam";
+  spec.length = 0.5;
+  spec.radius_base = 0.01;
+  spec.sections = 8;
+  spec.section.dofs = *strain_mask_from_name("kl");
+  spec.section.material = RodMaterial{1000.0, 1e8, 0.5, 0.0};
+  SE3 place;
+  place.u = Vec3(0, 0, 1);
+  const int r = m.add_rod(-1, place, spec);
+  m.add_body(m.rods[r].tip_node, 0.05, Vec3(0.02, 0, 0), 0.4 * 0.05 * 0.02 * 0.02 * Mat3::Identity());
+  m.gravity = Vec3(0, 0, -9.81);
+  m.finalize();
+  return m;
+}
+
+TEST(SceneStatics, CantileverMatchesCoreStatics) {
+  auto s = load_scene(COSSERAT_SOURCE_DIR "/models/cantilever.xml");
+  SceneData sd(*s);
+  const SceneStaticsResult res = equilibrium(*s, sd);
+  ASSERT_TRUE(res.converged) << res.message;
+  EXPECT_EQ(res.method, "newton");
+  EXPECT_LE(res.residual, 1e-10);
+  EXPECT_GT(res.iterations, 0);
+
+  const Model cm = core_cantilever();
+  Data cd(cm);
+  const StaticsResult cres = cosserat::equilibrium(cm, cd);
+  ASSERT_TRUE(cres.converged) << cres.message;
+
+  const RodBinding& rb = s->rods[0];
+  ASSERT_EQ(rb.model.nv, cm.nv);
+  double dq = 0.0;
+  for (int k = 0; k < cm.nv; ++k) dq = std::max(dq, std::abs(sd.d->qpos[rb.qpos0 + k] - cd.q(k)));
+  EXPECT_LE(dq, 1e-8) << "max strain difference";
+
+  const SE3& tip = cd.g[cm.rods[0].tip_node];
+  EXPECT_LE((site_pos(*s, sd, "beam/tip") - tip.u).norm(), 1e-9);
+  EXPECT_LE((body_pos(*s, sd, "weight") - tip.act(Vec3(0.02, 0, 0))).norm(), 1e-9);
+  // the tip drops by about the small-deflection estimate of the model's comment (0.057 m)
+  EXPECT_NEAR(1.0 - site_pos(*s, sd, "beam/tip").z(), 0.057, 0.01);
+  // the loads are the user's again, and the scene is at rest
+  EXPECT_EQ(s->m->opt.gravity[2], -9.81);
+  for (int i = 0; i < s->m->nv; ++i) EXPECT_EQ(sd.d->qvel[i], 0.0);
+}
+
+// A slender clamped rod bending in one plane, gravity off: the natural frequencies of the first
+// three modes are Euler-Bernoulli's (beta L)^2 / (2 pi L^2) sqrt(EI / (rho A)).
+TEST(SceneStatics, ClampedRodFrequenciesMatchEulerBernoulli) {
+  const double L = 1.0, r = 0.005, E = 1e9, rho = 1000.0;
+  const std::string xml = R"(<mujoco><option gravity="0 0 0"/><worldbody>
+    <cosserat name="b" length="1" sections="24" dofs="0 0 1 0 0 0" radius="0.005" density="1000"
+              young="1e9" poisson="0.5"/></worldbody></mujoco>)";
+  auto s = load_scene_string(xml, kPath);
+  SceneData sd(*s);
+  const SceneStaticsResult res = equilibrium(*s, sd);
+  ASSERT_TRUE(res.converged) << res.message;
+  const SceneLinearization lin = linearize(*s, sd);
+  const double EI = E * M_PI * std::pow(r, 4) / 4.0, rhoA = rho * M_PI * r * r;
+  const double betaL[3] = {1.87510407, 4.69409113, 7.85475744};
+  ASSERT_GE(lin.frequencies_hz.size(), 3);
+  for (int i = 0; i < 3; ++i) {
+    const double f = betaL[i] * betaL[i] / (2.0 * M_PI * L * L) * std::sqrt(EI / rhoA);
+    EXPECT_NEAR(lin.frequencies_hz(i) / f, 1.0, 0.01) << "mode " << i + 1 << ": " << lin.frequencies_hz(i) << " Hz vs " << f;
+  }
+  for (int i = 1; i < lin.frequencies_hz.size(); ++i) EXPECT_GE(lin.frequencies_hz(i), lin.frequencies_hz(i - 1));
+}
+
+// The scene's linearisation of the cantilever agrees with the core's, and its damping is the
+// rod's Kelvin-Voigt matrix plus MuJoCo's joint damping.
+TEST(SceneStatics, LinearizationMatchesCore) {
+  auto s = load_scene(COSSERAT_SOURCE_DIR "/models/cantilever.xml");
+  SceneData sd(*s);
+  ASSERT_TRUE(equilibrium(*s, sd).converged);
+  const SceneLinearization lin = linearize(*s, sd);
+  const Model cm = core_cantilever();
+  Data cd(cm);
+  ASSERT_TRUE(cosserat::equilibrium(cm, cd).converged);
+  const Linearization cl = cosserat::linearize(cm, cd);
+  ASSERT_EQ(lin.frequencies_hz.size(), cl.frequencies_hz.size());
+  for (int i = 0; i < 6; ++i) EXPECT_NEAR(lin.frequencies_hz(i) / cl.frequencies_hz(i), 1.0, 1e-5) << "mode " << i;
+  EXPECT_LE((lin.M - cl.M).norm(), 1e-9 * cl.M.norm());
+  EXPECT_LE((lin.Kt - cl.Kt).norm(), 1e-5 * cl.Kt.norm());
+  EXPECT_NEAR(lin.frequencies_hz(0), 2.3, 0.3);  // the model comment's Rayleigh estimate
+}
+
+TEST(SceneStatics, DampingIsKelvinVoigtPlusJointDamping) {
+  const std::string xml = R"(<mujoco><option gravity="0 0 -9.81"/><worldbody>
+    <body name="arm" pos="0 0 1"><joint name="h" type="hinge" axis="0 1 0" damping="0.3" stiffness="20"/>
+      <geom type="capsule" fromto="0 0 0 0.1 0 0" size="0.01" mass="0.1"/>
+      <cosserat name="r" pos="0.1 0 0" length="0.2" sections="3" strain="cc" radius="0.006" density="1100"
+                young="2e6" poisson="0.45" viscosity="3"/>
+    </body></worldbody></mujoco>)";
+  auto s = load_scene_string(xml, kPath);
+  SceneData sd(*s);
+  const SceneStaticsResult res = equilibrium(*s, sd);
+  ASSERT_TRUE(res.converged) << res.message;
+  const SceneLinearization lin = linearize(*s, sd);
+  Eigen::MatrixXd D = Eigen::MatrixXd::Zero(s->m->nv, s->m->nv);
+  for (int i = 0; i < s->m->nv; ++i) D(i, i) += s->m->dof_damping[i];
+  const RodBinding& rb = s->rods[0];
+  D.block(rb.dof0, rb.dof0, rb.model.nv, rb.model.nv) += rb.model.D;
+  EXPECT_LE((lin.D - D).norm(), 1e-7 * D.norm());
+  // all modes damped, none unstable
+  for (int i = 0; i < lin.damping_ratios.size(); ++i) EXPECT_GT(lin.damping_ratios(i), 0.0);
+  EXPECT_GT(lin.frequencies_hz(0), 0.0);
+}
+
+// Rigid scenes with closed-form equilibria: a hinge spring holding an arm against gravity,
+// k theta = m g l cos(theta), and a motor torque on top (a control load).
+TEST(SceneStatics, HingeSpringAgainstGravityAndMotor) {
+  const std::string xml = R"(<mujoco><option gravity="0 0 -9.81"/><worldbody>
+    <body name="arm"><joint name="h" type="hinge" axis="0 -1 0" stiffness="2"/>
+      <geom type="sphere" pos="0.25 0 0" size="0.02" mass="0.5"/></body></worldbody>
+    <actuator><motor joint="h" gear="1"/></actuator></mujoco>)";
+  auto s = load_scene_string(xml, kPath);
+  SceneData sd(*s);
+  const double k = 2.0, mgl = 0.5 * 9.81 * 0.25;
+  for (double u : {0.0, 0.7}) {
+    sd.d->ctrl[0] = u;
+    const SceneStaticsResult res = equilibrium(*s, sd);
+    ASSERT_TRUE(res.converged) << res.message;
+    const double th = sd.d->qpos[0];
+    EXPECT_NEAR(k * th + mgl * std::cos(th) - u, 0.0, 1e-9) << "u = " << u;  // theta < 0: arm droops
+    EXPECT_EQ(sd.d->ctrl[0], u);
+  }
+}
+
+// A ball-jointed pendulum released tilted hangs straight down: Newton in the tangent space of the
+// quaternion, which stays unit.
+TEST(SceneStatics, BallJointPendulumHangsDown) {
+  const std::string xml = R"(<mujoco><option gravity="0 0 -9.81"/><worldbody>
+    <body name="p" pos="0 0 1"><joint type="ball" damping="0.1"/>
+      <geom type="capsule" fromto="0 0 0 0 0 -0.3" size="0.02" mass="0.3"/></body></worldbody></mujoco>)";
+  auto s = load_scene_string(xml, kPath);
+  SceneData sd(*s);
+  const double a = 0.5;  // tilt about an oblique axis
+  const Vec3 ax = Vec3(1, 2, 0).normalized();
+  sd.d->qpos[0] = std::cos(a / 2);
+  for (int i = 0; i < 3; ++i) sd.d->qpos[1 + i] = std::sin(a / 2) * ax(i);
+  const SceneStaticsResult res = equilibrium(*s, sd);
+  ASSERT_TRUE(res.converged) << res.message;
+  const Vec3 com = Eigen::Map<const Vec3>(sd.d->xipos + 3 * body(*s, "p"));
+  EXPECT_NEAR(com.x(), 0.0, 1e-7);
+  EXPECT_NEAR(com.y(), 0.0, 1e-7);
+  EXPECT_LT(com.z(), 1.0);
+  EXPECT_NEAR(Eigen::Map<const Eigen::Vector4d>(sd.d->qpos).norm(), 1.0, 1e-12);
+}
+
+TEST(SceneStatics, FreeBodiesAreRefused) {
+  const std::string xml = R"(<mujoco><worldbody><body><freejoint/><geom size="0.1"/></body></worldbody></mujoco>)";
+  auto s = load_scene_string(xml, kPath);
+  SceneData sd(*s);
+  const SceneStaticsResult res = equilibrium(*s, sd);
+  EXPECT_FALSE(res.converged);
+  EXPECT_EQ(res.message, "a free-floating body has no static equilibrium");
+}
+
+// A hinged arm whose smooth equilibrium would pass through the floor: contact carries load, so the
+// solver settles it by dynamic relaxation and says so; without relaxation it reports failure.
+TEST(SceneStatics, ContactSceneFallsBackToRelaxation) {
+  const std::string xml = R"(<mujoco><option gravity="0 0 -9.81" timestep="0.002"/><worldbody>
+    <geom type="plane" size="1 1 0.1"/>
+    <body name="arm" pos="0 0 0.1"><joint type="hinge" axis="0 -1 0" damping="0.05"/>
+      <geom type="capsule" fromto="0 0 0 0.3 0 0" size="0.02" mass="0.2"/></body></worldbody></mujoco>)";
+  auto s = load_scene_string(xml, kPath);
+  {
+    SceneData sd(*s);
+    SceneStaticsOptions opt;
+    opt.relaxation = false;
+    const SceneStaticsResult res = equilibrium(*s, sd, opt);
+    EXPECT_FALSE(res.converged);
+    EXPECT_GT(res.constraint_rows, 0);
+    EXPECT_NE(res.message.find("constraint"), std::string::npos) << res.message;
+  }
+  SceneData sd(*s);
+  const SceneStaticsResult res = equilibrium(*s, sd);
+  ASSERT_TRUE(res.converged) << res.message;
+  EXPECT_EQ(res.method, "dynamic relaxation");
+  EXPECT_GT(res.constraint_rows, 0);
+  EXPECT_LE(res.residual, 1e-6);
+  // resting on the floor: the capsule's end touches z = 0 (tilted down by about asin(0.08/0.3))
+  EXPECT_NEAR(sd.d->qpos[0], -std::asin(0.08 / 0.3), 0.01);
+}
+
+}  // namespace
