@@ -278,7 +278,7 @@ void patch_cdof(const Scene& s, SceneData& sd, int r) {
   mjData* d = sd.d;
   const RodBinding& rb = s.rods[r];
   cosserat::Data& rd = sd.rod[r];
-  Mat6X J;
+  Mat6X& J = sd.scratch[r].J;
   for (size_t i = 0; i < rb.proxy_body.size(); ++i) {
     const Section& sec = rb.model.sections[i];
     if (sec.ndof == 0) continue;
@@ -297,7 +297,8 @@ void patch_cdof_dot(const Scene& s, SceneData& sd, int r) {
   mjData* d = sd.d;
   const RodBinding& rb = s.rods[r];
   cosserat::Data& rd = sd.rod[r];
-  Mat6X J, Jd;
+  Mat6X& J = sd.scratch[r].J;
+  Mat6X& Jd = sd.scratch[r].Jd;
   for (size_t i = 0; i < rb.proxy_body.size(); ++i) {
     const Section& sec = rb.model.sections[i];
     if (sec.ndof == 0) continue;
@@ -448,19 +449,16 @@ int first_ancestor_dof(const mjModel* m, int body) {
   return -1;
 }
 
-// Base-frame columns of the ancestor dofs: Ad_G^-1 cdof_j.
-void base_columns(const Scene& s, SceneData& sd, int r, std::vector<int>& dofs, Mat6X& cols) {
+// Base-frame columns of the ancestor dofs (sd.scratch[r].anc, fixed): Ad_G^-1 cdof_j.
+void base_columns(const Scene& s, SceneData& sd, int r) {
   const mjModel* m = s.m;
   mjData* d = sd.d;
-  const RodBinding& rb = s.rods[r];
-  dofs.clear();
-  for (int j = first_ancestor_dof(m, rb.base_body); j >= 0; j = m->dof_parentid[j]) dofs.push_back(j);
-  cols.resize(6, static_cast<int>(dofs.size()));
-  const SE3 G = com_frame(sd.rod[r].base_pose, d->subtree_com + 3 * m->body_rootid[rb.base_body]);
-  for (size_t t = 0; t < dofs.size(); ++t) {
+  SceneData::RodScratch& sc = sd.scratch[r];
+  const SE3 G = com_frame(sd.rod[r].base_pose, d->subtree_com + 3 * m->body_rootid[s.rods[r].base_body]);
+  for (size_t t = 0; t < sc.anc.size(); ++t) {
     Vec6 cd;
-    for (int e = 0; e < 6; ++e) cd(e) = d->cdof[6 * dofs[t] + e];
-    cols.col(t) = Ad_inv_apply(G, cd);
+    for (int e = 0; e < 6; ++e) cd(e) = d->cdof[6 * sc.anc[t] + e];
+    sc.C.col(t) = Ad_inv_apply(G, cd);
   }
 }
 
@@ -471,18 +469,18 @@ void patch_qM(const Scene& s, SceneData& sd, int r) {
   const RodBinding& rb = s.rods[r];
   cosserat::Data& rd = sd.rod[r];
   cosserat::crba(rb.model, rd);
-  std::vector<int> anc;
-  Mat6X C;
-  base_columns(s, sd, r, anc, C);
-  const int n = rb.model.nv, na = static_cast<int>(anc.size());
+  base_columns(s, sd, r);
+  const SceneData::RodScratch& sc = sd.scratch[r];
+  const int n = rb.model.nv, na = static_cast<int>(sc.anc.size());
   for (int i = 0; i < n; ++i) {
     const int adr = m->dof_Madr[rb.dof0 + i];
     for (int j = 0; j <= i; ++j) d->qM[adr + (i - j)] += rd.M(i, j);
-    for (int t = 0; t < na; ++t) d->qM[adr + i + 1 + t] += rd.F_base.col(i).dot(C.col(t));
+    for (int t = 0; t < na; ++t) d->qM[adr + i + 1 + t] += rd.F_base.col(i).dot(sc.C.col(t));
   }
-  const MatX IC = C.transpose() * rd.Ic_base * C;
-  for (int t = 0; t < na; ++t)
-    for (int u = t; u < na; ++u) d->qM[m->dof_Madr[anc[t]] + (u - t)] += IC(t, u);
+  for (int t = 0; t < na; ++t) {
+    const Vec6 IcC = rd.Ic_base * sc.C.col(t);
+    for (int u = t; u < na; ++u) d->qM[m->dof_Madr[sc.anc[t]] + (u - t)] += sc.C.col(u).dot(IcC);
+  }
 }
 
 // Rod velocities for this step: strain rates from qvel, and the base's twist and bias
@@ -516,10 +514,9 @@ void patch_bias(const Scene& s, SceneData& sd, int r) {
   rd.rhs.setZero();
   cosserat::rnea(rb.model, rd, rd.rhs, false, true, rd.qfrc_bias);  // gravity is in base_accel
   for (int k = 0; k < n; ++k) d->qfrc_bias[rb.dof0 + k] += rd.qfrc_bias(k);
-  std::vector<int> anc;
-  Mat6X C;
-  base_columns(s, sd, r, anc, C);
-  for (size_t t = 0; t < anc.size(); ++t) d->qfrc_bias[anc[t]] += C.col(t).dot(rd.f_base);
+  base_columns(s, sd, r);
+  const SceneData::RodScratch& sc = sd.scratch[r];
+  for (size_t t = 0; t < sc.anc.size(); ++t) d->qfrc_bias[sc.anc[t]] += sc.C.col(t).dot(rd.f_base);
   cosserat::passive(rb.model, rd);
   for (int k = 0; k < n; ++k) d->qfrc_passive[rb.dof0 + k] += rd.qfrc_passive(k);
 }
@@ -535,17 +532,28 @@ Scene::~Scene() {
 SceneData::SceneData(const Scene& s) {
   d = mj_makeData(s.m);
   for (const auto& r : s.rods) rod.emplace_back(r.model);
-  const int nv = s.m->nv;
-  jac.assign(3 * nv, 0);
-  jacr.assign(3 * nv, 0);
+  const int nv = s.m->nv, nq = s.m->nq, na = s.m->na;
   tmp_nv.assign(nv, 0);
   qacc_tmp.assign(nv, 0);
-  qpos_save.assign(s.m->nq, 0);
+  qpos_save.assign(nq, 0);
   qvel_save.assign(nv, 0);
-  rk_q.assign(s.m->nq, 0);
-  rk_v.assign(nv, 0);
+  qM_save.assign(s.m->nM, 0);
+  rk_q0.assign(nq, 0);
+  rk_v0.assign(nv, 0);
+  rk_a0.assign(na, 0);
   rk_kq.assign(4 * nv, 0);
   rk_kv.assign(4 * nv, 0);
+  rk_ka.assign(4 * na, 0);
+  rk_dx.assign(nv, 0);
+  scratch.resize(s.rods.size());
+  for (size_t r = 0; r < s.rods.size(); ++r) {
+    RodScratch& sc = scratch[r];
+    for (int j = first_ancestor_dof(s.m, s.rods[r].base_body); j >= 0; j = s.m->dof_parentid[j]) sc.anc.push_back(j);
+    sc.C.resize(6, static_cast<int>(sc.anc.size()));
+    sc.J.resize(6, s.rods[r].model.max_ndof);
+    sc.Jd.resize(6, s.rods[r].model.max_ndof);
+    sc.Kv.resize(s.rods[r].model.nv);
+  }
 }
 
 SceneData::~SceneData() {
@@ -751,10 +759,12 @@ void implicit_step(const Scene& s, SceneData& sd) {
   mj_mulM(m, d, sd.qacc_tmp.data(), d->qacc);
   for (size_t r = 0; r < s.rods.size(); ++r) {
     const RodBinding& rb = s.rods[r];
-    const VecX Kv = rb.model.K * sd.rod[r].v;
+    VecX& Kv = sd.scratch[r].Kv;
+    Kv.noalias() = rb.model.K * sd.rod[r].v;
     for (int k = 0; k < rb.model.nv; ++k) sd.qacc_tmp[rb.dof0 + k] -= h * Kv(k);
   }
-  std::vector<mjtNum> qM_save(d->qM, d->qM + m->nM);
+  std::vector<mjtNum>& qM_save = sd.qM_save;
+  std::copy(d->qM, d->qM + m->nM, qM_save.begin());
   for (int i = 0; i < nv; ++i) d->qM[m->dof_Madr[i]] += h * m->dof_damping[i];
   for (const auto& rb : s.rods)
     for (int i = 0; i < rb.model.nv; ++i)
@@ -777,8 +787,11 @@ void rk4_step(const Scene& s, SceneData& sd) {
   const int nv = m->nv, nq = m->nq, na = m->na;
   const double h = m->opt.timestep;
   static constexpr double A[3] = {0.5, 0.5, 1.0}, B[4] = {1.0 / 6, 1.0 / 3, 1.0 / 3, 1.0 / 6};
-  std::vector<mjtNum> q0(d->qpos, d->qpos + nq), v0(d->qvel, d->qvel + nv), a0(d->act, d->act + na);
-  std::vector<mjtNum> kq(4 * nv), kv(4 * nv), ka(4 * std::max(na, 1)), dx(nv);
+  std::vector<mjtNum>&q0 = sd.rk_q0, &v0 = sd.rk_v0, &a0 = sd.rk_a0;
+  std::vector<mjtNum>&kq = sd.rk_kq, &kv = sd.rk_kv, &ka = sd.rk_ka, &dx = sd.rk_dx;
+  std::copy(d->qpos, d->qpos + nq, q0.begin());
+  std::copy(d->qvel, d->qvel + nv, v0.begin());
+  std::copy(d->act, d->act + na, a0.begin());
   const double t0 = d->time;
   for (int st = 0; st < 4; ++st) {
     if (st > 0) {
@@ -858,16 +871,20 @@ SceneEnergy energy(const Scene& s, SceneData& sd) {
   const mjModel* m = s.m;
   mjData* d = sd.d;
   SceneEnergy e;
-  std::vector<mjtNum> Mv(m->nv);
-  mj_mulM(m, d, Mv.data(), d->qvel);  // qM includes the rods' inertia
-  e.kinetic = 0.5 * mju_dot(Mv.data(), d->qvel, m->nv);
-  const Vec3 g(m->opt.gravity[0], m->opt.gravity[1], m->opt.gravity[2]);
-  for (int b = 1; b < m->nbody; ++b) e.gravity -= m->body_mass[b] * g.dot(Vec3(d->xipos[3 * b], d->xipos[3 * b + 1], d->xipos[3 * b + 2]));
+  mj_mulM(m, d, sd.tmp_nv.data(), d->qvel);  // qM includes the rods' inertia
+  e.kinetic = 0.5 * mju_dot(sd.tmp_nv.data(), d->qvel, m->nv);
+  // gravity as the dynamics sees it now (MuJoCo's option, unless disabled)
+  const Vec3 g = (m->opt.disableflags & mjDSBL_GRAVITY) ? Vec3::Zero()
+                                                         : Vec3(m->opt.gravity[0], m->opt.gravity[1], m->opt.gravity[2]);
+  for (int b = 1; b < m->nbody; ++b)
+    e.gravity -= m->body_mass[b] * g.dot(Vec3(d->xipos[3 * b], d->xipos[3 * b + 1], d->xipos[3 * b + 2]));
   for (size_t r = 0; r < s.rods.size(); ++r) {
-    const Energy er = cosserat::energy(s.rods[r].model, sd.rod[r]);
-    e.gravity += er.gravity;
-    e.elastic += er.elastic;
+    double mass = 0.0;
+    const Vec3 com = cosserat::center_of_mass(s.rods[r].model, sd.rod[r], &mass);
+    e.gravity -= mass * g.dot(com);
+    e.elastic += cosserat::energy(s.rods[r].model, sd.rod[r]).elastic;
   }
+  // MuJoCo's springs: hinge and slide joints, tendons (ball and free joint springs are not counted)
   for (int j = 0; j < m->njnt; ++j) {
     const int t = m->jnt_type[j], a = m->jnt_qposadr[j];
     if (m->jnt_stiffness[j] > 0 && (t == mjJNT_HINGE || t == mjJNT_SLIDE)) {

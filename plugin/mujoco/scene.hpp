@@ -64,8 +64,15 @@ struct SceneData {
   Status status = Status::Ok;
   std::string warning;              // last divergence message
   // scratch (sized once)
-  std::vector<mjtNum> jac, jacr, tmp_nv, qacc_tmp, qpos_save, qvel_save, rk_q, rk_v, rk_kq, rk_kv;
-  Eigen::MatrixXd Mfull, Afull;
+  std::vector<mjtNum> tmp_nv, qacc_tmp, qpos_save, qvel_save, qM_save;
+  std::vector<mjtNum> rk_q0, rk_v0, rk_a0, rk_kq, rk_kv, rk_ka, rk_dx;  // RK4 stages
+  struct RodScratch {
+    std::vector<int> anc;  // MuJoCo dofs above the rod's base, nearest first
+    Mat6X C;               // their base-frame columns (6 x anc.size())
+    Mat6X J, Jd;           // section Jacobian and its derivative
+    VecX Kv;
+  };
+  std::vector<RodScratch> scratch;  // per rod
 };
 
 // Loads an MJCF file with <cosserat> elements. Throws LoadError on bad input.
