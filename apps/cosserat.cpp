@@ -202,12 +202,22 @@ Option integrator_option(std::optional<Integrator>& target) {
 
 // ------------------------------------------------------------------------------------ output --
 
+// Opens `path` for writing, creating its directory first.
+std::ofstream open_output(const std::string& path) {
+  const std::filesystem::path dir = std::filesystem::path(path).parent_path();
+  std::error_code ec;
+  if (!dir.empty()) std::filesystem::create_directories(dir, ec);
+  std::ofstream f(path);
+  if (!f) fail("cannot write " + path + (ec ? " (" + ec.message() + ")" : ""));
+  return f;
+}
+
 void write_json(const std::string& path, const json& j) {
   if (path == "-") {
     std::cout << j.dump(2) << "\n";
     return;
   }
-  std::ofstream f(path);
+  std::ofstream f = open_output(path);
   if (!f) fail("cannot write " + path);
   f << j.dump(2) << "\n";
   if (!f) fail("cannot write " + path);
@@ -434,8 +444,7 @@ int cmd_run(int argc, char** argv) {
   const Outputs& out = s.outputs();
   std::ofstream f;
   if (!csv.empty()) {
-    f.open(csv);
-    if (!f) fail("cannot write " + csv);
+    f = open_output(csv);
     f << "time,energy";
     for (const auto& n : out.sites) f << "," << n.name << ".x," << n.name << ".y," << n.name << ".z";
     for (const auto& n : out.bodies) f << "," << n.name << ".x," << n.name << ".y," << n.name << ".z";
