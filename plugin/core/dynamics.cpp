@@ -172,7 +172,7 @@ void actuation(const Model& m, Data& d) {
   }
 }
 
-void forward(const Model& m, Data& d) {
+void smooth_forces(const Model& m, Data& d) {
   fwd_position(m, d);
   fwd_velocity(m, d);
   crba(m, d);
@@ -180,6 +180,10 @@ void forward(const Model& m, Data& d) {
   rnea(m, d, d.rhs, true, true, d.qfrc_bias);
   passive(m, d);
   actuation(m, d);
+}
+
+void forward(const Model& m, Data& d) {
+  smooth_forces(m, d);
   d.rhs = d.qfrc_passive + d.qfrc_actuator - d.qfrc_bias;
   d.ldlt.compute(d.M);
   d.qacc = d.ldlt.solve(d.rhs);

@@ -22,7 +22,9 @@ void rnea(const Model& m, Data& d, const Eigen::Ref<const VecX>& qacc, bool grav
 void passive(const Model& m, Data& d);
 // Generalised force of the actuators for d.ctrl into d.qfrc_actuator. After fwd_position.
 void actuation(const Model& m, Data& d);
-// Everything above and the accelerations d.qacc (explicit forward dynamics).
+// Kinematics, mass matrix and every generalised force (bias, passive, actuator) for d.q, d.v.
+void smooth_forces(const Model& m, Data& d);
+// smooth_forces and the accelerations d.qacc (explicit forward dynamics).
 void forward(const Model& m, Data& d);
 
 // External loads on rods (they add to d.f_ext_world; clear it yourself between uses):

@@ -15,13 +15,7 @@ std::optional<Integrator> integrator_from_name(std::string_view n) {
 namespace {
 // Semi-implicit step; `stiffness_implicit` selects Implicit over Euler.
 void step_semi_implicit(const Model& m, Data& d, double h, bool stiffness_implicit) {
-  fwd_position(m, d);
-  fwd_velocity(m, d);
-  crba(m, d);
-  d.rhs.setZero();
-  rnea(m, d, d.rhs, true, true, d.qfrc_bias);
-  actuation(m, d);
-  passive(m, d);  // for the outputs; the force used below splits it
+  smooth_forces(m, d);  // qfrc_passive is an output; the force used below splits it
   d.tmp = d.q - m.q_ref;
   d.rhs = d.qfrc_actuator - d.qfrc_bias;
   d.rhs.noalias() -= m.K * d.tmp;

@@ -33,6 +33,12 @@ Linearization linearize(const Model& m, Data& d) {
   d.ctrl = u0;
   actuation(m, d);
 
+  state_space(L);
+  return L;
+}
+
+void state_space(Linearization& L) {
+  const int n = static_cast<int>(L.M.rows()), nu = static_cast<int>(L.Bu.cols());
   Eigen::PartialPivLU<MatX> lu(L.M);
   L.A = MatX::Zero(2 * n, 2 * n);
   L.A.topRightCorner(n, n).setIdentity();
@@ -43,18 +49,24 @@ Linearization linearize(const Model& m, Data& d) {
 
   // Kt is symmetric for conservative loads; follower loads make it slightly unsymmetric.
   const MatX Ks = 0.5 * (L.Kt + L.Kt.transpose());
-  std::vector<double> w2;
+  L.frequencies_hz.resize(n);
+  L.damping_ratios.resize(0);
   if ((L.Kt - Ks).norm() <= 1e-6 * Ks.norm()) {
-    Eigen::GeneralizedSelfAdjointEigenSolver<MatX> es(Ks, L.M);
-    for (int i = 0; i < n; ++i) w2.push_back(es.eigenvalues()(i));
+    Eigen::GeneralizedSelfAdjointEigenSolver<MatX> es(Ks, L.M);  // ascending, x^T M x = 1
+    L.damping_ratios.resize(n);
+    for (int i = 0; i < n; ++i) {
+      const double w = std::sqrt(std::max(es.eigenvalues()(i), 0.0));
+      const VecX x = es.eigenvectors().col(i);
+      L.frequencies_hz(i) = w / (2.0 * M_PI);
+      L.damping_ratios(i) = w > 0 ? x.dot(L.D * x) / (2.0 * w) : std::nan("");
+    }
   } else {
     Eigen::EigenSolver<MatX> es(lu.solve(L.Kt));
+    std::vector<double> w2;
     for (int i = 0; i < n; ++i) w2.push_back(es.eigenvalues()(i).real());
+    std::sort(w2.begin(), w2.end());
+    for (int i = 0; i < n; ++i) L.frequencies_hz(i) = std::sqrt(std::max(w2[i], 0.0)) / (2.0 * M_PI);
   }
-  std::sort(w2.begin(), w2.end());
-  L.frequencies_hz.resize(n);
-  for (int i = 0; i < n; ++i) L.frequencies_hz(i) = std::sqrt(std::max(w2[i], 0.0)) / (2.0 * M_PI);
-  return L;
 }
 
 }  // namespace cosserat

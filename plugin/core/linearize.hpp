@@ -12,9 +12,15 @@ struct Linearization {
   MatX A, B;            // state-space matrices (2 nv x 2 nv, 2 nv x nu)
   MatX M, D, Kt, Bu;    // second-order form
   VecX frequencies_hz;  // undamped natural frequencies, ascending (from Kt x = w^2 M x)
+  VecX damping_ratios;  // modal damping x^T D x / (2 w x^T M x) of those modes (NaN for w = 0);
+                        // empty when Kt is not symmetric (follower loads)
 };
 
 // Linearises at d.q (call equilibrium() first) and d.ctrl.
 Linearization linearize(const Model& m, Data& d);
+
+// From the second-order form (M, D, Kt, Bu) of L: A, B, natural frequencies and modal damping.
+// Shared by every linearisation (the standalone core's and a MuJoCo scene's).
+void state_space(Linearization& L);
 
 }  // namespace cosserat

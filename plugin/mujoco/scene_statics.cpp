@@ -399,33 +399,7 @@ SceneLinearization linearize(const Scene& s, SceneData& sd) {
     for (int j = 0; j < n; ++j) L.M(i, j) = full[static_cast<size_t>(i) * n + j];
   L.Bu = p.actuation_matrix();
 
-  Eigen::PartialPivLU<MatrixXd> lu(L.M);
-  L.A = MatrixXd::Zero(2 * n, 2 * n);
-  L.A.topRightCorner(n, n).setIdentity();
-  L.A.bottomLeftCorner(n, n) = -lu.solve(L.Kt);
-  L.A.bottomRightCorner(n, n) = -lu.solve(L.D);
-  L.B = MatrixXd::Zero(2 * n, nu);
-  L.B.bottomRows(n) = lu.solve(L.Bu);
-
-  // Kt is symmetric for conservative loads; follower loads make it slightly unsymmetric.
-  const MatrixXd Ks = 0.5 * (L.Kt + L.Kt.transpose());
-  std::vector<double> w2;
-  L.frequencies_hz.resize(n);
-  if ((L.Kt - Ks).norm() <= 1e-6 * Ks.norm()) {
-    Eigen::GeneralizedSelfAdjointEigenSolver<MatrixXd> es(Ks, L.M);  // ascending, x^T M x = 1
-    L.damping_ratios.resize(n);
-    for (int i = 0; i < n; ++i) {
-      const double w = std::sqrt(std::max(es.eigenvalues()(i), 0.0));
-      const VectorXd x = es.eigenvectors().col(i);
-      L.frequencies_hz(i) = w / (2.0 * M_PI);
-      L.damping_ratios(i) = w > 0 ? x.dot(L.D * x) / (2.0 * w) : std::nan("");
-    }
-  } else {
-    Eigen::EigenSolver<MatrixXd> es(lu.solve(L.Kt));
-    for (int i = 0; i < n; ++i) w2.push_back(es.eigenvalues()(i).real());
-    std::sort(w2.begin(), w2.end());
-    for (int i = 0; i < n; ++i) L.frequencies_hz(i) = std::sqrt(std::max(w2[i], 0.0)) / (2.0 * M_PI);
-  }
+  state_space(L);
   return L;
 }
 

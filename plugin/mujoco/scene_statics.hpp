@@ -21,6 +21,7 @@
 
 #include <Eigen/Core>
 
+#include "linearize.hpp"
 #include "scene.hpp"
 
 namespace cosserat::mj {
@@ -64,12 +65,7 @@ void tangent_stiffness(const Scene& s, SceneData& sd, double lambda, Eigen::Matr
 //   M dqacc + D dqvel + Kt dq = Bu dctrl,   x = [dq; dqvel],   x_dot = A x + B dctrl.
 // M is the patched mass matrix (rods included), D the rods' Kelvin-Voigt damping plus joint and
 // tendon damping, Kt the tangent stiffness (constraint forces are not linearised).
-struct SceneLinearization {
-  Eigen::MatrixXd M, D, Kt, Bu, A, B;
-  Eigen::VectorXd frequencies_hz;  // undamped natural frequencies from Kt x = w^2 M x, ascending
-  Eigen::VectorXd damping_ratios;  // modal damping x^T D x / (2 w x^T M x) of those modes (NaN
-                                   // for w = 0); empty when Kt is not symmetric
-};
+using SceneLinearization = cosserat::Linearization;  // the core's: A, B, M, D, Kt, Bu, frequencies
 SceneLinearization linearize(const Scene& s, SceneData& sd);
 
 }  // namespace cosserat::mj
