@@ -330,7 +330,7 @@ TEST(Scene, FreeFloatingMomentumConservedUnderInternalActuation) {
 // rod: length L, radius r, density rho, `rigid` sections. Native: one body with the rod's inertia.
 constexpr double kL = 0.3, kR = 0.01, kRho = 1000.0;
 
-std::string rigid_rod_scene(bool native, const std::string& joint, const char* gravity) {
+std::string rigid_rod_scene(bool native, const std::string& joint, const char* gravity, const std::string& extra = "") {
   const double m = kRho * M_PI * kR * kR * kL;
   const double ixx = 0.5 * m * kR * kR, iyy = 0.25 * m * kR * kR + m * kL * kL / 12.0;
   std::string rod;
@@ -342,13 +342,15 @@ std::string rigid_rod_scene(bool native, const std::string& joint, const char* g
           fmt(kR) + "\" density=\"" + fmt(kRho) + "\"/>";
   return std::string("<mujoco><option timestep=\"0.001\" gravity=\"") + gravity +
          "\"/><worldbody><body name=\"hub\" pos=\"0 0 1\">" + joint +
-         "<inertial pos=\"0 0 0\" mass=\"0.05\" diaginertia=\"1e-5 1e-5 1e-5\"/>" + rod + "</body></worldbody></mujoco>";
+         "<inertial pos=\"0 0 0\" mass=\"0.05\" diaginertia=\"1e-5 1e-5 1e-5\"/>" + rod + "</body></worldbody>" + extra +
+         "</mujoco>";
 }
 
-void expect_rigid_equivalence(const std::string& joint, const char* gravity, const std::vector<double>& v0) {
-  SCOPED_TRACE(joint + " gravity " + gravity);
-  auto sr = load_scene_string(rigid_rod_scene(false, joint, gravity), kPath);
-  auto sn = load_scene_string(rigid_rod_scene(true, joint, gravity), kPath);
+void expect_rigid_equivalence(const std::string& joint, const char* gravity, const std::vector<double>& v0,
+                              const std::string& extra = "") {
+  SCOPED_TRACE(joint + " gravity " + gravity + " " + extra);
+  auto sr = load_scene_string(rigid_rod_scene(false, joint, gravity, extra), kPath);
+  auto sn = load_scene_string(rigid_rod_scene(true, joint, gravity, extra), kPath);
   SceneData dr(*sr), dn(*sn);
   ASSERT_EQ(sr->m->nv, sn->m->nv);
   for (size_t i = 0; i < v0.size(); ++i) dr.d->qvel[i] = dn.d->qvel[i] = v0[i];
@@ -369,6 +371,13 @@ TEST(Scene, RigidRodOnHingeBehavesLikeNativeBody) {
 TEST(Scene, RigidRodOnFreeBodyBehavesLikeNativeBody) {
   for (const char* g : {"0 0 -9.81", "0 0 0"})
     expect_rigid_equivalence("<freejoint/>", g, {0.1, -0.2, 0.3, 1.0, 2.0, -0.5});
+}
+
+// A free hub welded to the world by an equality constraint holds the rod's weight: the
+// constraint rows see the rod's inertia through the hub's dofs.
+TEST(Scene, RigidRodOnWeldedBodyBehavesLikeNativeBody) {
+  expect_rigid_equivalence("<freejoint/>", "0 0 -9.81", {0.1, 0, 0, 0, 0.5, 0},
+                           "<equality><weld body1=\"hub\"/></equality>");
 }
 
 }  // namespace
