@@ -921,6 +921,18 @@ Vec6 momentum(const Scene& s, const SceneData& sd) {
   return h;
 }
 
+int rod_index(const Scene& s, const std::string& name) {
+  for (size_t r = 0; r < s.rods.size(); ++r)
+    if (s.rods[r].decl.name == name) return static_cast<int>(r);
+  return -1;
+}
+
+SE3 rod_frame(const Scene& s, const SceneData& sd, int r, double X) { return rod_pose(s.rods[r].model, sd.rod[r], 0, X); }
+
+Vec6 rod_strain(const Scene& s, const SceneData& sd, int r, double X) {
+  return cosserat::rod_strain(s.rods[r].model, sd.rod[r], 0, X);
+}
+
 std::vector<Vec3> rod_centerline(const Scene& s, const SceneData& sd, int r, int n) {
   std::vector<Vec3> pts;
   const double L = s.rods[r].model.rods[0].length;

@@ -100,8 +100,14 @@ SceneEnergy energy(const Scene& s, SceneData& sd);
 // forward: MuJoCo's rigid bodies plus the rods (the core's, with their bases' motion).
 Vec6 momentum(const Scene& s, const SceneData& sd);
 
-// Sampled centreline of rod r: n points from base to tip (world frame), after forward.
+// Rod shapes, after forward (rod: index in Scene::rods; rod_index finds it by name, -1 if none):
+int rod_index(const Scene& s, const std::string& name);
+// sampled centreline: n points from base to tip (world frame)
 std::vector<Vec3> rod_centerline(const Scene& s, const SceneData& sd, int rod, int n);
+// world pose of the cross-section at abscissa X (x axis: the tangent)
+SE3 rod_frame(const Scene& s, const SceneData& sd, int rod, double X);
+// strain xi(X) = [kx ky kz px py pz] in the cross-section frame
+Vec6 rod_strain(const Scene& s, const SceneData& sd, int rod, double X);
 
 // Model constants mj_setConst computed without the rods' inertia (body/dof/tendon invweight0, the
 // scale of constraint softness), recomputed from the patched mass matrix at qpos0. A proxy's

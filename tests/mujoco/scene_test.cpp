@@ -253,6 +253,30 @@ TEST(Scene, NestedRodsMatchStandaloneCore) {
   EXPECT_LT(worst, 1e-9);
 }
 
+// The shape API: frames and strains of a rod at rest under no load equal its rest shape.
+TEST(Scene, RodShapeAccess) {
+  const char* xml = R"(<mujoco><option gravity="0 0 0"/><worldbody>
+    <cosserat name="coil" pos="0 0 1" length="0.5" sections="4" strain="kl" reststrain="3 0 8 1 0 0"/>
+  </worldbody></mujoco>)";
+  auto s = load_scene_string(xml, kPath);
+  SceneData sd(*s);
+  forward(*s, sd);
+  const int r = rod_index(*s, "coil");
+  ASSERT_EQ(r, 0);
+  EXPECT_EQ(rod_index(*s, "nope"), -1);
+  Vec6 rest;
+  rest << 3, 0, 8, 1, 0, 0;
+  for (double X : {0.0, 0.13, 0.5}) EXPECT_LT((rod_strain(*s, sd, r, X) - rest).norm(), 1e-12);
+  // the centre line is the helix exp(X xi*) of the rest strain, from the base at (0, 0, 1)
+  const auto pts = rod_centerline(*s, sd, r, 11);
+  ASSERT_EQ(pts.size(), 11u);
+  for (int i = 0; i < 11; ++i) {
+    const Vec3 expected = Vec3(0, 0, 1) + exp_se3(0.05 * i, rest).u;
+    EXPECT_LT((pts[i] - expected).norm(), 1e-12);
+    EXPECT_LT((rod_frame(*s, sd, r, 0.05 * i).u - expected).norm(), 1e-12);
+  }
+}
+
 TEST(Scene, ProxiesAndHelpersCarryNoInertia) {
   auto s = load_scene_string(arm_xml("kl", 2, 1, 0.0), kPath);
   const RodBinding& rb = s->rods[0];
