@@ -29,6 +29,7 @@
 #include "integrators.hpp"
 #include "kinematics.hpp"
 #include "linearize.hpp"
+#include "render_commands.hpp"
 #include "scene.hpp"
 #include "scene_statics.hpp"
 #include "statics.hpp"
@@ -871,6 +872,12 @@ int cmd_demo(int argc, char** argv) {
   return 0;
 }
 
+// ------------------------------------------------------------------------- rendering (render/) --
+
+// The render commands take argv from the command name on (see render_commands.hpp).
+int cmd_render(int argc, char** argv) { return render_command(argc + 1, argv - 1); }
+int cmd_snapshot(int argc, char** argv) { return snapshot_command(argc + 1, argv - 1); }
+
 // ------------------------------------------------------------------------------------- main --
 
 struct Command {
@@ -885,6 +892,8 @@ const Command kCommands[] = {
     {"equilibrium", "static equilibrium (gravity, controls, loads)", cmd_equilibrium},
     {"linearize", "natural frequencies at the equilibrium", cmd_linearize},
     {"compare", "two models side by side: deviations and swimming speeds", cmd_compare},
+    {"render", "headless frames (and a video) of a simulation", cmd_render},
+    {"snapshot", "one headless picture at a given time", cmd_snapshot},
     {"demo", "core-only soft-arm demo (no MuJoCo)", cmd_demo},
 };
 

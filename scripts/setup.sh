@@ -10,6 +10,9 @@ packages=(
   libqhull-dev                       # its CMake config names qhull's include dir
   libtinyxml2-dev                    # MJCF pre-processing
   nlohmann-json3-dev                 # JSON reports of the command-line tool
+  libosmesa6-dev libpng-dev          # headless rendering (render/): OSMesa, PNG files
+  ffmpeg                             # optional: render --video
+  python3-matplotlib                 # plots in docs/ (scripts/plot_flagellate.py)
 )
 missing=()
 for p in "${packages[@]}"; do

@@ -1,0 +1,344 @@
+#include "render_commands.hpp"
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <functional>
+#include <iostream>
+#include <memory>
+#include <optional>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "integrators.hpp"
+#include "png_io.hpp"
+#include "renderer.hpp"
+#include "scene.hpp"
+#include "video.hpp"
+
+namespace {
+
+namespace fs = std::filesystem;
+namespace mj = cosserat::mj;
+namespace rd = cosserat::render;
+using cosserat::Integrator;
+
+// A bad command line or a failed command: reported as one line on stderr, exit status 1.
+struct Failure : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+[[noreturn]] void fail(const std::string& msg) { throw Failure(msg); }
+
+// ---------------------------------------------------------------------------- option parsing --
+
+struct Option {
+  std::string name, metavar, help;  // metavar empty: a flag
+  std::function<void(const std::string&)> set;
+};
+
+double parse_number(const std::string& flag, const std::string& text) {
+  char* end = nullptr;
+  const double v = std::strtod(text.c_str(), &end);
+  if (text.empty() || *end || !std::isfinite(v)) fail(flag + ": '" + text + "' is not a number");
+  return v;
+}
+
+int parse_int(const std::string& flag, const std::string& text, int min) {
+  char* end = nullptr;
+  const long v = std::strtol(text.c_str(), &end, 10);
+  if (text.empty() || *end) fail(flag + ": '" + text + "' is not an integer");
+  if (v < min || v > 1000000000L) fail(flag + ": must be an integer >= " + std::to_string(min) + ", got '" + text + "'");
+  return static_cast<int>(v);
+}
+
+std::string format(double v) {
+  char b[32];
+  std::snprintf(b, sizeof b, "%g", v);
+  return b;
+}
+
+// A number option; `positive`: > 0 required (else >= lo).
+Option number(const std::string& name, const std::string& metavar, const std::string& help, double& target,
+              double lo = -HUGE_VAL, double hi = HUGE_VAL, bool positive = false) {
+  return {name, metavar, help, [&target, name, lo, hi, positive](const std::string& v) {
+            target = parse_number(name, v);
+            if (positive && !(target > 0)) fail(name + ": must be positive, got '" + v + "'");
+            if (target < lo || target > hi)
+              fail(name + ": must be in [" + format(lo) + ", " + format(hi) + "], got '" + v + "'");
+          }};
+}
+Option positive(const std::string& name, const std::string& metavar, const std::string& help, double& target) {
+  return number(name, metavar, help, target, 0, HUGE_VAL, true);
+}
+Option integer(const std::string& name, const std::string& metavar, const std::string& help, int& target, int min) {
+  return {name, metavar, help, [&target, name, min](const std::string& v) { target = parse_int(name, v, min); }};
+}
+Option text(const std::string& name, const std::string& metavar, const std::string& help, std::string& target) {
+  return {name, metavar, help, [&target, name](const std::string& v) {
+            if (v.empty()) fail(name + ": empty value");
+            target = v;
+          }};
+}
+
+// One command's synopsis and options; parse() accepts "--opt value" and "--opt=value".
+struct CommandLine {
+  std::string name, synopsis, summary, details;
+  std::vector<Option> options;
+
+  std::string help() const {
+    std::ostringstream h;
+    h << "usage: cosserat " << name << " " << synopsis << "\n  " << summary << "\noptions:\n";
+    for (const auto& o : options) {
+      std::string left = o.name + (o.metavar.empty() ? "" : " " + o.metavar);
+      left.resize(std::max<size_t>(left.size() + 2, 22), ' ');
+      h << "  " << left << o.help << "\n";
+    }
+    h << "  --help                this text\n" << details;
+    return h.str();
+  }
+
+  // The positional arguments, or nullopt after printing --help.
+  std::optional<std::vector<std::string>> parse(int argc, char** argv) const {
+    std::vector<std::string> pos;
+    const std::string hint = " (see 'cosserat " + name + " --help')";
+    for (int i = 1; i < argc; ++i) {
+      std::string a = argv[i];
+      if (a == "--help" || a == "-h") {
+        std::cout << help();
+        return std::nullopt;
+      }
+      if (a.size() < 2 || a[0] != '-') {
+        pos.push_back(a);
+        continue;
+      }
+      std::optional<std::string> value;
+      if (const size_t eq = a.find('='); eq != std::string::npos) {
+        value = a.substr(eq + 1);
+        a.resize(eq);
+      }
+      const auto o = std::find_if(options.begin(), options.end(), [&](const Option& x) { return x.name == a; });
+      if (o == options.end()) fail(name + ": unknown option '" + a + "'" + hint);
+      if (o->metavar.empty()) {
+        if (value) fail(name + ": " + a + " takes no value");
+        o->set("");
+        continue;
+      }
+      if (!value) {
+        if (i + 1 >= argc) fail(name + ": " + a + " needs a value " + o->metavar + hint);
+        value = argv[++i];
+      }
+      o->set(*value);
+    }
+    if (pos.size() != 1) fail(name + ": expected one MODEL.xml, got " + std::to_string(pos.size()) + " arguments" + hint);
+    return pos;
+  }
+};
+
+// ------------------------------------------------------------------- options both commands share --
+
+struct PictureOptions {
+  std::string out;
+  rd::RenderOptions render;
+  std::string coloring = "model";
+  std::string key, ctrl;
+  double timestep = 0;  // 0: the model's
+  std::string integrator;
+
+  void add_to(CommandLine& c) {
+    rd::RenderOptions& r = render;
+    c.options.push_back(integer("--width", "W", "picture width in pixels (default: the model's offwidth)", r.width, 1));
+    c.options.push_back(integer("--height", "H", "picture height in pixels (default: the model's offheight)", r.height, 1));
+    c.options.push_back(text("--camera", "NAME", "a camera of the model (default: a free camera framing the scene)", r.camera.name));
+    c.options.push_back(text("--track", "BODY", "the free camera follows this body", r.camera.track));
+    c.options.push_back(number("--azimuth", "DEG", "free camera azimuth (default 90: looking along +y)", r.camera.azimuth));
+    c.options.push_back(number("--elevation", "DEG", "free camera elevation (default -20: from above)", r.camera.elevation, -89, 89));
+    c.options.push_back(number("--margin", "F", "free camera: empty border, fraction of the picture (default 0.08)", r.camera.margin, 0, 0.45));
+    c.options.push_back(text("--color-by", "WHAT", "rod colours: model (the MJCF rgba), strain or stress (magnitude at the surface)", coloring));
+    c.options.push_back(positive("--color-max", "V", "strain or stress at the top of the colour map (default: the largest in each picture)",
+                                 r.rods.color_max));
+    c.options.push_back(integer("--rod-segments", "N", "rings drawn along each rod's tube, evenly spaced (default: adaptive to its bending)", r.rods.segments, 1));
+    c.options.push_back({"--no-shadows", "", "do not draw shadows", [&r](const std::string&) { r.shadows = false; }});
+    c.options.push_back(integer("--samples", "N", "multisampling per pixel (default: the model's offsamples)", r.samples, 0));
+    c.options.push_back(text("--key", "K", "start from keyframe K (name or index)", key));
+    c.options.push_back(text("--ctrl", "U", "actuator controls: nu numbers separated by commas (after --key)", ctrl));
+    c.options.push_back(positive("--timestep", "h", "time step [s] (default: the model's <option timestep>)", timestep));
+    c.options.push_back(text("--integrator", "NAME", "euler | implicit | rk4 (default: implicit with rods, euler without)", integrator));
+  }
+
+  void finish() {
+    if (out.empty()) fail("--out is required");
+    render.rods.coloring = rd::parse_rod_coloring(coloring);
+  }
+};
+
+// A loaded scene at its initial state, stepping with the chosen time step and integrator.
+struct Simulation {
+  std::unique_ptr<mj::Scene> scene;
+  std::unique_ptr<mj::SceneData> data;
+  Integrator integrator = Integrator::Implicit;
+  double t0 = 0;
+  long steps = 0;
+
+  Simulation(const std::string& path, const PictureOptions& o) : scene(mj::load_scene(path)) {
+    mjModel* m = scene->m;
+    if (o.timestep > 0) m->opt.timestep = o.timestep;
+    integrator = scene->integrator;
+    if (!o.integrator.empty()) {
+      const auto in = cosserat::integrator_from_name(o.integrator);
+      if (!in) fail("--integrator: unknown integrator '" + o.integrator + "' (euler, implicit, rk4)");
+      integrator = *in;
+    }
+    data = std::make_unique<mj::SceneData>(*scene);
+    if (!o.key.empty()) {
+      int id = mj_name2id(m, mjOBJ_KEY, o.key.c_str());
+      if (id < 0 && o.key.find_first_not_of("0123456789") == std::string::npos) id = parse_int("--key", o.key, 0);
+      if (id < 0 || id >= m->nkey) fail("--key: no keyframe '" + o.key + "' (the model has " + std::to_string(m->nkey) + ")");
+      mj_resetDataKeyframe(m, data->d, id);
+    }
+    if (!o.ctrl.empty()) {
+      std::vector<double> u;
+      std::istringstream in(o.ctrl);
+      for (std::string v; std::getline(in, v, ',');) u.push_back(parse_number("--ctrl", v));
+      if (static_cast<int>(u.size()) != m->nu)
+        fail("--ctrl: " + std::to_string(u.size()) + " values for " + std::to_string(m->nu) + " actuators");
+      std::copy(u.begin(), u.end(), data->d->ctrl);
+    }
+    t0 = data->d->time;
+  }
+
+  // Steps until `t` after the start (to the nearest step) and brings the kinematics up to date.
+  void advance_to(double t) {
+    const long target = std::llround(t / scene->m->opt.timestep);
+    for (; steps < target; ++steps)
+      if (mj::step(*scene, *data, integrator) != cosserat::Status::Ok) fail("the simulation diverged: " + data->warning);
+    mj::fwd_position(*scene, *data);
+  }
+  double time() const { return data->d->time - t0; }
+};
+
+// A progress bar on stderr when it is a terminal; nothing otherwise.
+class Progress {
+ public:
+  explicit Progress(long total) : total_(std::max(total, 1L)), tty_(isatty(STDERR_FILENO)) {}
+  ~Progress() { clear(); }
+  void clear() {
+    if (tty_ && shown_ >= 0) std::fprintf(stderr, "\r%*s\r", 80, "");
+    shown_ = -1;
+  }
+  void update(long done, double t) {
+    const int pct = static_cast<int>(100 * done / total_);
+    if (!tty_ || pct == shown_) return;
+    shown_ = pct;
+    const int w = 30, filled = w * pct / 100;
+    std::fprintf(stderr, "\rrender [%.*s%*s] %3d%%  frame %ld/%ld  t = %.3f s", filled,
+                 "##############################", w - filled, "", pct, done, total_, t);
+    std::fflush(stderr);
+  }
+
+ private:
+  long total_;
+  bool tty_;
+  int shown_ = -1;
+};
+
+void make_parent_dir(const std::string& file) {
+  const fs::path dir = fs::path(file).parent_path();
+  std::error_code ec;
+  if (!dir.empty()) fs::create_directories(dir, ec);
+}
+
+// Runs a command body and turns every failure into a one-line message and status 1.
+int guarded(const std::function<int()>& body) {
+  auto one_line = [](std::string s) {
+    std::replace(s.begin(), s.end(), '\n', ' ');
+    return s;
+  };
+  try {
+    return body();
+  } catch (const mj::LoadError& e) {
+    std::cerr << one_line(e.what()) << "\n";
+  } catch (const std::exception& e) {
+    std::cerr << "cosserat: " << one_line(e.what()) << "\n";
+  }
+  return 1;
+}
+
+}  // namespace
+
+int render_command(int argc, char** argv) {
+  return guarded([&] {
+    PictureOptions o;
+    double duration = 1.0, fps = 30.0;
+    std::string video;
+    CommandLine cl{"render", "MODEL.xml --out DIR [options]",
+                   "simulate and write frames DIR/frame_00000.png ... at t = k/fps, k = 0 .. duration*fps - 1",
+                   "Frames left in DIR by an earlier render are removed first. Rendering is headless (OSMesa):\n"
+                   "no display is needed. A progress bar is shown when stderr is a terminal.\n",
+                   {}};
+    cl.options.push_back(text("--out", "DIR", "directory of the frames (created)", o.out));
+    cl.options.push_back(positive("--duration", "T", "simulated time [s] (default 1)", duration));
+    cl.options.push_back(positive("--fps", "F", "frames per simulated second (default 30)", fps));
+    cl.options.push_back(text("--video", "F.mp4", "also encode the frames into a video with ffmpeg (must be installed)", video));
+    o.add_to(cl);
+    const auto pos = cl.parse(argc, argv);
+    if (!pos) return 0;
+    o.finish();
+    const long frames = std::llround(duration * fps);
+    if (frames < 1) fail("--duration " + format(duration) + " at --fps " + format(fps) + " makes no frame");
+    if (!video.empty() && rd::find_program("ffmpeg").empty())
+      fail("--video needs ffmpeg, which is not installed (apt-get install ffmpeg); without --video only the frames are written");
+
+    Simulation sim((*pos)[0], o);
+    rd::Renderer renderer(*sim.scene, o.render);
+    std::error_code ec;
+    fs::create_directories(o.out, ec);
+    if (!fs::is_directory(o.out)) fail("cannot create directory " + o.out + (ec ? " (" + ec.message() + ")" : ""));
+    rd::remove_frames(o.out);
+
+    Progress progress(frames);
+    for (long k = 0; k < frames; ++k) {
+      sim.advance_to(k / fps);
+      rd::write_png(rd::frame_path(o.out, static_cast<int>(k)), renderer.render(*sim.data));
+      progress.update(k + 1, sim.time());
+    }
+    progress.clear();
+    if (!video.empty()) {
+      make_parent_dir(video);
+      rd::encode_video(o.out, fps, video);
+    }
+    std::printf("render: %ld frames %dx%d in %s%s\n", frames, renderer.width(), renderer.height(), o.out.c_str(),
+                video.empty() ? "" : (", video " + video).c_str());
+    return 0;
+  });
+}
+
+int snapshot_command(int argc, char** argv) {
+  return guarded([&] {
+    PictureOptions o;
+    double time = 0.0;
+    CommandLine cl{"snapshot", "MODEL.xml --out F.png [options]",
+                   "simulate until --time and write one picture (PNG)",
+                   "Rendering is headless (OSMesa): no display is needed.\n",
+                   {}};
+    cl.options.push_back(text("--out", "F.png", "the picture (its directory is created)", o.out));
+    cl.options.push_back(number("--time", "t", "simulated time of the picture [s] (default 0: the initial state)", time, 0));
+    o.add_to(cl);
+    const auto pos = cl.parse(argc, argv);
+    if (!pos) return 0;
+    o.finish();
+
+    Simulation sim((*pos)[0], o);
+    rd::Renderer renderer(*sim.scene, o.render);
+    sim.advance_to(time);
+    make_parent_dir(o.out);
+    rd::write_png(o.out, renderer.render(*sim.data));
+    std::printf("snapshot: %s %dx%d at t = %g s\n", o.out.c_str(), renderer.width(), renderer.height(), sim.time());
+    return 0;
+  });
+}

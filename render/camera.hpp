@@ -1,0 +1,55 @@
+// Cameras for headless pictures: a model camera by name, or a free camera that frames the whole
+// scene (bodies, finite geoms and rod centrelines), optionally following a body.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <mujoco/mujoco.h>
+
+#include "scene.hpp"
+
+namespace cosserat::render {
+
+struct CameraOptions {
+  std::string name;   // a model camera; empty: the free camera framing the scene
+  std::string track;  // free camera only: follow this body (keeps the first frame's offset to it)
+  double azimuth = 90.0, elevation = -20.0;  // free camera view direction [deg], MuJoCo's convention
+  double margin = 0.08;                      // free camera: empty border, fraction of the picture
+};
+
+// What a picture should show, as spheres: bodies (not the world), rod centrelines (with their
+// radius) and the corners of the bodies' geoms of finite size visible under `opt`, plus those of
+// the world's geoms no larger than all that (a clamp or a mount, not a floor or a table: those
+// are shown as far as they fit).
+struct Extent {
+  std::vector<Vec3> centres;
+  std::vector<double> radii;
+  bool empty() const { return centres.empty(); }
+  void add(const Vec3& p, double r = 0.0) { centres.push_back(p), radii.push_back(r); }
+};
+Extent scene_extent(const mj::Scene& s, const mj::SceneData& sd, const mjvOption& opt);
+
+// Free camera looking along (azimuth, elevation) at `e` so that it fills the picture of aspect
+// width/height up to `margin` on each side (MuJoCo's perspective with vis.global.fovy).
+void frame_extent(const mjModel* m, const Extent& e, double aspect, double azimuth, double elevation, double margin,
+                  mjvCamera* cam);
+
+// Resolves CameraOptions against a scene and poses an mjvCamera for each picture.
+class CameraRig {
+ public:
+  // Throws std::invalid_argument naming the unknown camera or body (and the known ones).
+  CameraRig(const mj::Scene& s, const CameraOptions& o);
+  // The camera for the current state: the free camera is framed at the first call and then stays
+  // (or follows the tracked body), so a frame sequence has a steady view.
+  void update(const mj::Scene& s, const mj::SceneData& sd, const mjvOption& opt, double aspect, mjvCamera* cam);
+
+ private:
+  CameraOptions options_;
+  int camera_id_ = -1, body_id_ = -1;
+  bool framed_ = false;
+  mjvCamera free_{};
+  Vec3 offset_ = Vec3::Zero();  // lookat minus the tracked body's position
+};
+
+}  // namespace cosserat::render

@@ -1,0 +1,72 @@
+// Pictures of a Scene's current state through MuJoCo's own renderer in an OSMesa context.
+// Only reads Scene/SceneData: bring the state up to date first (cosserat::mj::fwd_position or
+// forward), and step the simulation between pictures yourself.
+//
+//   auto scene = mj::load_scene("models/cantilever.xml");
+//   mj::SceneData data(*scene);
+//   mj::fwd_position(*scene, data);
+//   render::RenderOptions options;
+//   options.width = 800, options.height = 600;
+//   render::Renderer renderer(*scene, options);
+//   render::write_png("cantilever.png", renderer.render(data));
+#pragma once
+
+#include <memory>
+#include <vector>
+
+#include <mujoco/mujoco.h>
+
+#include "camera.hpp"
+#include "image.hpp"
+#include "rod_visual.hpp"
+#include "scene.hpp"
+#include "tube_mesh.hpp"
+
+namespace cosserat::render {
+
+struct RenderOptions {
+  int width = 0, height = 0;  // pixels; 0: the model's <visual><global offwidth/offheight>
+  CameraOptions camera;
+  RodVisualOptions rods;
+  float background[3] = {0.86f, 0.89f, 0.93f};  // where nothing is drawn (a model's skybox covers it)
+  bool shadows = true;
+  int samples = -1;  // multisampling per pixel; < 0: the model's <quality offsamples>
+};
+
+class OSMesaGLContext;
+
+class Renderer {
+ public:
+  // Creates the OpenGL context and MuJoCo's rendering context (larger than the model's off-screen
+  // buffer when asked). Throws std::invalid_argument on bad options (unknown camera or body, size
+  // beyond what OpenGL allows) and std::runtime_error when no context can be made.
+  Renderer(const mj::Scene& s, const RenderOptions& o);
+  ~Renderer();
+  Renderer(const Renderer&) = delete;
+  Renderer& operator=(const Renderer&) = delete;
+
+  // The picture of the current state.
+  Image render(const mj::SceneData& sd);
+
+  int width() const { return width_; }
+  int height() const { return height_; }
+  // The abstract scene of the last picture: its geoms and cameras (scene().camera[0..1]).
+  const mjvScene& scene() const { return scn_; }
+  const mjvOption& option() const { return opt_; }
+
+ private:
+  const mj::Scene& s_;
+  RenderOptions options_;
+  int width_ = 0, height_ = 0;
+  std::unique_ptr<OSMesaGLContext> gl_;
+  CameraRig rig_;
+  mjvScene scn_{};
+  mjvCamera cam_{};
+  mjvOption opt_{};
+  mjrContext con_{};
+  std::unique_ptr<TubeMeshes> tubes_;
+  std::vector<unsigned char> buffer_, alpha_;  // bottom-up rows from OpenGL: rgb and coverage
+  int background_[3] = {0, 0, 0};
+};
+
+}  // namespace cosserat::render

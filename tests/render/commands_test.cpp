@@ -1,0 +1,182 @@
+// The `render` and `snapshot` commands (apps/render_commands.cpp, compiled into this test): frame
+// numbering and count, identical frames from identical runs, picture sizes, video through ffmpeg,
+// and one-line errors; all without a display.
+#include "../../apps/render_commands.cpp"
+
+#include <gtest/gtest.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <string>
+#include <vector>
+
+namespace {
+
+namespace fs = std::filesystem;
+
+const std::string kModels = std::string(COSSERAT_SOURCE_DIR) + "/models/";
+
+int run(int (*command)(int, char**), std::vector<std::string> args) {
+  std::vector<char*> argv;
+  for (auto& a : args) argv.push_back(a.data());
+  argv.push_back(nullptr);
+  return command(static_cast<int>(args.size()), argv.data());
+}
+
+// Runs a command expecting failure; returns what it printed on stderr.
+std::string failure(int (*command)(int, char**), std::vector<std::string> args) {
+  testing::internal::CaptureStderr();
+  const int status = run(command, std::move(args));
+  const std::string err = testing::internal::GetCapturedStderr();
+  EXPECT_EQ(status, 1) << err;
+  EXPECT_EQ(std::count(err.begin(), err.end(), '\n'), 1) << "one line: " << err;
+  return err;
+}
+
+std::string bytes(const fs::path& p) {
+  std::ifstream f(p, std::ios::binary);
+  return {std::istreambuf_iterator<char>(f), {}};
+}
+
+std::vector<std::string> frames_in(const fs::path& dir) {
+  std::vector<std::string> names;
+  for (const auto& e : fs::directory_iterator(dir)) names.push_back(e.path().filename().string());
+  std::sort(names.begin(), names.end());
+  return names;
+}
+
+class CommandsTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    unsetenv("DISPLAY");  // no display: OSMesa only
+    dir = fs::temp_directory_path() / ("cosserat_render_" + std::string(testing::UnitTest::GetInstance()->current_test_info()->name()));
+    fs::remove_all(dir);
+  }
+  void TearDown() override { fs::remove_all(dir); }
+  fs::path dir;
+};
+
+TEST_F(CommandsTest, RenderWritesDurationTimesFpsFramesNumberedWithoutGaps) {
+  fs::create_directories(dir / "a");
+  std::ofstream(dir / "a" / "frame_00042.png") << "stale";  // from an earlier, longer render
+  std::ofstream(dir / "a" / "notes.txt") << "kept";
+  ASSERT_EQ(run(render_command, {"render", kModels + "cantilever.xml", "--out", (dir / "a").string(), "--duration", "0.1",
+                                 "--fps", "50", "--width", "160", "--height", "120"}),
+            0);
+  const std::vector<std::string> expected = {"frame_00000.png", "frame_00001.png", "frame_00002.png", "frame_00003.png",
+                                             "frame_00004.png", "notes.txt"};
+  EXPECT_EQ(frames_in(dir / "a"), expected);
+  for (int k = 0; k < 5; ++k) {
+    const cosserat::render::Image img = cosserat::render::read_png(cosserat::render::frame_path((dir / "a").string(), k));
+    EXPECT_EQ(img.width, 160);
+    EXPECT_EQ(img.height, 120);
+  }
+  // the simulation advances between frames: the beam starts to fall
+  EXPECT_NE(bytes(dir / "a" / "frame_00000.png"), bytes(dir / "a" / "frame_00004.png"));
+
+  // 0.25 s at 12 fps: frames at t = 0, 1/12, 2/12 (t = 3/12 is the end, not a frame)
+  ASSERT_EQ(run(render_command, {"render", kModels + "cantilever.xml", "--out=" + (dir / "b").string(), "--duration=0.25",
+                                 "--fps=12", "--width=64", "--height=48"}),
+            0);
+  EXPECT_EQ(frames_in(dir / "b"), (std::vector<std::string>{"frame_00000.png", "frame_00001.png", "frame_00002.png"}));
+}
+
+TEST_F(CommandsTest, TwoRunsOfTheSameCommandGiveIdenticalImages) {
+  for (const char* run_dir : {"one", "two"})
+    ASSERT_EQ(run(render_command, {"render", kModels + "octopus_arm.xml", "--out", (dir / run_dir).string(), "--duration",
+                                   "0.06", "--fps", "50", "--width", "200", "--height", "150", "--key", "curl"}),
+              0);
+  const auto names = frames_in(dir / "one");
+  ASSERT_EQ(names.size(), 3u);
+  EXPECT_EQ(names, frames_in(dir / "two"));
+  for (const auto& n : names) EXPECT_TRUE(bytes(dir / "one" / n) == bytes(dir / "two" / n)) << n;
+}
+
+TEST_F(CommandsTest, SnapshotHasTheRequestedSizeAtTheRequestedTime) {
+  const fs::path out = dir / "sub" / "snap.png";
+  ASSERT_EQ(run(snapshot_command, {"snapshot", kModels + "cantilever.xml", "--out", out.string(), "--time", "0.05",
+                                   "--width", "300", "--height", "200", "--camera", "side"}),
+            0);
+  const cosserat::render::Image img = cosserat::render::read_png(out.string());
+  EXPECT_EQ(img.width, 300);
+  EXPECT_EQ(img.height, 200);
+  // same picture as frame 5 of a 100 fps render with the same camera: t = 0.05 both
+  ASSERT_EQ(run(render_command, {"render", kModels + "cantilever.xml", "--out", (dir / "r").string(), "--duration",
+                                 "0.06", "--fps", "100", "--width", "300", "--height", "200", "--camera", "side"}),
+            0);
+  EXPECT_TRUE(bytes(out) == bytes(dir / "r" / "frame_00005.png"));
+  // beyond the model's off-screen buffer (1280 x 720): not cropped
+  ASSERT_EQ(run(snapshot_command, {"snapshot", kModels + "octopus_arm.xml", "--out", (dir / "big.png").string(), "--width",
+                                   "1500", "--height", "900", "--color-by", "strain", "--no-shadows"}),
+            0);
+  const cosserat::render::Image big = cosserat::render::read_png((dir / "big.png").string());
+  EXPECT_EQ(big.width, 1500);
+  EXPECT_EQ(big.height, 900);
+  long right = 0;  // the top-right corner beyond 1280 x 720 is drawn, not left black
+  for (int y = 0; y < 100; ++y)
+    for (int x = 1400; x < 1500; ++x) right += big.pixel(x, y)[0] + big.pixel(x, y)[1] + big.pixel(x, y)[2];
+  EXPECT_GT(right, 100L * 100 * 300);
+}
+
+TEST_F(CommandsTest, VideoIsEncodedWithFfmpeg) {
+  if (cosserat::render::find_program("ffmpeg").empty()) GTEST_SKIP() << "ffmpeg is not installed";
+  const fs::path video = dir / "v" / "cantilever.mp4";
+  ASSERT_EQ(run(render_command, {"render", kModels + "cantilever.xml", "--out", (dir / "frames").string(), "--duration",
+                                 "0.2", "--fps", "25", "--width", "161", "--height", "121", "--video", video.string()}),
+            0);
+  ASSERT_TRUE(fs::exists(video));
+  EXPECT_GT(fs::file_size(video), 1000u);
+  if (cosserat::render::find_program("ffprobe").empty()) return;
+  const std::string probe = "ffprobe -v error -count_frames -select_streams v:0 -show_entries stream=nb_read_frames "
+                            "-of csv=p=0 '" + video.string() + "' > '" + (dir / "n.txt").string() + "'";
+  ASSERT_EQ(std::system(probe.c_str()), 0);
+  EXPECT_EQ(std::stoi(bytes(dir / "n.txt")), 5);
+}
+
+TEST_F(CommandsTest, VideoWithoutFfmpegSaysSo) {
+  const std::string path = std::getenv("PATH") ? std::getenv("PATH") : "";
+  setenv("PATH", "/nonexistent", 1);
+  const std::string err = failure(render_command, {"render", kModels + "cantilever.xml", "--out", dir.string(), "--video",
+                                                   (dir / "x.mp4").string(), "--duration", "0.1"});
+  setenv("PATH", path.c_str(), 1);
+  EXPECT_NE(err.find("ffmpeg"), std::string::npos) << err;
+  EXPECT_NE(err.find("not installed"), std::string::npos) << err;
+  EXPECT_FALSE(fs::exists(dir)) << "nothing rendered";
+}
+
+TEST_F(CommandsTest, BadInputIsAOneLineError) {
+  const std::string model = kModels + "cantilever.xml";
+  EXPECT_NE(failure(render_command, {"render", model}).find("--out"), std::string::npos);
+  EXPECT_NE(failure(snapshot_command, {"snapshot", model, "--out", (dir / "s.png").string(), "--camera", "top"}).find("side"),
+            std::string::npos);
+  EXPECT_NE(failure(render_command, {"render", model, "--out", dir.string(), "--fps", "0"}).find("--fps"), std::string::npos);
+  EXPECT_NE(failure(render_command, {"render", model, "--out", dir.string(), "--frobnicate"}).find("--frobnicate"),
+            std::string::npos);
+  EXPECT_NE(failure(snapshot_command, {"snapshot", model, "--out", (dir / "s.png").string(), "--color-by", "heat"}).find("heat"),
+            std::string::npos);
+  EXPECT_NE(failure(snapshot_command, {"snapshot", model, "--out", (dir / "s.png").string(), "--track", "nobody"}).find("nobody"),
+            std::string::npos);
+  EXPECT_NE(failure(snapshot_command, {"snapshot", kModels + "missing.xml", "--out", (dir / "s.png").string()}).find("missing.xml"),
+            std::string::npos);
+  // a model error names file and line
+  fs::create_directories(dir);
+  std::ofstream(dir / "bad.xml") << "<mujoco>\n<worldbody>\n<cosserat name=\"r\" length=\"-1\"/>\n</worldbody>\n</mujoco>\n";
+  EXPECT_NE(failure(snapshot_command, {"snapshot", (dir / "bad.xml").string(), "--out", (dir / "s.png").string()})
+                .find("bad.xml:3:"),
+            std::string::npos);
+}
+
+TEST_F(CommandsTest, HelpListsTheOptions) {
+  testing::internal::CaptureStdout();
+  EXPECT_EQ(run(render_command, {"render", "--help"}), 0);
+  const std::string help = testing::internal::GetCapturedStdout();
+  for (const char* o : {"--out", "--duration", "--fps", "--width", "--height", "--camera", "--video", "--track", "--color-by"})
+    EXPECT_NE(help.find(o), std::string::npos) << o;
+  testing::internal::CaptureStdout();
+  EXPECT_EQ(run(snapshot_command, {"snapshot", "--help"}), 0);
+  EXPECT_NE(testing::internal::GetCapturedStdout().find("--time"), std::string::npos);
+}
+
+}  // namespace
