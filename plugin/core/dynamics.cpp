@@ -18,47 +18,51 @@ ChildRange children_of(const Model& m, int p) {
 }
 }  // namespace
 
-void crba(const Model& m, Data& d) {
+// The composite-rigid-body recursion for any per-node 6x6 matrix (inertia for crba, fluid
+// resistance for fluid_damping): out_M = sum_i J_i^T A_i J_i, with the base coupling.
+void composite(const Model& m, Data& d, Mat6 Node::*field, MatX& out_M, Mat6& out_base, Mat6X& out_F_base) {
   const int nn = static_cast<int>(m.nodes.size());
-  // composite inertia in each node frame: Ic_i = M_i + sum_c Ad*_{g_ic} Ic_c Ad^-1_{g_ic}
+  // composite matrix in each node frame: Ic_i = A_i + sum_c Ad*_{g_ic} Ic_c Ad^-1_{g_ic}
   for (int i = nn - 1; i >= 0; --i) {
-    Mat6 I = m.nodes[i].inertia;
+    Mat6 I = m.nodes[i].*field;
     for (int c : children_of(m, i)) {
       const Mat6 X = Ad_inv(d.g_rel[c]);
       I.noalias() += X.transpose() * d.Ic[c] * X;
     }
     d.Ic[i] = I;
   }
-  d.Ic_base.setZero();
+  out_base.setZero();
   for (int c : children_of(m, -1)) {
     const Mat6 X = Ad_inv(d.g_rel[c]);
-    d.Ic_base.noalias() += X.transpose() * d.Ic[c] * X;
+    out_base.noalias() += X.transpose() * d.Ic[c] * X;
   }
-  d.M.setZero();
-  d.F_base.setZero();
+  out_M.setZero();
+  out_F_base.setZero();
   // M = sum_a [S_a^T Ic_a S_a + sum_{b ancestor of a} (S_a^T Ic_a X_{b->a} S_b + transpose)]
   for (int a = 0; a < nn; ++a) {
     const Node& na = m.nodes[a];
     if (na.ndof == 0) continue;
     auto Fa = d.Fs.leftCols(na.ndof);
     Fa.noalias() = d.Ic[a] * d.S[a];
-    d.M.block(na.dof0, na.dof0, na.ndof, na.ndof).noalias() += d.S[a].transpose() * Fa;
+    out_M.block(na.dof0, na.dof0, na.ndof, na.ndof).noalias() += d.S[a].transpose() * Fa;
     for (int j = a;; j = m.nodes[j].parent) {
       const int b = m.nodes[j].parent;
       for (int c = 0; c < na.ndof; ++c)  // force subspace to the parent frame (in place, no temporary)
         Fa.col(c) = coAd_apply(d.g_rel[j], Vec6(Fa.col(c)));
       if (b < 0) {
-        d.F_base.middleCols(na.dof0, na.ndof) += Fa;
+        out_F_base.middleCols(na.dof0, na.ndof) += Fa;
         break;
       }
       const Node& nb = m.nodes[b];
       if (nb.ndof == 0) continue;
-      auto blk = d.M.block(na.dof0, nb.dof0, na.ndof, nb.ndof);
+      auto blk = out_M.block(na.dof0, nb.dof0, na.ndof, nb.ndof);
       blk.noalias() += Fa.transpose() * d.S[b];
-      d.M.block(nb.dof0, na.dof0, nb.ndof, na.ndof).noalias() += d.S[b].transpose() * Fa;
+      out_M.block(nb.dof0, na.dof0, nb.ndof, na.ndof).noalias() += d.S[b].transpose() * Fa;
     }
   }
 }
+
+void crba(const Model& m, Data& d) { composite(m, d, &Node::inertia, d.M, d.Ic_base, d.F_base); }
 
 void rnea(const Model& m, Data& d, const Eigen::Ref<const VecX>& qacc, bool gravity, bool external,
           Eigen::Ref<VecX> tau) {

@@ -13,6 +13,10 @@ namespace cosserat {
 // base frame) and d.F_base (6 x nv, base-frame wrench per unit qacc), so that for a base with
 // body-frame acceleration a_b the full mass matrix is [[Ic_base, F_base], [F_base^T, M]].
 void crba(const Model& m, Data& d);
+// The same recursion for another per-node 6x6 matrix (node frame, angular first), e.g. the fluid
+// resistance Node::drag (fluid.hpp): out_M = sum_i J_i^T A_i J_i over the nodes, with the base
+// coupling out_base (6 x 6) and out_F_base (6 x nv) as for Ic_base and F_base. Uses d.Ic as scratch.
+void composite(const Model& m, Data& d, Mat6 Node::*field, MatX& out_M, Mat6& out_base, Mat6X& out_F_base);
 // Recursive Newton-Euler: tau = M qacc + C v + gravity - external loads. After fwd_velocity.
 // `gravity` and `external` switch those contributions on; the base moves as d.base_twist/accel.
 // d.f_base receives the base-frame wrench the base must supply to the tree (its inverse dynamics).

@@ -293,6 +293,8 @@ Data::Data(const Model& m) {
   Ic.assign(nn, Mat6::Zero());
   Fs = Mat6X::Zero(6, m.max_ndof);
   F_base = Mat6X::Zero(6, n);
+  D_fluid = MatX::Zero(n, n);
+  DF_base = Mat6X::Zero(6, n);
   tmp = rhs = VecX::Zero(n);
   A = MatX::Zero(n, n);
   ldlt = Eigen::LDLT<MatX>(n);

@@ -69,6 +69,8 @@ struct Node {
   Vec6 xibar_a = Vec6::Zero(), xibar_b = Vec6::Zero();
   bool commutator = false;  // Phi_a != Phi_b or xibar_a != xibar_b
   Mat6 inertia = Mat6::Zero();  // lumped spatial inertia in the node frame
+  Mat6 drag = Mat6::Zero();     // lumped fluid resistance in the node frame: wrench -drag * eta on
+                                // the node in a fluid at rest (fluid.hpp; zero without a fluid)
   double dX = 0.0;        // rod length this node stands for in quadratures (0 for non-rod nodes)
   bool free_joint = false;  // a 6-dof free joint (floating base): no static equilibrium
   int rod = -1, section = -1;
@@ -205,6 +207,12 @@ struct Data {
   Mat6 Ic_base = Mat6::Zero();   // composite inertia of everything, base frame (crba)
   Mat6X F_base;                  // 6 x nv: base-frame wrench per unit qacc (crba): M_base,q
   Vec6 f_base = Vec6::Zero();    // base-frame wrench the base supplies to the tree (rnea)
+  // fluid damping (fluid_damping in fluid.hpp: composite of Node::drag, like crba's outputs):
+  // the generalised drag of the tree with base twist eta_b is -(D_fluid v + DF_base^T eta_b),
+  // and the base receives the wrench -(DF_base v + Dc_base eta_b).
+  MatX D_fluid;                  // nv x nv
+  Mat6 Dc_base = Mat6::Zero();   // 6 x 6
+  Mat6X DF_base;                 // 6 x nv
 
   // scratch
   Mat6X Fs;                // 6 x max_ndof

@@ -303,6 +303,7 @@ class Preprocessor {
   void map_lines(const XMLElement* root, Preprocessed& out) const;
   void emit_excludes(XMLDocument& doc, XMLElement* root);
   void check_depth(const XMLElement* root) const;
+  void check_fluid_fields(const XMLElement* root) const;
 
   Reader reader(const XMLElement* e) const { return Reader(e, origin(e), origins_); }
   const Origin& origin(const XMLElement* e) const;
@@ -434,7 +435,7 @@ RodInput Preprocessor::read_rod(XMLElement* cosserat, const std::string& parent_
   const Reader r = reader(cosserat);
   r.allow_attributes({"name", "pos", "quat", "euler", "axisangle", "xyaxes", "zaxis", "length",
                       "sections", "strain", "dofs", "order", "reststrain", "radius", "density",
-                      "young", "poisson", "viscosity", "quadrature", "capsules", "selfcollide",
+                      "young", "poisson", "viscosity", "quadrature", "capsules", "selfcollide", "drag", "wavelength",
                       "contype", "conaffinity", "condim", "friction", "solref", "solimp", "margin",
                       "gap", "rgba", "group", "material", "class"});
   r.allow_children({"site", "body", "section"});
@@ -476,6 +477,18 @@ RodInput Preprocessor::read_rod(XMLElement* cosserat, const std::string& parent_
   spec.section = read_section_spec(r, defaults);
   spec.section.length = 0.0;
   read_sections(r, rod);
+
+  // fluid (plugin/mujoco/fluid.hpp)
+  if (const auto v = r.numbers("drag", 1, 3)) {
+    if (v->size() == 1)
+      r.check((*v)[0] == 0.0, "drag", "needs 'c_t c_n [c_rot]', or '0' for no fluid force, got '" + r.text("drag") + "'");
+    else
+      for (double x : *v) r.check(x > 0, "drag", "coefficients must be positive, got '" + r.text("drag") + "'");
+    d.drag = *v;
+  }
+  d.wavelength = r.number("wavelength", 0.0);
+  r.check(!r.has("wavelength") || d.wavelength > 0, "wavelength", "must be positive, got " + r.text("wavelength"));
+  r.check(!(r.has("wavelength") && r.has("drag")), "wavelength", "conflicts with 'drag' (give one of them)");
 
   // capsules and collision options
   rod.capsules = r.integer("capsules", 2, 1);
@@ -804,6 +817,7 @@ Preprocessed Preprocessor::run(const std::string& text, const std::string& path)
   std::vector<std::string> stack{canonical_key(file)};
   expand_includes(root, doc, stack);
   collect_names(root);
+  check_fluid_fields(root);
   rewrite(root);
   emit_excludes(doc, root);
   check_depth(root);
@@ -813,6 +827,38 @@ Preprocessed Preprocessor::run(const std::string& text, const std::string& path)
   Preprocessed out{printer.CStr(), path, std::move(rods_), {}};
   map_lines(root, out);
   return out;
+}
+
+// The fluid's <custom> fields (plugin/mujoco/scene_fluid.hpp), checked here where their file and
+// line are known: <text name="cosserat:fluid" data="gray-hancock|lighthill|mujoco"> and
+// <numeric name="cosserat:drag:NAME" data="c_t c_n [c_rot]" or "0">, NAME a geom or a body.
+void Preprocessor::check_fluid_fields(const XMLElement* root) const {
+  for (const XMLElement* custom = root->FirstChildElement("custom"); custom;
+       custom = custom->NextSiblingElement("custom"))
+    for (const XMLElement* c = custom->FirstChildElement(); c; c = c->NextSiblingElement()) {
+      const std::string name = c->Attribute("name") ? c->Attribute("name") : "";
+      if (name.rfind("cosserat:", 0) != 0) continue;
+      const Reader r = reader(c);
+      if (is(c, "text") && name == "cosserat:fluid") {
+        const std::string v = r.text("data");
+        r.check(v == "gray-hancock" || v == "lighthill" || v == "mujoco", "data",
+                "of '" + name + "' must be 'gray-hancock', 'lighthill' or 'mujoco', got '" + v + "'");
+      } else if (is(c, "numeric") && name.rfind("cosserat:drag:", 0) == 0) {
+        const std::string target = name.substr(14);
+        r.check(names_.count({"geom", target}) || names_.count({"body", target}), "name",
+                "'" + name + "' names no geom or body '" + target + "'");
+        const auto v = r.numbers("data", 1, 3);
+        r.check(v.has_value(), "data", "is missing");
+        if (v->size() == 1)
+          r.check((*v)[0] == 0.0, "data", "needs 'c_t c_n [c_rot]', or '0' for no fluid force, got '" + r.text("data") + "'");
+        else
+          for (double x : *v) r.check(x > 0, "data", "coefficients must be positive, got '" + r.text("data") + "'");
+        r.check(!r.has("size") || r.integer("size", 0, 1) == static_cast<int>(v->size()), "size", "differs from the number of values in 'data'");
+      } else {
+        r.fail_attr("name", "'" + name + "': unknown cosserat field (known: <text name=\"cosserat:fluid\">, "
+                            "<numeric name=\"cosserat:drag:NAME\">)");
+      }
+    }
 }
 
 // Maps each line of the printed MJCF to the origin of the element that starts there: re-parse the

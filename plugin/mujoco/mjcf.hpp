@@ -58,6 +58,10 @@ struct RodDecl {
   std::vector<RodGeomDecl> geoms;     // capsules, in section order
   std::vector<std::string> joints;    // slide joint names in core dof order (nv of the rod)
   std::vector<std::string> proxies;   // proxy body names, one per section
+  // fluid (fluid.hpp): drag="c_t c_n [c_rot]" overrides the resistive-force coefficients
+  // (drag="0": no fluid force on this rod); wavelength="lambda" the wave they are computed from
+  std::vector<double> drag;
+  double wavelength = 0.0;
 };
 
 // Where a line of the generated MJCF comes from in the user's files.

@@ -2,11 +2,12 @@
 //
 // The step is MuJoCo's own pipeline, stage by stage, with the rod patches in between:
 //   position: kinematics | patch poses | comPos | patch cdof | camlight | tendon | patch ten_J |
-//             crb | patch qM | factorM | collision | makeConstraint | patch contact rows |
-//             transmission | projectConstraint
+//             crb | patch qM | fluid damping | factorM | collision | makeConstraint |
+//             patch contact rows | transmission | projectConstraint
 //   velocity: ten/actuator velocity | comVel | patch cdof_dot | passive | referenceConstraint |
-//             rne | patch bias (+ rod elastic and damping forces)
-//   then actuation, acceleration, constraint, and an integrator of ours.
+//             rne | patch bias (+ rod elastic and damping forces) | fluid forces
+//   then actuation, acceleration, constraint, and an integrator of ours (the fluid's damping
+//   implicit in euler and implicit: scene_fluid.hpp).
 // Rod inertia enters as an articulated subtree on the rod's parent body: the core provides the
 // rod block of M, the base-frame force subspace F_base and the composite inertia Ic_base, which
 // are projected on the parent's dofs through the parent's Jacobian (from MuJoCo's cdof).
@@ -545,6 +546,9 @@ SceneData::SceneData(const Scene& s) {
   rk_kv.assign(4 * nv, 0);
   rk_ka.assign(4 * na, 0);
   rk_dx.assign(nv, 0);
+  fluid_qD.assign(s.fluid.active ? s.m->nM : 0, 0);
+  fluid_f.assign(s.fluid.active ? nv : 0, 0);
+  fluid_cols.setZero(6, s.fluid.max_chain);
   scratch.resize(s.rods.size());
   for (size_t r = 0; r < s.rods.size(); ++r) {
     RodScratch& sc = scratch[r];
@@ -572,6 +576,7 @@ void fwd_position(const Scene& s, SceneData& sd) {
   if (m->ntendon && !s.rods.empty()) patch_tendons(s, sd);
   mj_crb(m, d);
   for (size_t r = 0; r < s.rods.size(); ++r) patch_qM(s, sd, static_cast<int>(r));
+  fluid_damping(s, sd);  // fluid hook: damping matrix (scene_fluid.hpp); no-op without the fluid
   mj_factorM(m, d);
   mj_collision(m, d);
   mj_makeConstraint(m, d);
@@ -594,6 +599,7 @@ void fwd_velocity(const Scene& s, SceneData& sd) {
   mj_referenceConstraint(m, d);
   mj_rne(m, d, 0, d->qfrc_bias);
   for (size_t r = 0; r < s.rods.size(); ++r) patch_bias(s, sd, static_cast<int>(r));
+  fluid_forces(s, sd);  // fluid hook: qfrc_passive -= D qvel; no-op without the fluid
 }
 
 void forward(const Scene& s, SceneData& sd) {
@@ -711,6 +717,7 @@ std::unique_ptr<Scene> compile(const Preprocessed& pre) {
       s->geom_rod[s->rods[r].geom_id[k]] = static_cast<int>(r);
       s->geom_index[s->rods[r].geom_id[k]] = static_cast<int>(k);
     }
+  setup_fluid(*s);  // fluid hook: may switch MuJoCo's own fluid off (scene_fluid.hpp)
   if (!s->rods.empty()) recompute_invweight0(*s);
   s->integrator = s->rods.empty() ? Integrator::Euler : Integrator::Implicit;
   if (s->m->opt.integrator == mjINT_RK4) s->integrator = Integrator::RK4;
@@ -746,32 +753,38 @@ void advance_with_qacc(const Scene& s, SceneData& sd) {
   mju_copy(m->dof_damping, damping.data(), m->nv);
 }
 
-// Implicit in the rods' stiffness and damping and in MuJoCo's joint damping:
-//   (M + h D + h^2 K) a = M qacc - h K v,   qacc the explicit accelerations (with constraint forces).
-// Assembled in MuJoCo's sparse qM (K and D live inside each section's dof chain) and solved with
-// MuJoCo's own factorisation; qM is restored afterwards.
-void implicit_step(const Scene& s, SceneData& sd) {
+// Implicit in the rods' stiffness and damping (`rods`), in MuJoCo's joint damping and in the
+// fluid's damping D_f:
+//   (M + h D + h^2 K) a = M qacc - h K v,   qacc the explicit accelerations (with constraint forces),
+// D = joint damping + rods' Kelvin-Voigt damping + D_f (rods = false: joint damping + D_f, K = 0:
+// MuJoCo's Euler with the fluid added to its implicit damping).
+// Assembled in MuJoCo's sparse qM (K and D live inside each section's dof chain, D_f in the
+// kinematic tree's pattern) and solved with MuJoCo's own factorisation; qM is restored afterwards.
+void implicit_step(const Scene& s, SceneData& sd, bool rods = true) {
   const mjModel* m = s.m;
   mjData* d = sd.d;
   const double h = m->opt.timestep;
   const int nv = m->nv;
   // rhs = M qacc - h K v
   mj_mulM(m, d, sd.qacc_tmp.data(), d->qacc);
-  for (size_t r = 0; r < s.rods.size(); ++r) {
-    const RodBinding& rb = s.rods[r];
-    VecX& Kv = sd.scratch[r].Kv;
-    Kv.noalias() = rb.model.K * sd.rod[r].v;
-    for (int k = 0; k < rb.model.nv; ++k) sd.qacc_tmp[rb.dof0 + k] -= h * Kv(k);
-  }
+  if (rods)
+    for (size_t r = 0; r < s.rods.size(); ++r) {
+      const RodBinding& rb = s.rods[r];
+      VecX& Kv = sd.scratch[r].Kv;
+      Kv.noalias() = rb.model.K * sd.rod[r].v;
+      for (int k = 0; k < rb.model.nv; ++k) sd.qacc_tmp[rb.dof0 + k] -= h * Kv(k);
+    }
   std::vector<mjtNum>& qM_save = sd.qM_save;
   std::copy(d->qM, d->qM + m->nM, qM_save.begin());
   for (int i = 0; i < nv; ++i) d->qM[m->dof_Madr[i]] += h * m->dof_damping[i];
-  for (const auto& rb : s.rods)
-    for (int i = 0; i < rb.model.nv; ++i)
-      for (int j = 0; j <= i; ++j) {
-        const double a = h * rb.model.D(i, j) + h * h * rb.model.K(i, j);
-        if (a != 0.0) d->qM[m->dof_Madr[rb.dof0 + i] + (i - j)] += a;
-      }
+  if (rods)
+    for (const auto& rb : s.rods)
+      for (int i = 0; i < rb.model.nv; ++i)
+        for (int j = 0; j <= i; ++j) {
+          const double a = h * rb.model.D(i, j) + h * h * rb.model.K(i, j);
+          if (a != 0.0) d->qM[m->dof_Madr[rb.dof0 + i] + (i - j)] += a;
+        }
+  add_fluid_damping(s, sd, h);  // fluid hook: + h D_f (no-op without the fluid)
   mj_factorM(m, d);
   mj_solveM(m, d, d->qacc, sd.qacc_tmp.data(), 1);
   std::copy(qM_save.begin(), qM_save.end(), d->qM);
@@ -845,7 +858,10 @@ Status step(const Scene& s, SceneData& sd, Integrator method) {
   switch (method) {
     case Integrator::Euler:
       forward(s, sd);
-      mj_Euler(m, d);
+      if (s.fluid.active)
+        implicit_step(s, sd, false);  // fluid hook: MuJoCo's Euler plus the fluid's implicit damping
+      else
+        mj_Euler(m, d);
       break;
     case Integrator::Implicit:
       forward(s, sd);

@@ -19,6 +19,7 @@
 #include "integrators.hpp"
 #include "mjcf.hpp"
 #include "model.hpp"
+#include "scene_fluid.hpp"
 
 namespace cosserat::mj {
 
@@ -51,6 +52,7 @@ struct Scene {
   std::vector<int> site_section;  // per MuJoCo site: section (proxy) of the rod carrying it
   std::string path;
   Integrator integrator = Integrator::Implicit;  // default: Implicit with rods, Euler without
+  SceneFluid fluid;               // low-Reynolds fluid (scene_fluid.hpp); inactive without viscosity
 };
 
 struct SceneData {
@@ -73,6 +75,9 @@ struct SceneData {
     VecX Kv;
   };
   std::vector<RodScratch> scratch;  // per rod
+  // fluid (scene_fluid.hpp): damping in qM's sparse layout (nM), its force, body columns
+  std::vector<mjtNum> fluid_qD, fluid_f;
+  Mat6X fluid_cols;
 };
 
 // Loads an MJCF file with <cosserat> elements. Throws LoadError on bad input.
@@ -83,7 +88,8 @@ std::unique_ptr<Scene> load_scene_string(const std::string& xml, const std::stri
 // constraint solve. Leaves d->qacc as MuJoCo's forward would.
 void forward(const Scene& s, SceneData& sd);
 // One time step with s.integrator (or `method`). Returns Diverged (and restores the state) when
-// the state goes non-finite.
+// the state goes non-finite. Euler and Implicit treat the fluid's damping implicitly (as joint
+// damping); with the plugin's fluid inactive, Euler is MuJoCo's mj_Euler.
 Status step(const Scene& s, SceneData& sd);
 Status step(const Scene& s, SceneData& sd, Integrator method);
 // qpos = qpos0, qvel = 0, time = 0, and MuJoCo's mj_resetData.
