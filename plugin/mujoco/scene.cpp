@@ -622,6 +622,29 @@ void recompute_invweight0(Scene& s) {
   SceneData sd(s);
   mju_copy(sd.d->qpos, m->qpos0, m->nq);
   fwd_position(s, sd);
+  // camera and light offsets for tracking modes (as mj_setConst computes them, which it did with
+  // the proxies' temporary masses): from the static placement at qpos0, relative to the body and
+  // to its subtree's centre of mass (MuJoCo's, which counts rigid bodies only)
+  for (int i = 0; i < m->ncam; ++i) {
+    const int b = m->cam_bodyid[i];
+    mjtNum xpos[3], xmat[9], qmat[9];
+    mju_rotVecMat(xpos, m->cam_pos + 3 * i, sd.d->xmat + 9 * b);
+    mju_addTo3(xpos, sd.d->xpos + 3 * b);
+    mju_quat2Mat(qmat, m->cam_quat + 4 * i);
+    mju_mulMatMat(xmat, sd.d->xmat + 9 * b, qmat, 3, 3, 3);
+    mju_sub3(m->cam_pos0 + 3 * i, xpos, sd.d->xpos + 3 * b);
+    mju_sub3(m->cam_poscom0 + 3 * i, xpos, sd.d->subtree_com + 3 * b);
+    mju_copy(m->cam_mat0 + 9 * i, xmat, 9);
+  }
+  for (int i = 0; i < m->nlight; ++i) {
+    const int b = m->light_bodyid[i];
+    mjtNum xpos[3];
+    mju_rotVecMat(xpos, m->light_pos + 3 * i, sd.d->xmat + 9 * b);
+    mju_addTo3(xpos, sd.d->xpos + 3 * b);
+    mju_sub3(m->light_pos0 + 3 * i, xpos, sd.d->xpos + 3 * b);
+    mju_sub3(m->light_poscom0 + 3 * i, xpos, sd.d->subtree_com + 3 * b);
+    mju_rotVecMat(m->light_dir0 + 3 * i, m->light_dir + 3 * i, sd.d->xmat + 9 * b);
+  }
   const int nv = m->nv;
   Eigen::MatrixXd Minv(nv, nv);
   std::vector<mjtNum> e(nv), x(nv);

@@ -116,8 +116,9 @@ SE3 rod_frame(const Scene& s, const SceneData& sd, int rod, double X);
 Vec6 rod_strain(const Scene& s, const SceneData& sd, int rod, double X);
 
 // Model constants mj_setConst computed without the rods' inertia (body/dof/tendon invweight0, the
-// scale of constraint softness), recomputed from the patched mass matrix at qpos0. A proxy's
-// body_invweight0 is taken at its section's centre of mass, as MuJoCo takes it at a body's.
+// scale of constraint softness; camera and light offsets for tracking), recomputed from the patched
+// state at qpos0. A proxy's body_invweight0 is taken at its section's centre of mass, as MuJoCo
+// takes it at a body's.
 void recompute_invweight0(Scene& s);
 
 // Lower-level stages (exposed for tests and for the static solver).

@@ -387,6 +387,25 @@ void expect_rigid_equivalence(const std::string& joint, const char* gravity, con
   EXPECT_LT(worst, 1e-9);
 }
 
+// Tracking cameras: MuJoCo computes their offsets at compile time, when the proxies still carry
+// temporary masses; after loading they must sit where the user placed them, as in the native
+// scene. (At run time trackcom follows MuJoCo's subtree centre of mass: rigid bodies only.)
+TEST(Scene, TrackingCamerasStartWhereTheyArePlaced) {
+  for (const char* mode : {"trackcom", "track"}) {
+    SCOPED_TRACE(mode);
+    const std::string cam = std::string("<camera name=\"c\" mode=\"") + mode +
+                            "\" pos=\"0.1 -0.5 0.2\"/>";
+    const std::string j = "<joint type=\"hinge\" axis=\"0 1 0\"/>" + cam;
+    auto sr = load_scene_string(rigid_rod_scene(false, j, "0 0 -9.81"), kPath);
+    auto sn = load_scene_string(rigid_rod_scene(true, j, "0 0 -9.81"), kPath);
+    SceneData dr(*sr), dn(*sn);
+    forward(*sr, dr);
+    forward(*sn, dn);
+    for (int k = 0; k < 3; ++k) EXPECT_NEAR(dr.d->cam_xpos[k], dn.d->cam_xpos[k], 1e-12) << k;
+    for (int k = 0; k < 9; ++k) EXPECT_NEAR(dr.d->cam_xmat[k], dn.d->cam_xmat[k], 1e-12) << k;
+  }
+}
+
 TEST(Scene, RigidRodOnHingeBehavesLikeNativeBody) {
   for (const char* g : {"0 0 -9.81", "0 0 0"})
     expect_rigid_equivalence("<joint type=\"hinge\" axis=\"0.3 1 0\"/>", g, {2.0});
