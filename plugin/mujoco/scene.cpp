@@ -259,6 +259,11 @@ void patch_rod_kinematics(const Scene& s, SceneData& sd, int r) {
     g.u = 0.5 * (a + b);
     const int id = rb.geom_id[k];
     set_pose(d->geom_xpos + 3 * id, d->geom_xmat + 9 * id, g);
+    // the capsule spans its chord: its length follows bending and stretch (DESIGN.md section 6:
+    // geom_size and geom_rbound are state-dependent for rod capsules)
+    const double half = 0.5 * (b - a).norm();
+    s.m->geom_size[3 * id + 1] = half;
+    s.m->geom_rbound[id] = half + s.m->geom_size[3 * id];
   }
   for (size_t k = 0; k < rb.site_id.size(); ++k) {
     const RodSiteDecl& sdl = rb.decl.sites[k];

@@ -37,6 +37,8 @@ struct RodBinding {
   std::vector<int> site_id;       // sites (decl.sites order)
 };
 
+// Rod capsules' geom_size and geom_rbound follow the state (their chords): a Scene steps one
+// SceneData at a time (use one Scene per thread).
 struct Scene {
   Scene() = default;
   Scene(const Scene&) = delete;

@@ -131,6 +131,25 @@ TEST(Contact, RowsGiveMaterialPointVelocities) {
       for (int condim : {1, 3, 4, 6}) check_contact_rows(cone, jac, condim);
 }
 
+// Capsules follow the solver's centre line: a stretched rod's capsules lengthen, a bent one's
+// span their chords.
+TEST(Contact, CapsulesFollowStretchAndBending) {
+  auto s = load_scene_string(scene("elliptic", "sparse", 3, 0.5), kPath);
+  SceneData sd(*s);
+  const RodBinding& rb = s->rods[0];
+  for (int sec = 0; sec < 4; ++sec) sd.d->qpos[rb.qpos0 + 4 * sec + 3] = 0.2;  // px: 20% stretch
+  sd.d->qpos[rb.qpos0 + 2] = 3.0;                                           // kz of section 0: bend
+  fwd_position(*s, sd);
+  for (size_t k = 0; k < rb.geom_id.size(); ++k) {
+    const RodGeomDecl& gd = rb.decl.geoms[k];
+    const Vec3 a = rod_pose(rb.model, sd.rod[0], 0, gd.X_begin).u, b = rod_pose(rb.model, sd.rod[0], 0, gd.X_end).u;
+    const int g = rb.geom_id[k];
+    EXPECT_NEAR(2 * s->m->geom_size[3 * g + 1], (b - a).norm(), 1e-12);
+    EXPECT_NEAR(s->m->geom_rbound[g], s->m->geom_size[3 * g + 1] + s->m->geom_size[3 * g], 1e-12);
+    if (gd.section > 0) EXPECT_NEAR(2 * s->m->geom_size[3 * g + 1], 1.2 * (gd.X_end - gd.X_begin), 1e-9);  // straight, stretched
+  }
+}
+
 // Dense and sparse Jacobians must give the same motion (all three solvers).
 TEST(Contact, DenseAndSparseGiveIdenticalResults) {
   for (const char* solver : {"PGS", "CG", "Newton"}) {
