@@ -12,7 +12,8 @@ packages=(
   nlohmann-json3-dev                 # JSON reports of the command-line tool
   libosmesa6-dev libpng-dev          # headless rendering (render/): OSMesa, PNG files
   ffmpeg                             # optional: render --video
-  python3-matplotlib                 # plots in docs/ (scripts/plot_flagellate.py)
+  python3-matplotlib                 # plots in docs/ (scripts/plot_flagellate.py, bench/report.py)
+  libbenchmark-dev                   # micro-benchmarks of the kernels (bench/kernels_main.cpp)
 )
 missing=()
 for p in "${packages[@]}"; do

@@ -1,0 +1,300 @@
+// See native_chain.hpp. The rods are read by the project's own MJCF pre-processor (so the chain
+// sees exactly the lengths, tapers, materials and sites the rod scene sees); the <cosserat>
+// elements of the user's document are then replaced in place.
+#include "native_chain.hpp"
+
+#include <tinyxml2.h>
+
+#include <charconv>
+#include <cmath>
+#include <map>
+#include <regex>
+#include <vector>
+
+#include "lie.hpp"
+#include "fluid.hpp"
+#include "mjcf.hpp"
+#include "scene.hpp"
+
+namespace cosserat::bench {
+
+namespace {
+
+using tinyxml2::XMLDocument;
+using tinyxml2::XMLElement;
+constexpr double kPi = 3.14159265358979323846;
+
+std::string fmt(double v) {
+  char buf[64];
+  const auto r = std::to_chars(buf, buf + sizeof buf, v);
+  return std::string(buf, r.ptr);
+}
+std::string fmt3(const Vec3& v) { return fmt(v.x()) + " " + fmt(v.y()) + " " + fmt(v.z()); }
+
+XMLElement* add(XMLDocument& doc, XMLElement* parent, const char* tag,
+                const std::vector<std::pair<std::string, std::string>>& attrs) {
+  XMLElement* e = doc.NewElement(tag);
+  for (const auto& [k, v] : attrs) e->SetAttribute(k.c_str(), v.c_str());
+  parent->InsertEndChild(e);
+  return e;
+}
+
+// Section data at abscissa X (the section containing it; on a boundary, the later one).
+const SectionSpec& section_at(const RodSpec& spec, double X) {
+  double X0 = 0.0;
+  for (std::size_t i = 0; i < spec.overrides.size(); ++i) {
+    X0 += spec.overrides[i].length;
+    if (X < X0 - 1e-12 * spec.length || i + 1 == spec.overrides.size()) return spec.overrides[i];
+  }
+  return spec.section;
+}
+
+double radius_at(const RodSpec& spec, double X) {
+  const double tip = spec.radius_tip < 0 ? spec.radius_base : spec.radius_tip;
+  return spec.radius_base + (tip - spec.radius_base) * X / spec.length;
+}
+
+std::string quat_text(const Mat3& R) {
+  const Eigen::Vector4d q = quat_from_matrix(R);
+  return fmt(q(0)) + " " + fmt(q(1)) + " " + fmt(q(2)) + " " + fmt(q(3));
+}
+
+void fail(const std::string& path, const std::string& msg) { throw std::runtime_error(path + ": native chain: " + msg); }
+
+// Every attribute value anywhere in the document naming a rod proxy or strain joint.
+void check_no_proxy_refs(const XMLElement* e, const std::vector<std::string>& rods, const std::string& path) {
+  for (const XMLElement* c = e->FirstChildElement(); c; c = c->NextSiblingElement()) {
+    if (std::string(c->Name()) == "cosserat") continue;
+    for (auto* a = c->FirstAttribute(); a; a = a->Next()) {
+      const std::string v = a->Value();
+      for (const auto& r : rods) {
+        const std::regex proxy("(^|\\s)" + std::regex_replace(r, std::regex(R"([.^$|()\[\]{}*+?\\])"), R"(\$&)") +
+                               "/s[0-9]+");
+        if (std::regex_search(v, proxy))
+          fail(path, "<" + std::string(c->Name()) + " " + a->Name() + "=\"" + v +
+                         "\"> names a rod proxy or strain joint, which the native chain does not have");
+      }
+    }
+    check_no_proxy_refs(c, rods, path);
+  }
+}
+
+// How the rod scene's fluid acts on a rod (when the plugin owns the scene's fluid).
+struct RodDrag {
+  double viscosity = 0;
+  RftModel model = RftModel::GrayHancock;
+  RodFluidInfo info;
+  bool enabled = false;
+};
+
+struct Converter {
+  XMLDocument& doc;
+  const std::map<std::string, const mj::RodDecl*>& decls;
+  const std::map<std::string, RodDrag>& drag;
+  const NativeChainOptions& opt;
+  std::string path;
+  std::vector<std::pair<std::string, std::string>> excludes;
+  std::vector<std::pair<std::string, std::string>> numerics;  // cosserat:drag:<body> -> data
+
+  void replace(XMLElement* parent, XMLElement* cos) {
+    const char* nm = cos->Attribute("name");
+    if (!nm || !decls.count(nm)) fail(path, "unnamed or unknown <cosserat>");
+    const mj::RodDecl& d = *decls.at(nm);
+    const RodSpec& spec = d.spec;
+    const std::string n = d.name;
+    const int N = opt.segments;
+    if (N < 1) fail(path, "segments must be >= 1");
+    const double L = spec.length, ds = L / N;
+
+    // fixed base body with the rod's placement
+    XMLElement* base = doc.NewElement("body");
+    base->SetAttribute("name", (n + "/base").c_str());
+    for (const char* a : {"pos", "quat", "euler", "axisangle", "xyaxes", "zaxis"})
+      if (const char* v = cos->Attribute(a)) base->SetAttribute(a, v);
+    parent->InsertAfterChild(cos, base);
+    add(doc, base, "site", {{"name", n + "/base"}, {"pos", "0 0 0"}});
+
+    // collision attributes of every capsule, as the rod's (MuJoCo's defaults apply otherwise)
+    std::vector<std::pair<std::string, std::string>> geom_attrs;
+    for (const char* a : {"contype", "conaffinity", "condim", "friction", "solref", "solimp", "margin", "gap", "rgba",
+                          "group", "material", "class"})
+      if (const char* v = cos->Attribute(a)) geom_attrs.emplace_back(a, v);
+    const bool selfcollide = cos->BoolAttribute("selfcollide", false);
+    // like the rod's sections: no collisions within the chain (neighbours: MuJoCo's parent filter)
+    if (!selfcollide)
+      for (int i = 0; i < N; ++i)
+        for (int k = i + 2; k < N; ++k) excludes.emplace_back(n + "/b" + std::to_string(i), n + "/b" + std::to_string(k));
+    const RodDrag* rd = drag.count(n) ? &drag.at(n) : nullptr;
+
+    static const char* comp[6] = {"kx", "ky", "kz", "px", "py", "pz"};
+    XMLElement* body = base;
+    std::vector<XMLElement*> bodies;
+    for (int k = 0; k < N; ++k) {
+      const double Xk = k * ds, Xm = (k + 0.5) * ds;
+      const SectionSpec& sj = section_at(spec, Xk);  // joint: at X_k
+      const SectionSpec& sm = section_at(spec, Xm);  // body: its middle
+      SE3 place;                                     // body k in body k-1 (rest shape)
+      if (k > 0) place = exp_se3(ds, section_at(spec, Xk - 0.5 * ds).rest_strain);
+      XMLElement* b = add(doc, body, "body", {{"name", n + "/b" + std::to_string(k)}, {"pos", fmt3(place.u)}});
+      if (!place.R.isIdentity(1e-15)) b->SetAttribute("quat", quat_text(place.R).c_str());
+      bodies.push_back(b);
+
+      // joints at the body origin: springs of the rod around X_k
+      {
+        const double r = radius_at(spec, Xk), A = kPi * r * r, I = kPi * r * r * r * r / 4, J = 2 * I;
+        const double E = sj.material.young, G = E / (2 * (1 + sj.material.poisson)), mu = sj.material.viscosity;
+        const double f = k == 0 ? opt.base_spring_factor : 1.0;
+        const double kstiff[6] = {G * J / ds, E * I / ds, E * I / ds, E * A / ds, G * A / ds, G * A / ds};
+        const double kdamp[6] = {mu * J / ds, 3 * mu * I / ds, 3 * mu * I / ds, 3 * mu * A / ds, mu * A / ds, mu * A / ds};
+        const std::string jp = n + "/b" + std::to_string(k) + "/";
+        const bool any_rot = sj.dofs[0] || sj.dofs[1] || sj.dofs[2];
+        if (opt.ball && any_rot) {
+          add(doc, b, "joint",
+              {{"name", jp + "ball"}, {"type", "ball"}, {"pos", "0 0 0"}, {"stiffness", fmt(f * kstiff[1])},
+               {"damping", fmt(f * kdamp[1])}, {"armature", "0"}, {"limited", "false"}});
+        }
+        for (int c = 0; c < 6; ++c) {
+          if (!sj.dofs[c] || (opt.ball && c < 3)) continue;
+          Vec3 axis = Vec3::Zero();
+          axis(c % 3) = 1;
+          add(doc, b, "joint",
+              {{"name", jp + comp[c]}, {"type", c < 3 ? "hinge" : "slide"}, {"pos", "0 0 0"}, {"axis", fmt3(axis)},
+               {"stiffness", fmt(f * kstiff[c])}, {"damping", fmt(f * kdamp[c])}, {"armature", "0"},
+               {"limited", "false"}, {"springref", "0"}});
+        }
+      }
+      // inertia of the segment [X_k, X_k + ds] (taper radius at its middle), capsule along its chord
+      {
+        const double r = radius_at(spec, Xm), A = kPi * r * r, I = kPi * r * r * r * r / 4, J = 2 * I;
+        const double rho = sm.material.density, mass = rho * A * ds;
+        const SE3 half = exp_se3(0.5 * ds, sm.rest_strain), end = exp_se3(ds, sm.rest_strain);
+        add(doc, b, "inertial",
+            {{"pos", fmt3(half.u)},
+             {"mass", fmt(mass)},
+             {"diaginertia", fmt(rho * J * ds) + " " + fmt(rho * I * ds + mass * ds * ds / 12) + " " +
+                                 fmt(rho * I * ds + mass * ds * ds / 12)}});
+        auto attrs = geom_attrs;
+        attrs.insert(attrs.begin(), {{"name", n + "/b" + std::to_string(k) + "/g"},
+                                     {"type", "capsule"},
+                                     {"fromto", "0 0 0 " + fmt3(end.u)},
+                                     {"size", fmt(r)},
+                                     {"mass", "0"}});
+        add(doc, b, "geom", attrs);
+        // the rod's resistive force theory on the capsule's segment (the plugin's fluid)
+        if (rd && rd->enabled) {
+          RftCoefficients c = rd->info.base;
+          if (rd->model == RftModel::GrayHancock && rd->info.wavelength > 0) {
+            const RftCoefficients g = gray_hancock(rd->viscosity, r, rd->info.wavelength);
+            if (valid(g)) c = g;
+          }
+          numerics.emplace_back("cosserat:drag:" + n + "/b" + std::to_string(k),
+                                fmt(c.ct) + " " + fmt(c.cn) + " " + fmt(c.crot));
+        }
+      }
+      body = b;
+    }
+
+    // tip frame, tip site, and the rigid bodies hanging at the tip
+    XMLElement* tip = add(doc, body, "body",
+                          {{"name", n + "/tipframe"}, {"pos", fmt3(exp_se3(ds, section_at(spec, L).rest_strain).u)}});
+    {
+      const Mat3 R = exp_se3(ds, section_at(spec, L).rest_strain).R;
+      if (!R.isIdentity(1e-15)) tip->SetAttribute("quat", quat_text(R).c_str());
+    }
+    add(doc, tip, "site", {{"name", n + "/tip"}, {"pos", "0 0 0"}});
+
+    // user sites: on the body holding their abscissa
+    for (XMLElement* c = cos->FirstChildElement("site"); c; c = c->NextSiblingElement("site")) {
+      const std::string sn = c->Attribute("name");
+      const mj::RodSiteDecl* sd = nullptr;
+      for (const auto& s : d.sites)
+        if (s.name == sn) sd = &s;
+      if (!sd) fail(path, "site '" + sn + "' not found among the rod's sites");
+      const int k = std::min(N - 1, static_cast<int>(std::floor(sd->X / ds + 1e-9)));
+      const SE3 g = exp_se3(sd->X - k * ds, section_at(spec, sd->X).rest_strain);
+      XMLElement* s = add(doc, bodies[k], "site", {{"name", sn}, {"pos", fmt3(g.act(sd->pos))}});
+      for (auto* a = c->FirstAttribute(); a; a = a->Next()) {
+        const std::string an = a->Name();
+        if (an != "name" && an != "at" && an != "pos") s->SetAttribute(a->Name(), a->Value());
+      }
+    }
+    // <body> children: moved under the tip frame; excluded against the chain like the proxies
+    std::vector<XMLElement*> kids;
+    for (XMLElement* c = cos->FirstChildElement("body"); c; c = c->NextSiblingElement("body")) kids.push_back(c);
+    for (XMLElement* c : kids) {
+      tip->InsertEndChild(c);
+      if (const char* cn = c->Attribute("name"))
+        for (int k = 0; k < N; ++k) excludes.emplace_back(cn, n + "/b" + std::to_string(k));
+    }
+    if (d.parent_body != "world")
+      for (int k = 0; k < N; ++k) excludes.emplace_back(d.parent_body, n + "/b" + std::to_string(k));
+    parent->DeleteChild(cos);
+    // continue inside the moved rigid bodies (they may carry rods too)
+    for (XMLElement* c : kids) walk(c);
+  }
+
+  void walk(XMLElement* e) {
+    for (XMLElement* c = e->FirstChildElement(); c;) {
+      XMLElement* next = c->NextSiblingElement();
+      if (std::string(c->Name()) == "cosserat")
+        replace(e, c);
+      else
+        walk(c);
+      c = next;
+    }
+  }
+};
+
+}  // namespace
+
+std::string native_chain_xml(const std::string& xml, const std::string& path, const NativeChainOptions& opt) {
+  const mj::Preprocessed pre = mj::preprocess_string(xml, path);  // validates and reads the rods
+  std::map<std::string, const mj::RodDecl*> decls;
+  std::vector<std::string> names;
+  for (const auto& r : pre.rods) decls[r.name] = &r, names.push_back(r.name);
+  // the fluid the rod scene applies to each rod, if the plugin owns it
+  std::map<std::string, RodDrag> drag;
+  {
+    const auto scene = mj::load_scene_string(xml, path);
+    if (scene->fluid.active)
+      for (size_t r = 0; r < scene->rods.size(); ++r) {
+        RodDrag d;
+        d.viscosity = scene->fluid.viscosity;
+        d.model = scene->fluid.model;
+        d.info = scene->fluid.rods[r];
+        d.enabled = scene->fluid.rod_enabled[r];
+        drag[scene->rods[r].decl.name] = d;
+      }
+  }
+
+  XMLDocument doc;
+  if (doc.Parse(xml.c_str(), xml.size()) != tinyxml2::XML_SUCCESS) fail(path, "XML parse error");
+  XMLElement* root = doc.RootElement();
+  if (!root || std::string(root->Name()) != "mujoco") fail(path, "the root element is not <mujoco>");
+  if (root->FirstChildElement("include")) fail(path, "<include> is not supported");
+  check_no_proxy_refs(root, names, path);
+
+  Converter conv{doc, decls, drag, opt, path, {}, {}};
+  conv.walk(root);
+
+  if (!conv.excludes.empty()) {
+    XMLElement* contact = root->FirstChildElement("contact");
+    if (!contact) contact = add(doc, root, "contact", {});
+    for (const auto& [a, b] : conv.excludes) add(doc, contact, "exclude", {{"body1", a}, {"body2", b}});
+  }
+  if (!conv.numerics.empty()) {
+    XMLElement* custom = root->FirstChildElement("custom");
+    if (!custom) custom = add(doc, root, "custom", {});
+    for (const auto& [name, data] : conv.numerics) add(doc, custom, "numeric", {{"name", name}, {"data", data}});
+  }
+  // keyframes: qpos/qvel no longer fit
+  for (XMLElement* k = root->FirstChildElement("keyframe"); k; k = k->NextSiblingElement("keyframe"))
+    for (XMLElement* key = k->FirstChildElement("key"); key; key = key->NextSiblingElement("key"))
+      for (const char* a : {"qpos", "qvel", "mpos", "mquat"}) key->DeleteAttribute(a);
+
+  tinyxml2::XMLPrinter printer;
+  doc.Print(&printer);
+  return printer.CStr();
+}
+
+}  // namespace cosserat::bench

@@ -1,0 +1,315 @@
+#!/usr/bin/env python3
+"""Tables and plots of the benchmark JSON files (bench/README.md).
+
+Usage: report.py DIR [--no-plots]
+Reads DIR/work_precision_*.json, DIR/stress.json, DIR/stage_cost.json, DIR/kernels.json and
+DIR/elastica_convergence.txt (whichever exist) and writes
+  DIR/RESULTS.md                        the tables (Markdown), with the machine they came from;
+  DIR/work_precision_<problem>.png      error against wall time, log-log, one curve per contender
+                                        (the Pareto front of its grid; every run as a faint dot);
+  DIR/stage_cost.png                    per-step cost by stage for each shipped model.
+Plots need matplotlib (Debian: python3-matplotlib); without it only RESULTS.md is written.
+"""
+import glob
+import json
+import os
+import sys
+
+
+def load(path):
+    with open(path) as f:
+        return json.load(f)
+
+
+def machine_line(m):
+    return (f"{m.get('cpu', '?')}, {m.get('hardware_threads', '?')} hardware threads, {m.get('compiler', '?')}, "
+            f"MuJoCo {m.get('mujoco', '?')}, Eigen {m.get('eigen', '?')}, {m.get('build', '?')}; "
+            f"load average at start {m.get('loadavg_at_start', '?').split(' ')[0]}; {m.get('date', '?')}")
+
+
+def fmt_e(x):
+    return "-" if x is None else f"{x:.2e}"
+
+
+def fmt_t(x):
+    if x is None:
+        return "-"
+    return f"{x * 1e3:.1f} ms" if x < 1 else f"{x:.2f} s"
+
+
+def work_precision_section(files, plots, outdir):
+    out = ["## Work-precision (run time against error)", ""]
+    for path in files:
+        j = load(path)
+        name = j["problem"]
+        out += [f"### {name}", "", j["description"] + ".", ""]
+        if "error" in j:
+            out += [f"Not run: {j['error']}", ""]
+            continue
+        ref = j.get("reference", {})
+        if ref.get("kind") == "analytic":
+            out.append("Reference: analytic.")
+        else:
+            out.append(f"Reference: {ref['setting']['label']} (our solver); a second fine solution, "
+                       f"{ref['check_setting']['label']}, differs from it by {ref['check_difference']:.2e} "
+                       f"(errors below that are not resolved).")
+        out += ["", f"Machine: {machine_line(j['machine'])}. Simulated time {j['duration_s']} s per run; wall "
+                    f"times of the Pareto points are medians of repeated runs.", ""]
+        out += ["| contender | best error | at wall time | fastest run | its error |", "|---|---|---|---|---|"]
+        for f in j["families"]:
+            pts = [p for p in f["points"] if p["error"] is not None]
+            if not pts:
+                out.append(f"| {f['name']} | diverged or failed | | | |")
+                continue
+            best = min(pts, key=lambda p: (p["error"], p["wall_s"]))
+            fast = min(pts, key=lambda p: p["wall_s"])
+            out.append(f"| {f['name']} | {fmt_e(best['error'])} ({best['label']}) | {fmt_t(best['wall_s'])} | "
+                       f"{fmt_t(fast['wall_s'])} ({fast['label']}) | {fmt_e(fast['error'])} |")
+        s = j.get("summary", {})
+        out += ["", f"Least error reached: ours {fmt_e(s.get('best_error_ours'))}, native chain "
+                    f"{fmt_e(s.get('best_error_native'))}.", ""]
+        rows = s.get("at_equal_error", [])
+        if rows:
+            out += ["| error at most | ours (fastest) | native chain (fastest) | native / ours |", "|---|---|---|---|"]
+            for r in rows:
+                sp = r.get("speedup")
+                out.append(f"| {r['error']:.0e} | {fmt_t(r.get('ours_s'))} | {fmt_t(r.get('native_s'))} | "
+                           f"{'-' if sp is None else f'{sp:.1f}x'} |")
+            out.append("")
+        if plots:
+            png = os.path.join(outdir, f"work_precision_{name}.png")
+            plot_work_precision(j, png)
+            out += [f"![work-precision {name}](work_precision_{name}.png)", ""]
+    return out
+
+
+def plot_work_precision(j, png):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    fig, ax = plt.subplots(figsize=(8, 5.5))
+    colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    for i, f in enumerate(j["families"]):
+        pts = [p for p in f["points"] if p["error"] is not None and p["error"] > 0]
+        if not pts:
+            continue
+        c = colors[i % len(colors)]
+        ax.scatter([p["wall_s"] for p in pts], [p["error"] for p in pts], s=8, color=c, alpha=0.3)
+        front = sorted([p for p in pts if p.get("pareto")], key=lambda p: p["wall_s"])
+        style = "--" if f["native"] else "-"
+        ax.plot([p["wall_s"] for p in front], [p["error"] for p in front], style, marker="o", ms=4, color=c,
+                label=f["name"])
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ref = j.get("reference", {})
+    if ref.get("check_difference"):
+        ax.axhline(ref["check_difference"], color="gray", lw=0.8, ls=":")
+        ax.text(ax.get_xlim()[0], ref["check_difference"], " resolution of the reference", color="gray",
+                va="bottom", fontsize=7)
+    ax.set_xlabel("wall time of the run [s]")
+    ax.set_ylabel("relative error")
+    m = j["machine"]
+    ax.set_title(f"{j['problem']}: error against run time ({j['duration_s']} s simulated)\n"
+                 f"{m.get('cpu', '?')}, {m.get('date', '?')[:10]}", fontsize=9)
+    ax.grid(True, which="both", lw=0.3, alpha=0.5)
+    ax.legend(fontsize=7, loc="best")
+    fig.tight_layout()
+    fig.savefig(png, dpi=110)
+    plt.close(fig)
+
+
+def stress_section(path):
+    j = load(path)
+    out = ["## Stability stress tests", "", f"Machine: {machine_line(j['machine'])}.", ""]
+    out += ["Largest stable step (energy does not grow, state finite) of each integrator, and whether the "
+            "resting state (static equilibrium) then stays put (tip drift < 1e-6 L):", ""]
+    mat = j.get("material", [])
+    out += ["| Young's modulus [Pa] | L/r | euler | implicit | rk4 |", "|---|---|---|---|---|"]
+    cases = {}
+    for r in mat:
+        cases.setdefault((r["young"], r["slenderness"]), {})[r["method"]] = r
+    for (E, sl), by in sorted(cases.items()):
+        cells = []
+        for m in ("euler", "implicit", "rk4"):
+            r = by.get(m)
+            if not r:
+                cells.append("-")
+                continue
+            h = r.get("largest_stable_step")
+            rest = r.get("rest", {})
+            cell = "none" if h is None else f"{h:g}"
+            if h is not None and rest and not rest.get("pass"):
+                cell += " (rest: FAIL)"
+            cells.append(cell)
+        out.append(f"| {E:.0e} | {sl:g} | " + " | ".join(cells) + " |")
+    out.append("")
+    if j.get("turns"):
+        out += ["Sections bent through several turns and nearly straight (no gravity, undamped):", "",
+                "| theta = abs(k) L | integrator | h | result | energy growth |", "|---|---|---|---|---|"]
+        for r in j["turns"]:
+            out.append(f"| {r['theta']:.3g} | {r['method']} | {r['h']:g} | {'pass' if r['pass'] else 'FAIL: ' + r.get('reason', '')} "
+                       f"| {r.get('energy_growth', 0):.1e} |")
+        out.append("")
+    if j.get("long"):
+        out += ["Long runs:", "", "| integrator | h | steps | result | energy growth | wall |", "|---|---|---|---|---|---|"]
+        for r in j["long"]:
+            out.append(f"| {r['method']} | {r['h']:g} | {r['steps']} | {'pass' if r['pass'] else 'FAIL: ' + r.get('reason', '')} "
+                       f"| {r.get('energy_growth', 0):.1e} | {fmt_t(r['wall_s'])} |")
+        out.append("")
+    if j.get("tipmass"):
+        out += ["Heavy tip masses (largest stable step):", "", "| tip mass / rod mass | euler | implicit | rk4 |",
+                "|---|---|---|---|"]
+        by = {}
+        for r in j["tipmass"]:
+            by.setdefault(r["tip_mass_ratio"], {})[r["method"]] = r.get("largest_stable_step")
+        for ratio, d in sorted(by.items()):
+            out.append(f"| {ratio:g} | " + " | ".join("none" if d.get(m) is None else f"{d[m]:g}"
+                                                      for m in ("euler", "implicit", "rk4")) + " |")
+        out.append("")
+    if j.get("contact"):
+        out += ["Hard contact:", ""]
+        for r in j["contact"]:
+            if "largest_stable_step_with_contact" in r:
+                out.append(f"- {r['case']}, {r['method']}: largest stable step {r['largest_stable_step_with_contact']} "
+                           f"with contact, {r['largest_stable_step_without_contact']} without: "
+                           f"{'pass' if r['pass'] else 'FAIL'}")
+            else:
+                out.append(f"- {r['case']}, {r['method']}: {'pass' if r['pass'] else 'FAIL: ' + r.get('reason', '')}"
+                           + (f" (drift {r['drift_over_L']:.1e} L)" if 'drift_over_L' in r else ""))
+        out.append("")
+    out += [f"Failing cases: {j.get('failures', 0)}", ""]
+    for f in j.get("failure_list", []):
+        out.append(f"- {f}")
+    out.append("")
+    return out
+
+
+def stage_section(path, plots, outdir):
+    j = load(path)
+    out = ["## Per-step cost by stage, features switched off, coupling overhead", "",
+           f"Machine: {machine_line(j['machine'])}.", ""]
+    cats = None
+    for m in j["models"]:
+        b = m["breakdown"]
+        if cats is None:
+            cats = list(b["categories_us"].keys())
+    if not j["models"]:
+        return out
+    out += ["Per-step cost [us] by stage (from the same state; see bench/README.md for how each is measured):", ""]
+    out += ["| stage | " + " | ".join(m["model"] for m in j["models"]) + " |",
+            "|---|" + "---|" * len(j["models"])]
+    out.append("| **step** | " + " | ".join(f"**{m['breakdown']['step_us']:.1f}**" for m in j["models"]) + " |")
+    for c in cats:
+        out.append(f"| {c} | " + " | ".join(f"{m['breakdown']['categories_us'].get(c, 0):.1f}" for m in j["models"]) + " |")
+    out.append("| nv / sections / rod capsules / ncon | " + " | ".join(
+        f"{m['nv']} / {m['sections']} / {m['rod_capsules']} / {m['ncon']}" for m in j["models"]) + " |")
+    out.append("| heap allocations per step | " + " | ".join(str(m["allocations_per_step"]) for m in j["models"]) + " |")
+    out.append("")
+    out += ["Step time with a feature switched off (change against the shipped scene, same state):", ""]
+    names = []
+    for m in j["models"]:
+        for v in m["features_off"]:
+            if v["variant"] not in names:
+                names.append(v["variant"])
+    out += ["| variant | " + " | ".join(m["model"] for m in j["models"]) + " |", "|---|" + "---|" * len(j["models"])]
+    for n in names:
+        cells = []
+        for m in j["models"]:
+            v = next((v for v in m["features_off"] if v["variant"] == n), None)
+            cells.append("n/a" if v is None else f"{v['step_us']:.1f} ({100 * v['change']:+.0f}%)")
+        out.append(f"| {n} | " + " | ".join(cells) + " |")
+    out.append("")
+    out += ["Coupling overhead: our step against MuJoCo's mj_step on (a) the same compiled model (proxies as rigid "
+            "bodies: same dofs and geoms) and (b) the native chain with one body per section (same dofs). "
+            "Goal: at most 2x.", "",
+            "| model | ours (default integrator) | ours (euler) | mj_step, same model | ratio | native chain nv / ncon | mj_step, native | ratio (euler) |",
+            "|---|---|---|---|---|---|---|---|"]
+    for m in j["models"]:
+        o = m["coupling_overhead"]
+        out.append(f"| {m['model']} | {o['ours_step_us']:.1f} us | {o['ours_euler_step_us']:.1f} us | "
+                   f"{o['same_model_mj_step_us']:.1f} us | {o['ratio_same_model']:.1f}x | "
+                   f"{o.get('native_chain_nv', '-')} / {o.get('native_chain_ncon', '-')} | "
+                   f"{o.get('native_chain_mj_step_us', float('nan')):.1f} us | "
+                   f"{o.get('ratio_native_chain', float('nan')):.1f}x ({o.get('ratio_native_chain_euler', float('nan')):.1f}x) |")
+    out.append("")
+    if plots:
+        plot_stages(j, os.path.join(outdir, "stage_cost.png"))
+        out += ["![per-step cost by stage](stage_cost.png)", ""]
+    return out
+
+
+def plot_stages(j, png):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    models = j["models"]
+    cats = list(models[0]["breakdown"]["categories_us"].keys())
+    fig, ax = plt.subplots(figsize=(8, 4.5))
+    bottom = [0.0] * len(models)
+    for c in cats:
+        vals = [m["breakdown"]["categories_us"].get(c, 0.0) for m in models]
+        ax.bar([m["model"] for m in models], vals, bottom=bottom, label=c)
+        bottom = [b + v for b, v in zip(bottom, vals)]
+    ax.set_ylabel("microseconds per step")
+    ax.set_yscale("log")
+    ax.set_ylim(bottom=1)
+    ax.set_title(f"per-step cost by stage\n{j['machine'].get('cpu', '?')}, {j['machine'].get('date', '?')[:10]}", fontsize=9)
+    ax.legend(fontsize=6, loc="upper left")
+    plt.xticks(fontsize=7, rotation=15)
+    fig.tight_layout()
+    fig.savefig(png, dpi=110)
+    plt.close(fig)
+
+
+def kernels_section(path):
+    j = load(path)
+    out = ["## Micro-benchmarks of the kernels (Google Benchmark)", "",
+           f"Machine: {j['context'].get('host_name', '?')}, {j['context'].get('num_cpus', '?')} CPUs at "
+           f"{j['context'].get('mhz_per_cpu', '?')} MHz, load average {j['context'].get('load_avg', '?')}; "
+           f"{j['context'].get('date', '?')}.", "", "| kernel | CPU time | wall time |", "|---|---|---|"]
+    for b in j["benchmarks"]:
+        if b.get("run_type") == "aggregate" and b.get("aggregate_name") != "median":
+            continue
+        unit = b.get("time_unit", "ns")
+        out.append(f"| {b['name']} | {b['cpu_time']:.0f} {unit} | {b['real_time']:.0f} {unit} |")
+    out.append("")
+    return out
+
+
+def main():
+    if len(sys.argv) < 2:
+        print(__doc__)
+        return 1
+    outdir = sys.argv[1]
+    plots = "--no-plots" not in sys.argv
+    if plots:
+        try:
+            import matplotlib  # noqa: F401
+        except ImportError:
+            print("report.py: matplotlib not found (python3-matplotlib): tables only")
+            plots = False
+    lines = ["# Benchmark results", "",
+             "Generated by `bench/report.py` from the JSON files next to this file; produced by `bench/run.sh` "
+             "(see bench/README.md for what each benchmark does and how to rerun it).", ""]
+    wp = sorted(glob.glob(os.path.join(outdir, "work_precision_*.json")))
+    if wp:
+        lines += work_precision_section(wp, plots, outdir)
+    if os.path.exists(os.path.join(outdir, "stress.json")):
+        lines += stress_section(os.path.join(outdir, "stress.json"))
+    if os.path.exists(os.path.join(outdir, "stage_cost.json")):
+        lines += stage_section(os.path.join(outdir, "stage_cost.json"), plots, outdir)
+    if os.path.exists(os.path.join(outdir, "kernels.json")):
+        lines += kernels_section(os.path.join(outdir, "kernels.json"))
+    el = os.path.join(outdir, "elastica_convergence.txt")
+    if os.path.exists(el):
+        lines += ["## Static cantilever against the elastica (`elastica_convergence`)", "", "```"]
+        lines += open(el).read().rstrip().splitlines()
+        lines += ["```", ""]
+    with open(os.path.join(outdir, "RESULTS.md"), "w") as f:
+        f.write("\n".join(lines) + "\n")
+    print(f"wrote {os.path.join(outdir, 'RESULTS.md')}" + (" and plots" if plots else ""))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,722 @@
+// Work-precision study: run time against error for our rods (PCS over sections, GVS over order,
+// each integrator over its time step) and for the MuJoCo-native chain a user would build without
+// us (native_chain.hpp: N capsule bodies, hinge or ball joints, MuJoCo's integrators), on
+//   cantilever  a cantilever released from straight under gravity (large deflection), tip and
+//               mid-point trajectories over a few periods; reference: our solver at a far finer
+//               discretisation and step, shown converged against a second fine solution;
+//   circle      a rod rolled into a full circle by a ramped tip moment 2 pi EI / L (damped, held
+//               until at rest); reference: the analytic circle at four points along the rod;
+//   flagellate  rigid and soft flagellate swimming speed (models/flagellate_rigid.xml and
+//               models/flagellate.xml; skipped with a message when absent); reference: our finest;
+//   octopus     the octopus arm (models/octopus_arm.xml, without table, object and floor) curling
+//               under the cable tensions of its "curl" keyframe; reference: our finest.
+//
+// Every contender family is a grid (space knob x time step). For each space knob the step is
+// refined from the coarsest until the error stops improving (the time error is then below the
+// space error), and a family stops growing when one run costs more than --cap seconds. The
+// Pareto-optimal points of each family (no other point of the family both faster and more
+// accurate) are re-run until --reps timings exist: their wall times are medians. Errors are
+// relative (divided by the rod length, or by the reference speed).
+//
+// Usage: work_precision [--quick] [--problem NAME]... [--out DIR] [--reps N] [--cap S]
+//                       [--models DIR]
+// Writes DIR/work_precision_<problem>.json (plots: bench/plot.py).
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdint>
+#include <cstdlib>
+#include <limits>
+#include <map>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "common.hpp"
+#include "native_chain.hpp"
+
+using namespace cosserat;
+using namespace cosserat::bench;
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+struct Options {
+  bool quick = false;
+  std::vector<std::string> problems;
+  std::string out = "docs/bench";
+  std::string models = COSSERAT_SOURCE_DIR "/models";
+  std::string refs = COSSERAT_SOURCE_DIR "/docs/bench";  // cached reference trajectories
+  int reps = 3;
+  double cap = -1;  // seconds per run (default: quick 1.5, full 10)
+  bool reference_only = false;
+};
+
+// ------------------------------------------------------------------------------------ settings --
+
+// One run: ours (sections, order, method, h) or the native chain (segments, ball, method, h).
+struct Setting {
+  bool native = false;
+  int space = 1;  // sections (ours) or segments (native)
+  int order = 0;  // GVS order (ours)
+  bool ball = false;
+  double base_spring = 1.0;  // native: clamp spring as a multiple of EI/ds
+  Method method = Method::Implicit;
+  double h = 1e-3;
+  std::string label() const {
+    char b[128];
+    if (native)
+      std::snprintf(b, sizeof b, "native %s%s N=%d %s h=%g", ball ? "ball" : "hinge",
+                    base_spring != 1.0 ? (" clamp x" + std::to_string(base_spring).substr(0, 3)).c_str() : "", space,
+                    method_name(method), h);
+    else
+      std::snprintf(b, sizeof b, "%s %d sec%s %s h=%g", order ? "GVS" : "PCS", space,
+                    order ? (" order " + std::to_string(order)).c_str() : "", method_name(method), h);
+    return b;
+  }
+};
+
+Setting ours(int sections, int order, Method m, double h) {
+  Setting s;
+  s.space = sections;
+  s.order = order;
+  s.method = m;
+  s.h = h;
+  return s;
+}
+
+// A family: one curve of the plot. Its grid is spaces x steps (GVS: orders x steps).
+struct Family {
+  std::string name;
+  bool native = false;
+  bool ball = false;
+  Method method;
+  std::vector<int> spaces;  // sections or segments (PCS, native), or orders (GVS)
+  int gvs_sections = 0;     // GVS: sections (the knob is the order)
+  std::vector<double> steps;
+  double base_spring = 1.0;  // native: clamp spring factor (NativeChainOptions)
+};
+
+struct Problem {
+  std::string name, description;
+  std::string xml, path;
+  double T = 1.0, every = 0.01;
+  double scale = 1.0;                 // length (or speed) that makes errors relative
+  std::vector<std::string> sites;     // tracked sites
+  std::string swimmer;                // body whose mean speed is the output (flagellate)
+  Control control;
+  // final positions of `sites` (analytic) if any; else the reference run
+  std::vector<Vec3> analytic_final;
+  bool trajectory = true;  // error over the whole trajectory (else: final state or speed)
+  bool refine = false;     // the space knob multiplies every rod's sections (refine_sections)
+  bool native_via_plugin = false;  // the native chain runs through our loader (the plugin's fluid)
+  Setting reference, reference_check;
+  std::vector<Family> families;
+  std::string reference_note;
+};
+
+// XML of `p` for setting s (ours: sections/order edited into every rod; native: the generated chain).
+std::string scene_xml(const Problem& p, const Setting& s) {
+  if (s.native) {
+    NativeChainOptions o;
+    o.segments = s.space;
+    o.ball = s.ball;
+    o.base_spring_factor = s.base_spring;
+    return native_chain_xml(p.xml, p.path, o);
+  }
+  std::string xml = p.refine ? refine_sections(p.xml, s.space) : set_rod_attr(p.xml, "sections", std::to_string(s.space));
+  return s.order ? set_rod_attr(xml, "order", std::to_string(s.order)) : xml;
+}
+
+struct Outcome {
+  Trajectory tr;
+  int nv = 0;
+  double speed = NAN;
+  std::string error_message;
+};
+
+Outcome simulate(const Problem& p, const Setting& s) {
+  Outcome o;
+  try {
+    const std::string xml = scene_xml(p, s);
+    std::unique_ptr<Sim> sim = s.native && !p.native_via_plugin ? make_mujoco_sim(xml, p.path, s.method, s.h)
+                                                                : make_rod_sim(xml, p.path, s.method, s.h);
+    // controls of the first keyframe (qpos is not portable between discretisations)
+    if (sim->m()->nkey > 0)
+      for (int i = 0; i < sim->m()->nu; ++i) sim->d()->ctrl[i] = sim->m()->key_ctrl[i];
+    o.nv = sim->m()->nv;
+    std::vector<int> sites, bodies;
+    for (const auto& n : p.sites) {
+      const int id = sim->site_id(n);
+      if (id < 0) throw std::runtime_error("no site '" + n + "'");
+      sites.push_back(id);
+    }
+    if (!p.swimmer.empty()) bodies.push_back(sim->body_id(p.swimmer));
+    o.tr = run(*sim, p.T, s.h, p.every, sites, p.control, false, bodies);
+    if (!p.swimmer.empty() && !o.tr.diverged) {
+      // mean speed over the second half of the run
+      const size_t n = o.tr.p.size(), k = n / 2;
+      const Vec3 d = o.tr.p[n - 1].back() - o.tr.p[k].back();
+      o.speed = d.norm() / (o.tr.t[n - 1] - o.tr.t[k]);
+    }
+  } catch (const std::exception& e) {
+    o.error_message = e.what();
+    o.tr.diverged = true;
+  }
+  return o;
+}
+
+// Relative error of an outcome against the reference (trajectory RMS, final state or speed).
+double error_of(const Problem& p, const Outcome& o, const Outcome& ref) {
+  if (o.tr.diverged) return kInf;
+  if (!p.swimmer.empty()) return std::abs(o.speed - ref.speed) / std::abs(ref.speed);
+  if (!p.analytic_final.empty()) {
+    double e = 0.0;
+    for (size_t i = 0; i < p.sites.size(); ++i) e = std::max(e, (o.tr.p.back()[i] - p.analytic_final[i]).norm());
+    return e / p.scale;
+  }
+  if (o.tr.p.size() > ref.tr.p.size()) return kInf;  // the reference covers at least the run
+  double sum = 0.0;
+  size_t n = 0;
+  for (size_t k = 0; k < o.tr.p.size(); ++k)
+    for (size_t i = 0; i < p.sites.size(); ++i) sum += (o.tr.p[k][i] - ref.tr.p[k][i]).squaredNorm(), ++n;
+  return std::sqrt(sum / n) / p.scale;
+}
+
+// ------------------------------------------------------------------------------------ problems --
+
+// Cantilever: L = 0.5 m, r = 5 mm, E = 100 MPa, rho = 1000 (w L^3 / EI = 1.96), inextensible
+// Kirchhoff (ikl), undamped, released straight and horizontal under gravity: it swings down to
+// about 0.7 L below the clamp and back, first period about 0.6 s.
+Problem cantilever(const Options& o) {
+  Problem p;
+  p.name = "cantilever";
+  p.description =
+      "cantilever released from straight under gravity: L = 0.5 m, r = 5 mm, E = 1e8 Pa, rho = 1000 kg/m^3 "
+      "(w L^3/EI = 1.96), inextensible Kirchhoff rod (ikl), undamped; RMS over time of the tip and mid-point "
+      "position error, relative to L";
+  p.path = "wp_cantilever.xml";
+  p.xml = R"(<mujoco model="wp_cantilever">
+  <option timestep="0.001" gravity="0 0 -9.81"/>
+  <worldbody>
+    <cosserat name="rod" pos="0 0 1" length="0.5" sections="4" strain="ikl" radius="0.005" density="1000"
+              young="1e8" poisson="0.5" viscosity="0" contype="0" conaffinity="0">
+      <site name="mid" at="0.25"/>
+    </cosserat>
+  </worldbody>
+</mujoco>)";
+  p.T = o.quick ? 0.3 : 2.0;
+  p.every = 0.01;
+  p.scale = 0.5;
+  p.sites = {"rod/tip", "mid"};
+  const std::vector<double> ours_h = {2e-3, 1e-3, 5e-4, 2e-4, 1e-4, 5e-5, 2e-5, 1e-5};
+  const std::vector<double> native_h = {1e-3, 5e-4, 2e-4, 1e-4, 5e-5, 2e-5, 1e-5, 5e-6, 2e-6};
+  if (o.quick) {
+    p.families.push_back({"PCS / implicit", false, false, Method::Implicit, {2, 4}, 0, {1e-3, 5e-4}});
+    p.families.push_back({"GVS 2 sec / rk4", false, false, Method::RK4, {1, 2}, 2, {1e-3, 5e-4}});
+    p.families.push_back({"native hinge / euler", true, false, Method::Euler, {4, 8}, 0, {1e-3, 5e-4}});
+    p.families.push_back({"native hinge clamp 2EI/ds / euler", true, false, Method::Euler, {4, 8}, 0, {1e-3, 5e-4}, 2.0});
+  } else {
+    for (Method m : {Method::Implicit, Method::RK4, Method::Euler}) {
+      p.families.push_back({std::string("PCS / ") + method_name(m), false, false, m, {1, 2, 4, 8, 16, 32}, 0, ours_h});
+      p.families.push_back({std::string("GVS 2 sec / ") + method_name(m), false, false, m, {1, 2, 3, 4}, 2, ours_h});
+    }
+    for (Method m : {Method::Euler, Method::RK4, Method::Implicit})
+      p.families.push_back({std::string("native hinge / ") + method_name(m), true, false, m, {4, 8, 16, 32, 64}, 0, native_h});
+    p.families.push_back({"native ball / euler", true, true, Method::Euler, {4, 8, 16, 32, 64}, 0, native_h});
+    p.families.push_back({"native hinge clamp 2EI/ds / euler", true, false, Method::Euler, {4, 8, 16, 32, 64}, 0, native_h, 2.0});
+  }
+  p.reference = ours(3, 5, Method::RK4, 5e-5);
+  p.reference_check = ours(2, 4, Method::RK4, 1e-4);
+  return p;
+}
+
+// Circle: L = 0.5 m, r = 5 mm, E = 1 GPa (EI = 0.491 N m^2), no gravity, a tip moment about y ramped
+// smoothly from 0 to 2 pi EI / L over 1 s and held for 1.5 s; Kelvin-Voigt viscosity giving the
+// first bending mode critical damping (the transient then decays as exp(-17 t) or faster).
+Problem circle(const Options& o) {
+  Problem p;
+  p.name = "circle";
+  const double L = 0.5, r = 0.005, E = 1e9, rho = 1000.0;
+  const double I = kPi * r * r * r * r / 4, A = kPi * r * r, EI = E * I;
+  const double w1 = 3.516 * std::sqrt(EI / (rho * A * L * L * L * L));
+  const double mu = 2.0 * E * 1.0 / (3.0 * w1);  // bending damping ratio 1 for the first mode
+  const double M = 2 * kPi * EI / L, Tr = 1.0;
+  p.description = "rod rolled into a full circle by a tip moment ramped to 2 pi EI/L: L = 0.5 m, r = 5 mm, "
+                  "E = 1e9 Pa, no gravity, Kelvin-Voigt damping (first mode critically damped), ramp 1 s, "
+                  "hold 1.5 s; max error of four points along the rod (L/4, L/2, 3L/4, tip) against the "
+                  "analytic circle, relative to L";
+  p.path = "wp_circle.xml";
+  char xml[2048];
+  std::snprintf(xml, sizeof xml, R"(<mujoco model="wp_circle">
+  <option timestep="0.001" gravity="0 0 0"/>
+  <worldbody>
+    <cosserat name="rod" pos="0 0 0" length="%g" sections="4" strain="ikl" radius="%g" density="%g"
+              young="%g" poisson="0.5" viscosity="%.17g" contype="0" conaffinity="0">
+      <site name="q1" at="%g"/>
+      <site name="q2" at="%g"/>
+      <site name="q3" at="%g"/>
+      <body name="load"/>
+    </cosserat>
+  </worldbody>
+</mujoco>)",
+                L, r, rho, E, mu, L / 4, L / 2, 3 * L / 4);
+  p.xml = xml;
+  p.T = 2.5;
+  p.every = 0.05;
+  p.scale = L;
+  p.trajectory = false;
+  p.sites = {"q1", "q2", "q3", "rod/tip"};
+  // analytic circle: curvature k = M/EI about y, centre below the base
+  const double k = M / EI;
+  for (double X : {L / 4, L / 2, 3 * L / 4, L}) p.analytic_final.push_back(Vec3(std::sin(k * X) / k, 0, -(1 - std::cos(k * X)) / k));
+  p.control = [M, Tr](double t, const mjModel* m, mjData* d) {
+    static thread_local int body = -1;
+    static thread_local const mjModel* last = nullptr;
+    if (m != last) body = mj_name2id(m, mjOBJ_BODY, "load"), last = m;
+    const double s = t >= Tr ? 1.0 : 0.5 * (1 - std::cos(kPi * t / Tr));
+    d->xfrc_applied[6 * body + 4] = s * M;  // torque about world y: bends the tip towards -z
+  };
+  const std::vector<double> ours_h = {1e-2, 5e-3, 2e-3, 1e-3, 5e-4, 2e-4, 1e-4};
+  const std::vector<double> native_h = {1e-3, 5e-4, 2e-4, 1e-4, 5e-5, 2e-5, 1e-5, 5e-6};
+  if (o.quick) {
+    p.families.push_back({"PCS / implicit", false, false, Method::Implicit, {1, 2}, 0, {1e-2, 5e-3}});
+    p.families.push_back({"native hinge / euler", true, false, Method::Euler, {4, 8}, 0, {1e-3, 5e-4}});
+  } else {
+    for (Method m : {Method::Implicit, Method::RK4})
+      p.families.push_back({std::string("PCS / ") + method_name(m), false, false, m, {1, 2, 4, 8}, 0, ours_h});
+    p.families.push_back({"GVS 1 sec / implicit", false, false, Method::Implicit, {1, 2}, 1, ours_h});
+    for (Method m : {Method::Euler, Method::Implicit, Method::RK4})
+      p.families.push_back({std::string("native hinge / ") + method_name(m), true, false, m, {4, 8, 16, 32, 64}, 0, native_h});
+    p.families.push_back({"native hinge clamp 2EI/ds / euler", true, false, Method::Euler, {4, 8, 16, 32, 64}, 0, native_h, 2.0});
+  }
+  return p;
+}
+
+// Flagellates: the shipped models as they are (their controls: keyframe "swim", 1 Hz), the space
+// knob refining every section of every rod k times. The native chain (flagellum as N capsule
+// bodies) runs through our loader so that it feels the same fluid (resistive force theory on its
+// capsules, scene_fluid.hpp); for the rigid flagellate it is N welded capsules.
+std::vector<Problem> flagellates(const Options& o) {
+  std::vector<Problem> out;
+  for (const char* f : {"flagellate_rigid", "flagellate"}) {
+    const std::string path = o.models + "/" + f + ".xml";
+    if (!file_exists(path)) {
+      std::printf("[%s] skipped: %s does not exist yet\n", f, path.c_str());
+      continue;
+    }
+    Problem p;
+    p.name = f;
+    p.path = path;
+    p.xml = read_file(path);
+    p.trajectory = false;
+    p.refine = true;
+    p.native_via_plugin = true;
+    p.every = 0.01;
+    p.T = o.quick ? 1.0 : 4.0;
+    p.description = std::string("mean swimming speed of the head of ") + f + ".xml (keyframe swim: 1 Hz) over the "
+                    "second half of " + std::to_string(p.T).substr(0, 3) + " s, relative to the reference speed; "
+                    "space knob: every section refined k times";
+    std::unique_ptr<mj::Scene> s;
+    try {
+      s = mj::load_scene(path);
+    } catch (const std::exception& e) {
+      std::printf("[%s] skipped: %s\n", f, e.what());
+      continue;
+    }
+    for (int j = 0; j < s->m->njnt; ++j)
+      if (s->m->jnt_type[j] == mjJNT_FREE) {
+        p.swimmer = mj_id2name(s->m, mjOBJ_BODY, s->m->jnt_bodyid[j]);
+        break;
+      }
+    if (p.swimmer.empty() || s->rods.empty()) {
+      std::printf("[%s] skipped: no free-swimming body or no rod\n", f);
+      continue;
+    }
+    const double h0 = s->m->opt.timestep;
+    p.sites = {s->rods[0].decl.name + "/tip"};
+    std::vector<double> hs;
+    for (double k : {4.0, 2.0, 1.0, 0.5, 0.25}) hs.push_back(h0 * k);
+    if (o.quick) {
+      p.families.push_back({"PCS / implicit", false, false, Method::Implicit, {1}, 0, {h0 * 2, h0}});
+      p.families.push_back({"native / euler", true, false, Method::Euler, {16}, 0, {h0 * 2, h0}});
+    } else {
+      p.families.push_back({"PCS / implicit", false, false, Method::Implicit, {1, 2, 4}, 0, hs});
+      p.families.push_back({"PCS / rk4", false, false, Method::RK4, {1, 2, 4}, 0, hs});
+      p.families.push_back({"native / euler", true, false, Method::Euler, {8, 16, 32, 64}, 0, hs});
+      p.families.push_back({"native / rk4", true, false, Method::RK4, {8, 16, 32, 64}, 0, hs});
+    }
+    if (std::string(f) == "flagellate") {
+      // the soft flagellum is stiff (axial modes) and light in a viscous fluid: explicit steps
+      // (RK4, or Euler's explicit elasticity) need h < 1e-4; the implicit integrator is the one
+      // that runs at the model's step, and the reference is a fine implicit run
+      p.families.erase(std::remove_if(p.families.begin(), p.families.end(),
+                                      [](const Family& fm) { return fm.method == Method::RK4; }),
+                       p.families.end());
+      p.reference = ours(2, 0, Method::Implicit, h0 / 16);
+      p.reference_check = ours(1, 0, Method::Implicit, h0 / 8);
+    } else {
+      p.reference = ours(4, 0, Method::RK4, h0 / 4);
+      p.reference_check = ours(2, 0, Method::RK4, h0 / 2);
+    }
+    out.push_back(p);
+  }
+  return out;
+}
+
+// Octopus arm: models/octopus_arm.xml without table, object and floor, the mount raised to 0.5 m,
+// controls of its "curl" keyframe (0, 0.4, 0.4) N from t = 0.
+Problem octopus(const Options& o) {
+  Problem p;
+  p.name = "octopus";
+  p.path = o.models + "/octopus_arm.xml";
+  p.description = "octopus arm (models/octopus_arm.xml: tapered kl rod, 0.35 m, E = 1.5e5 Pa, viscosity 2 Pa s, "
+                  "three cables through 8 sites) curling under the tensions of its 'curl' keyframe (0, 0.4, 0.4) N "
+                  "ramped in over 0.5 s, in free space (table, object and floor removed, mount at 0.5 m), first 0.2 s; RMS over time of the tip and "
+                  "dorsal4 (X = 0.2 m) position error, relative to L";
+  std::string xml = read_file(p.path);
+  for (const char* g : {"floor", "table"}) xml = remove_named(xml, "geom", g);
+  xml = remove_named(xml, "body", "object");
+  xml = set_named_attr(xml, "body", "mount", "pos", "0 0 0.5");
+  p.xml = xml;
+  // 0.2 s: the arm swings down and starts to curl (its tip travels 0.15 m). It is nearly undamped
+  // and its trajectory soon becomes too sensitive for any reference: discretisations that agree to
+  // about 1e-3 L at 0.2 s differ by 6e-3 L (RMS) over 0.3 s and by centimetres at 1 s.
+  p.T = 0.2;
+  p.every = 0.01;
+  p.scale = 0.35;
+  p.sites = {"arm/tip", "dorsal4"};
+  // the tensions of the "curl" keyframe, ramped in smoothly over the first 0.5 s (a step in tension
+  // would excite modes no discretisation resolves)
+  p.control = [](double t, const mjModel* m, mjData* d) {
+    const double Tr = 0.5, s = t >= Tr ? 1.0 : 0.5 * (1 - std::cos(kPi * t / Tr));
+    for (int i = 0; i < m->nu; ++i) d->ctrl[i] = s * m->key_ctrl[i];
+  };
+  const std::vector<double> ours_h = {2e-3, 1e-3, 5e-4, 2e-4, 1e-4, 5e-5, 2e-5};
+  const std::vector<double> native_h = {1e-3, 5e-4, 2e-4, 1e-4, 5e-5, 2e-5, 1e-5, 5e-6};
+  if (o.quick) {
+    p.families.push_back({"PCS / implicit", false, false, Method::Implicit, {2, 4}, 0, {1e-3, 5e-4}});
+    p.families.push_back({"native hinge / euler", true, false, Method::Euler, {8}, 0, {1e-3, 5e-4}});
+  } else {
+    for (Method m : {Method::Implicit, Method::RK4})
+      p.families.push_back({std::string("PCS / ") + method_name(m), false, false, m, {2, 4, 8, 16, 32}, 0, ours_h});
+    for (Method m : {Method::Implicit, Method::RK4})
+      p.families.push_back({std::string("GVS 2 sec / ") + method_name(m), false, false, m, {1, 2, 3, 4}, 2, ours_h});
+    for (Method m : {Method::Euler, Method::Implicit, Method::RK4})
+      p.families.push_back({std::string("native hinge / ") + method_name(m), true, false, m, {8, 16, 32, 64}, 0, native_h});
+    p.families.push_back({"native hinge clamp 2EI/ds / euler", true, false, Method::Euler, {8, 16, 32, 64}, 0, native_h, 2.0});
+  }
+  p.reference = ours(4, 3, Method::RK4, 5e-5);
+  p.reference_check = ours(32, 0, Method::RK4, 1e-4);
+  return p;
+}
+
+// ------------------------------------------------------------------------------------- driver --
+
+// Identifies a reference run: the problem text, sampling, sites and the reference settings
+// (FNV-1a, stable across runs).
+std::string reference_key(const Problem& p) {
+  std::string t = p.xml + "|" + std::to_string(p.every) + "|" + p.reference.label() + "|" + p.reference_check.label();
+  for (const auto& n : p.sites) t += "|" + n;
+  if (!p.swimmer.empty()) t += "|" + p.swimmer + "|" + std::to_string(p.T);
+  std::uint64_t h = 1469598103934665603ull;
+  for (unsigned char c : t) h = (h ^ c) * 1099511628211ull;
+  char b[32];
+  std::snprintf(b, sizeof b, "%016llx", static_cast<unsigned long long>(h));
+  return b;
+}
+
+json setting_json(const Setting& s) {
+  json j;
+  j["label"] = s.label();
+  j["native"] = s.native;
+  j[s.native ? "segments" : "sections"] = s.space;
+  if (!s.native) j["order"] = s.order;
+  if (s.native) j["joint"] = s.ball ? "ball" : "hinge";
+  j["method"] = method_name(s.method);
+  j["h"] = s.h;
+  return j;
+}
+
+struct Point {
+  Setting s;
+  int nv = 0;
+  double error = kInf;
+  std::vector<double> walls;
+  bool diverged = false;
+  std::string message;
+  double wall() const { return median(walls); }
+};
+
+// Points of `pts` on the lower-left envelope (error against wall time).
+std::vector<int> pareto(const std::vector<Point>& pts) {
+  std::vector<int> idx;
+  for (size_t i = 0; i < pts.size(); ++i) {
+    if (!std::isfinite(pts[i].error)) continue;
+    bool dominated = false;
+    for (size_t j = 0; j < pts.size() && !dominated; ++j)
+      dominated = j != i && std::isfinite(pts[j].error) && pts[j].wall() <= pts[i].wall() &&
+                  pts[j].error <= pts[i].error && (pts[j].wall() < pts[i].wall() || pts[j].error < pts[i].error);
+    if (!dominated) idx.push_back(static_cast<int>(i));
+  }
+  std::sort(idx.begin(), idx.end(), [&](int a, int b) { return pts[a].wall() < pts[b].wall(); });
+  return idx;
+}
+
+// Least wall time among `pts` reaching relative error <= e (inf if none).
+double time_to_error(const std::vector<const Point*>& pts, double e) {
+  double t = kInf;
+  for (const Point* p : pts)
+    if (p->error <= e) t = std::min(t, p->wall());
+  return t;
+}
+
+json run_problem(const Problem& p, const Options& o) {
+  const double cap = o.cap > 0 ? o.cap : (o.quick ? 1.5 : 10.0);
+  std::printf("\n=== %s: %s\n", p.name.c_str(), p.description.c_str());
+  json out;
+  out["problem"] = p.name;
+  out["description"] = p.description;
+  out["duration_s"] = p.T;
+  out["sample_interval_s"] = p.every;
+  out["quick"] = o.quick;
+  out["machine"] = machine_info();
+
+  // reference: cached in --refs when computed with the same problem and setting for at least T
+  Outcome ref;
+  if (p.analytic_final.empty()) {
+    const std::string key = reference_key(p);
+    const std::string cache = o.refs + "/reference_" + p.name +
+                              (p.swimmer.empty() ? "" : "_T" + std::to_string(static_cast<int>(p.T))) + ".json";
+    json cached;
+    if (file_exists(cache)) {
+      cached = json::parse(read_file(cache));
+      const bool usable = cached.value("key", "") == key && cached.value("duration_s", 0.0) >= p.T - 1e-9 &&
+                          (p.swimmer.empty() || std::abs(cached.value("duration_s", 0.0) - p.T) < 1e-9);
+      if (!usable) cached = json();
+    }
+    if (!cached.is_null()) {
+      std::printf("reference: %s (cached in %s, %.1f s of simulated time)\n", p.reference.label().c_str(),
+                  cache.c_str(), cached["duration_s"].get<double>());
+      const size_t n = cached["t"].size();
+      for (size_t k = 0; k < n; ++k) {
+        if (cached["t"][k].get<double>() > p.T + 1e-9) break;
+        ref.tr.t.push_back(cached["t"][k]);
+        std::vector<Vec3> pk;
+        for (const auto& v : cached["p"][k]) pk.push_back(Vec3(v[0], v[1], v[2]));
+        ref.tr.p.push_back(pk);
+      }
+      if (cached.contains("speed")) ref.speed = cached["speed"];
+      ref.tr.wall = cached["wall_s"];
+    } else {
+      std::printf("reference: %s ...\n", p.reference.label().c_str());
+      std::fflush(stdout);
+      ref = simulate(p, p.reference);
+      if (ref.tr.diverged) {
+        std::printf("reference run failed: %s\n", ref.error_message.c_str());
+        out["error"] = "reference run failed: " + ref.error_message;
+        return out;
+      }
+      const Outcome chk = simulate(p, p.reference_check);
+      cached["key"] = key;
+      cached["problem"] = p.name;
+      cached["duration_s"] = p.T;
+      cached["setting"] = setting_json(p.reference);
+      cached["wall_s"] = ref.tr.wall;
+      cached["check_setting"] = setting_json(p.reference_check);
+      cached["check_difference"] = error_of(p, chk, ref);
+      cached["sites"] = p.sites;
+      cached["t"] = ref.tr.t;
+      json pp = json::array();
+      for (const auto& pk : ref.tr.p) {
+        json row = json::array();
+        for (const Vec3& v : pk) row.push_back({v.x(), v.y(), v.z()});
+        pp.push_back(row);
+      }
+      cached["p"] = pp;
+      if (!p.swimmer.empty()) cached["speed"] = ref.speed;
+      write_json(cache, cached);
+    }
+    const double e = cached["check_difference"];
+    std::printf("reference %s: %.2f s wall; the second fine solution %s differs by %.3e (relative)\n",
+                p.reference.label().c_str(), ref.tr.wall, p.reference_check.label().c_str(), e);
+    out["reference"] = {{"kind", "own solver, fine"},
+                        {"setting", setting_json(p.reference)},
+                        {"wall_s", ref.tr.wall},
+                        {"computed_for_duration_s", cached["duration_s"]},
+                        {"check_setting", setting_json(p.reference_check)},
+                        {"check_difference", e},
+                        {"note", "errors below about check_difference are not resolved by the reference"}};
+    if (!p.swimmer.empty()) out["reference"]["speed"] = ref.speed;
+  } else {
+    json pts = json::array();
+    for (const Vec3& v : p.analytic_final) pts.push_back({v.x(), v.y(), v.z()});
+    out["reference"] = {{"kind", "analytic"}, {"final_positions", pts}};
+  }
+
+  if (o.reference_only) return out;
+  json fams = json::array();
+  std::vector<std::vector<Point>> all;
+  for (const Family& f : p.families) {
+    std::printf("-- %s\n", f.name.c_str());
+    std::vector<Point> pts;
+    bool too_slow = false;
+    for (int knob : f.spaces) {
+      if (too_slow) break;
+      double prev = kInf;
+      bool any_ok = false;
+      for (double h : f.steps) {
+        Setting s;
+        s.native = f.native;
+        s.ball = f.ball;
+        s.base_spring = f.base_spring;
+        s.method = f.method;
+        s.h = h;
+        if (f.gvs_sections > 0)
+          s.space = f.gvs_sections, s.order = knob;
+        else
+          s.space = knob;
+        // rough cost guard: skip steps that would obviously exceed the cap
+        if (!pts.empty()) {
+          const Point& last = pts.back();
+          if (last.s.space == s.space && last.s.order == s.order && last.wall() * last.s.h / h > 2.5 * cap) break;
+        }
+        Point pt;
+        pt.s = s;
+        const Outcome oc = simulate(p, s);
+        pt.diverged = oc.tr.diverged;
+        pt.message = oc.error_message;
+        pt.walls.push_back(oc.tr.wall);
+        pt.error = error_of(p, oc, ref);
+        pt.nv = oc.nv;
+        std::printf("   %-44s nv %4d  error %10.3e  wall %9.4f s%s%s\n", s.label().c_str(), pt.nv, pt.error,
+                    oc.tr.wall, pt.diverged ? "  DIVERGED" : "",
+                    pt.message.empty() ? "" : ("  (" + pt.message + ")").c_str());
+        std::fflush(stdout);
+        pts.push_back(pt);
+        if (!pt.message.empty()) {
+          too_slow = true;  // a setting that cannot even be built: stop the family
+          break;
+        }
+        if (pt.diverged) continue;
+        any_ok = true;
+        if (oc.tr.wall > cap) {
+          too_slow = true;
+          break;
+        }
+        // converged in time: the step no longer matters at this resolution
+        if (std::isfinite(prev) && std::abs(pt.error - prev) < 0.05 * prev) break;
+        if (std::isfinite(prev) && pt.error > prev * 1.05 && pt.error > 1e-12) break;
+        prev = pt.error;
+      }
+      if (!any_ok && !f.native) continue;
+    }
+    // medians for the Pareto points
+    for (int i : pareto(pts)) {
+      Point& pt = pts[i];
+      while (static_cast<int>(pt.walls.size()) < o.reps) {
+        const Outcome oc = simulate(p, pt.s);
+        pt.walls.push_back(oc.tr.wall);
+      }
+    }
+    const std::vector<int> front = pareto(pts);
+    json jf;
+    jf["name"] = f.name;
+    jf["native"] = f.native;
+    jf["method"] = method_name(f.method);
+    json jp = json::array();
+    for (size_t i = 0; i < pts.size(); ++i) {
+      const Point& pt = pts[i];
+      json j = setting_json(pt.s);
+      j["nv"] = pt.nv;
+      j["error"] = std::isfinite(pt.error) ? json(pt.error) : json(nullptr);
+      j["wall_s"] = pt.wall();
+      j["wall_runs_s"] = pt.walls;
+      j["diverged"] = pt.diverged;
+      if (!pt.message.empty()) j["message"] = pt.message;
+      j["pareto"] = std::find(front.begin(), front.end(), static_cast<int>(i)) != front.end();
+      jp.push_back(j);
+    }
+    jf["points"] = jp;
+    fams.push_back(jf);
+    all.push_back(pts);
+  }
+  out["families"] = fams;
+
+  // summary: ours against the native chain at equal error
+  std::vector<const Point*> ours, native;
+  for (size_t f = 0; f < p.families.size(); ++f)
+    for (const Point& pt : all[f]) (p.families[f].native ? native : ours).push_back(&pt);
+  double best_native = kInf, best_ours = kInf;
+  for (const Point* q : native) best_native = std::min(best_native, q->error);
+  for (const Point* q : ours) best_ours = std::min(best_ours, q->error);
+  json summary;
+  summary["best_error_ours"] = std::isfinite(best_ours) ? json(best_ours) : json(nullptr);
+  summary["best_error_native"] = std::isfinite(best_native) ? json(best_native) : json(nullptr);
+  json ratios = json::array();
+  std::printf("\nsummary %s: least error ours %.3e, native %.3e (within the cap of %.1f s per run)\n", p.name.c_str(),
+              best_ours, best_native, cap);
+  std::printf("   %10s  %12s  %12s  %8s\n", "error <=", "ours [s]", "native [s]", "ratio");
+  for (double e : {1e-1, 3e-2, 1e-2, 3e-3, 1e-3, 3e-4, 1e-4, 3e-5, 1e-5, 1e-6}) {
+    const double to = time_to_error(ours, e), tn = time_to_error(native, e);
+    if (!std::isfinite(to) && !std::isfinite(tn)) continue;
+    json r;
+    r["error"] = e;
+    r["ours_s"] = std::isfinite(to) ? json(to) : json(nullptr);
+    r["native_s"] = std::isfinite(tn) ? json(tn) : json(nullptr);
+    r["speedup"] = std::isfinite(to) && std::isfinite(tn) ? json(tn / to) : json(nullptr);
+    ratios.push_back(r);
+    std::printf("   %10.0e  %12.5f  %12.5f  %8s\n", e, to, tn,
+                std::isfinite(to) && std::isfinite(tn) ? std::to_string(tn / to).substr(0, 7).c_str() : "-");
+  }
+  summary["at_equal_error"] = ratios;
+  out["summary"] = summary;
+  return out;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Options o;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    auto next = [&]() -> std::string {
+      if (i + 1 >= argc) {
+        std::fprintf(stderr, "work_precision: %s needs a value\n", a.c_str());
+        std::exit(1);
+      }
+      return argv[++i];
+    };
+    if (a == "--quick") o.quick = true;
+    else if (a == "--problem") o.problems.push_back(next());
+    else if (a == "--out") o.out = next();
+    else if (a == "--models") o.models = next();
+    else if (a == "--refs") o.refs = next();
+    else if (a == "--reference-only") o.reference_only = true;
+    else if (a == "--reps") o.reps = std::atoi(next().c_str());
+    else if (a == "--cap") o.cap = std::atof(next().c_str());
+    else {
+      std::fprintf(stderr,
+                   "usage: work_precision [--quick] [--problem cantilever|circle|flagellate|octopus]... [--out DIR] "
+                   "[--reps N] [--cap SECONDS] [--models DIR] [--refs DIR]\n");
+      return 1;
+    }
+  }
+  if (o.problems.empty()) o.problems = {"cantilever", "circle", "flagellate", "octopus"};
+  mju_user_warning = [](const char*) {};  // divergence is detected and reported per run
+  for (const std::string& name : o.problems) {
+    std::vector<Problem> ps;
+    if (name == "cantilever") ps.push_back(cantilever(o));
+    else if (name == "circle") ps.push_back(circle(o));
+    else if (name == "flagellate") ps = flagellates(o);
+    else if (name == "octopus") ps.push_back(octopus(o));
+    else {
+      std::fprintf(stderr, "work_precision: unknown problem '%s'\n", name.c_str());
+      return 1;
+    }
+    for (const Problem& p : ps) write_json(o.out + "/work_precision_" + p.name + ".json", run_problem(p, o));
+  }
+  return 0;
+}
