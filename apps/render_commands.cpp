@@ -16,6 +16,7 @@
 #include <string>
 #include <vector>
 
+#include "cli.hpp"
 #include "integrators.hpp"
 #include "png_io.hpp"
 #include "renderer.hpp"
@@ -24,38 +25,11 @@
 
 namespace {
 
+using namespace cosserat::cli;
 namespace fs = std::filesystem;
 namespace mj = cosserat::mj;
 namespace rd = cosserat::render;
 using cosserat::Integrator;
-
-// A bad command line or a failed command: reported as one line on stderr, exit status 1.
-struct Failure : std::runtime_error {
-  using std::runtime_error::runtime_error;
-};
-[[noreturn]] void fail(const std::string& msg) { throw Failure(msg); }
-
-// ---------------------------------------------------------------------------- option parsing --
-
-struct Option {
-  std::string name, metavar, help;  // metavar empty: a flag
-  std::function<void(const std::string&)> set;
-};
-
-double parse_number(const std::string& flag, const std::string& text) {
-  char* end = nullptr;
-  const double v = std::strtod(text.c_str(), &end);
-  if (text.empty() || *end || !std::isfinite(v)) fail(flag + ": '" + text + "' is not a number");
-  return v;
-}
-
-int parse_int(const std::string& flag, const std::string& text, int min) {
-  char* end = nullptr;
-  const long v = std::strtol(text.c_str(), &end, 10);
-  if (text.empty() || *end) fail(flag + ": '" + text + "' is not an integer");
-  if (v < min || v > 1000000000L) fail(flag + ": must be an integer >= " + std::to_string(min) + ", got '" + text + "'");
-  return static_cast<int>(v);
-}
 
 std::string format(double v) {
   char b[32];
@@ -73,73 +47,6 @@ Option number(const std::string& name, const std::string& metavar, const std::st
               fail(name + ": must be in [" + format(lo) + ", " + format(hi) + "], got '" + v + "'");
           }};
 }
-Option positive(const std::string& name, const std::string& metavar, const std::string& help, double& target) {
-  return number(name, metavar, help, target, 0, HUGE_VAL, true);
-}
-Option integer(const std::string& name, const std::string& metavar, const std::string& help, int& target, int min) {
-  return {name, metavar, help, [&target, name, min](const std::string& v) { target = parse_int(name, v, min); }};
-}
-Option text(const std::string& name, const std::string& metavar, const std::string& help, std::string& target) {
-  return {name, metavar, help, [&target, name](const std::string& v) {
-            if (v.empty()) fail(name + ": empty value");
-            target = v;
-          }};
-}
-
-// One command's synopsis and options; parse() accepts "--opt value" and "--opt=value".
-struct CommandLine {
-  std::string name, synopsis, summary, details;
-  std::vector<Option> options;
-
-  std::string help() const {
-    std::ostringstream h;
-    h << "usage: cosserat " << name << " " << synopsis << "\n  " << summary << "\noptions:\n";
-    for (const auto& o : options) {
-      std::string left = o.name + (o.metavar.empty() ? "" : " " + o.metavar);
-      left.resize(std::max<size_t>(left.size() + 2, 22), ' ');
-      h << "  " << left << o.help << "\n";
-    }
-    h << "  --help                this text\n" << details;
-    return h.str();
-  }
-
-  // The positional arguments, or nullopt after printing --help.
-  std::optional<std::vector<std::string>> parse(int argc, char** argv) const {
-    std::vector<std::string> pos;
-    const std::string hint = " (see 'cosserat " + name + " --help')";
-    for (int i = 1; i < argc; ++i) {
-      std::string a = argv[i];
-      if (a == "--help" || a == "-h") {
-        std::cout << help();
-        return std::nullopt;
-      }
-      if (a.size() < 2 || a[0] != '-') {
-        pos.push_back(a);
-        continue;
-      }
-      std::optional<std::string> value;
-      if (const size_t eq = a.find('='); eq != std::string::npos) {
-        value = a.substr(eq + 1);
-        a.resize(eq);
-      }
-      const auto o = std::find_if(options.begin(), options.end(), [&](const Option& x) { return x.name == a; });
-      if (o == options.end()) fail(name + ": unknown option '" + a + "'" + hint);
-      if (o->metavar.empty()) {
-        if (value) fail(name + ": " + a + " takes no value");
-        o->set("");
-        continue;
-      }
-      if (!value) {
-        if (i + 1 >= argc) fail(name + ": " + a + " needs a value " + o->metavar + hint);
-        value = argv[++i];
-      }
-      o->set(*value);
-    }
-    if (pos.size() != 1) fail(name + ": expected one MODEL.xml, got " + std::to_string(pos.size()) + " arguments" + hint);
-    return pos;
-  }
-};
-
 // ------------------------------------------------------------------- options both commands share --
 
 struct PictureOptions {
@@ -152,23 +59,23 @@ struct PictureOptions {
 
   void add_to(CommandLine& c) {
     rd::RenderOptions& r = render;
-    c.options.push_back(integer("--width", "W", "picture width in pixels (default: the model's offwidth)", r.width, 1));
-    c.options.push_back(integer("--height", "H", "picture height in pixels (default: the model's offheight)", r.height, 1));
-    c.options.push_back(text("--camera", "NAME", "a camera of the model (default: a free camera framing the scene)", r.camera.name));
-    c.options.push_back(text("--track", "BODY", "the free camera follows this body", r.camera.track));
+    c.options.push_back(int_option("--width", "W", "picture width in pixels (default: the model's offwidth)", r.width, 1));
+    c.options.push_back(int_option("--height", "H", "picture height in pixels (default: the model's offheight)", r.height, 1));
+    c.options.push_back(text_option("--camera", "NAME", "a camera of the model (default: a free camera framing the scene)", r.camera.name));
+    c.options.push_back(text_option("--track", "BODY", "the free camera follows this body", r.camera.track));
     c.options.push_back(number("--azimuth", "DEG", "free camera azimuth (default 90: looking along +y)", r.camera.azimuth));
     c.options.push_back(number("--elevation", "DEG", "free camera elevation (default -20: from above)", r.camera.elevation, -89, 89));
     c.options.push_back(number("--margin", "F", "free camera: empty border, fraction of the picture (default 0.08)", r.camera.margin, 0, 0.45));
-    c.options.push_back(text("--color-by", "WHAT", "rod colours: model (the MJCF rgba), strain or stress (magnitude at the surface)", coloring));
-    c.options.push_back(positive("--color-max", "V", "strain or stress at the top of the colour map (default: the largest in each picture)",
+    c.options.push_back(text_option("--color-by", "WHAT", "rod colours: model (the MJCF rgba), strain or stress (magnitude at the surface)", coloring));
+    c.options.push_back(positive_option("--color-max", "V", "strain or stress at the top of the colour map (default: the largest in each picture)",
                                  r.rods.color_max));
-    c.options.push_back(integer("--rod-segments", "N", "rings drawn along each rod's tube, evenly spaced (default: adaptive to its bending)", r.rods.segments, 1));
+    c.options.push_back(int_option("--rod-segments", "N", "rings drawn along each rod's tube, evenly spaced (default: adaptive to its bending)", r.rods.segments, 1));
     c.options.push_back({"--no-shadows", "", "do not draw shadows", [&r](const std::string&) { r.shadows = false; }});
-    c.options.push_back(integer("--samples", "N", "multisampling per pixel (default: the model's offsamples)", r.samples, 0));
-    c.options.push_back(text("--key", "K", "start from keyframe K (name or index)", key));
-    c.options.push_back(text("--ctrl", "U", "actuator controls: nu numbers separated by commas (after --key)", ctrl));
-    c.options.push_back(positive("--timestep", "h", "time step [s] (default: the model's <option timestep>)", timestep));
-    c.options.push_back(text("--integrator", "NAME", "euler | implicit | rk4 (default: implicit with rods, euler without)", integrator));
+    c.options.push_back(int_option("--samples", "N", "multisampling per pixel (default: the model's offsamples)", r.samples, 0));
+    c.options.push_back(text_option("--key", "K", "start from keyframe K (name or index)", key));
+    c.options.push_back(text_option("--ctrl", "U", "actuator controls: nu numbers separated by commas (after --key)", ctrl));
+    c.options.push_back(positive_option("--timestep", "h", "time step [s] (default: the model's <option timestep>)", timestep));
+    c.options.push_back(text_option("--integrator", "NAME", "euler | implicit | rk4 (default: implicit with rods, euler without)", integrator));
   }
 
   void finish() {
@@ -276,17 +183,19 @@ int render_command(int argc, char** argv) {
     PictureOptions o;
     double duration = 1.0, fps = 30.0;
     std::string video;
-    CommandLine cl{"render", "MODEL.xml --out DIR [options]",
+    CommandLine cl{"render",
                    "simulate and write frames DIR/frame_00000.png ... at t = k/fps, k = 0 .. duration*fps - 1",
+                   {"MODEL.xml"},
+                   {},
                    "Frames left in DIR by an earlier render are removed first. Rendering is headless (OSMesa):\n"
                    "no display is needed. A progress bar is shown when stderr is a terminal.\n",
-                   {}};
-    cl.options.push_back(text("--out", "DIR", "directory of the frames (created)", o.out));
-    cl.options.push_back(positive("--duration", "T", "simulated time [s] (default 1)", duration));
-    cl.options.push_back(positive("--fps", "F", "frames per simulated second (default 30)", fps));
-    cl.options.push_back(text("--video", "F.mp4", "also encode the frames into a video with ffmpeg (must be installed)", video));
+                   "MODEL.xml --out DIR [options]"};
+    cl.options.push_back(text_option("--out", "DIR", "directory of the frames (created)", o.out));
+    cl.options.push_back(positive_option("--duration", "T", "simulated time [s] (default 1)", duration));
+    cl.options.push_back(positive_option("--fps", "F", "frames per simulated second (default 30)", fps));
+    cl.options.push_back(text_option("--video", "F.mp4", "also encode the frames into a video with ffmpeg (must be installed)", video));
     o.add_to(cl);
-    const auto pos = cl.parse(argc, argv);
+    const auto pos = cl.parse(argc - 1, argv + 1);  // after the command name
     if (!pos) return 0;
     o.finish();
     const long frames = std::llround(duration * fps);
@@ -322,14 +231,12 @@ int snapshot_command(int argc, char** argv) {
   return guarded([&] {
     PictureOptions o;
     double time = 0.0;
-    CommandLine cl{"snapshot", "MODEL.xml --out F.png [options]",
-                   "simulate until --time and write one picture (PNG)",
-                   "Rendering is headless (OSMesa): no display is needed.\n",
-                   {}};
-    cl.options.push_back(text("--out", "F.png", "the picture (its directory is created)", o.out));
+    CommandLine cl{"snapshot", "simulate until --time and write one picture (PNG)", {"MODEL.xml"}, {},
+                   "Rendering is headless (OSMesa): no display is needed.\n", "MODEL.xml --out F.png [options]"};
+    cl.options.push_back(text_option("--out", "F.png", "the picture (its directory is created)", o.out));
     cl.options.push_back(number("--time", "t", "simulated time of the picture [s] (default 0: the initial state)", time, 0));
     o.add_to(cl);
-    const auto pos = cl.parse(argc, argv);
+    const auto pos = cl.parse(argc - 1, argv + 1);  // after the command name
     if (!pos) return 0;
     o.finish();
 

@@ -1,0 +1,149 @@
+// Command-line parsing shared by the cosserat tool's commands (apps/cosserat.cpp and
+// apps/render_commands.cpp): options "--opt value" / "--opt=value", generated --help, strict
+// number parsing, and one failure type reported as a one-line reason with exit status 1.
+#pragma once
+
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+#include <functional>
+#include <iostream>
+#include <optional>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace cosserat::cli {
+
+// -------------------------------------------------------------------------------- failures --
+
+// A bad command line or a failed command: main prints "cosserat: <what>" and exits with 1.
+struct Failure : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+[[noreturn]] inline void fail(const std::string& msg) { throw Failure(msg); }
+
+// ---------------------------------------------------------------------------- option parsing --
+
+struct Option {
+  std::string name;     // "--duration"
+  std::string metavar;  // "T"; empty for a flag
+  std::string help;
+  std::function<void(const std::string&)> set;
+};
+
+// One command's synopsis, positional arguments and options. parse() accepts "--opt value" and
+// "--opt=value" anywhere among the positional arguments.
+struct CommandLine {
+  std::string name;                     // "run"
+  std::string summary;                  // one line
+  std::vector<std::string> positional;  // metavars of the required positional arguments
+  std::vector<Option> options;
+  std::string details;                  // extra help text
+  std::string synopsis;                 // replaces the generated usage after the name, if given
+
+  std::string usage() const {
+    if (!synopsis.empty()) return "cosserat " + name + " " + synopsis;
+    std::string u = "cosserat " + name;
+    for (const auto& p : positional) u += " " + p;
+    for (const auto& o : options) u += " [" + o.name + (o.metavar.empty() ? "" : " " + o.metavar) + "]";
+    return u;
+  }
+
+  std::string help() const {
+    std::ostringstream h;
+    h << "usage: " << usage() << "\n  " << summary << "\noptions:\n";
+    auto row = [&h](std::string left, const std::string& text) {
+      left.resize(std::max<size_t>(left.size() + 2, 22), ' ');
+      h << "  " << left << text << "\n";
+    };
+    for (const auto& o : options) row(o.name + (o.metavar.empty() ? "" : " " + o.metavar), o.help);
+    row("--help", "this text");
+    h << details;
+    return h.str();
+  }
+
+  // The positional arguments, or nullopt after printing --help. Throws Failure on bad input.
+  std::optional<std::vector<std::string>> parse(int argc, char** argv) const {
+    std::vector<std::string> pos;
+    const std::string hint = " (see 'cosserat " + name + " --help')";
+    for (int i = 0; i < argc; ++i) {
+      std::string a = argv[i];
+      if (a == "--help" || a == "-h") {
+        std::cout << help();
+        return std::nullopt;
+      }
+      if (a.size() < 2 || a[0] != '-') {
+        pos.push_back(a);
+        continue;
+      }
+      std::optional<std::string> inline_value;
+      if (const size_t eq = a.find('='); eq != std::string::npos) {
+        inline_value = a.substr(eq + 1);
+        a.resize(eq);
+      }
+      const auto o = std::find_if(options.begin(), options.end(), [&](const Option& x) { return x.name == a; });
+      if (o == options.end()) fail(name + ": unknown option '" + a + "'" + hint);
+      if (o->metavar.empty()) {
+        if (inline_value) fail(name + ": " + a + " takes no value");
+        o->set("");
+      } else if (inline_value) {
+        o->set(*inline_value);
+      } else {
+        if (i + 1 >= argc) fail(name + ": " + a + " needs a value " + o->metavar + hint);
+        o->set(argv[++i]);
+      }
+    }
+    if (pos.size() != positional.size()) {
+      std::string want;
+      for (const auto& p : positional) want += (want.empty() ? "" : " ") + p;
+      fail(name + ": expected " + (want.empty() ? "no arguments" : want) + ", got " + std::to_string(pos.size()) +
+           " argument" + (pos.size() == 1 ? "" : "s") + hint);
+    }
+    return pos;
+  }
+};
+
+inline double parse_number(const std::string& flag, const std::string& text) {
+  char* end = nullptr;
+  const double v = std::strtod(text.c_str(), &end);
+  if (text.empty() || *end || !std::isfinite(v)) fail(flag + ": '" + text + "' is not a number");
+  return v;
+}
+
+inline double parse_positive(const std::string& flag, const std::string& text) {
+  const double v = parse_number(flag, text);
+  if (!(v > 0)) fail(flag + ": must be positive, got '" + text + "'");
+  return v;
+}
+
+inline int parse_int(const std::string& flag, const std::string& text, int min) {
+  char* end = nullptr;
+  const long v = std::strtol(text.c_str(), &end, 10);
+  if (text.empty() || *end) fail(flag + ": '" + text + "' is not an integer");
+  if (v < min || v > 1000000000L) fail(flag + ": must be an integer >= " + std::to_string(min) + ", got '" + text + "'");
+  return static_cast<int>(v);
+}
+
+inline Option positive_option(const std::string& name, const std::string& metavar, const std::string& help, double& target) {
+  return {name, metavar, help, [&target, name](const std::string& v) { target = parse_positive(name, v); }};
+}
+inline Option optional_positive_option(const std::string& name, const std::string& metavar, const std::string& help,
+                                std::optional<double>& target) {
+  return {name, metavar, help, [&target, name](const std::string& v) { target = parse_positive(name, v); }};
+}
+inline Option int_option(const std::string& name, const std::string& metavar, const std::string& help, int& target, int min) {
+  return {name, metavar, help, [&target, name, min](const std::string& v) { target = parse_int(name, v, min); }};
+}
+inline Option text_option(const std::string& name, const std::string& metavar, const std::string& help, std::string& target) {
+  return {name, metavar, help, [&target, name](const std::string& v) {
+            if (v.empty()) fail(name + ": empty value");
+            target = v;
+          }};
+}
+inline Option flag_option(const std::string& name, const std::string& help, bool& target) {
+  return {name, "", help, [&target](const std::string&) { target = true; }};
+}
+}  // namespace cosserat::cli
