@@ -42,7 +42,7 @@ struct CommandLine {
   std::vector<std::string> positional;  // metavars of the required positional arguments
   std::vector<Option> options;
   std::string details;                  // extra help text
-  std::string synopsis;                 // replaces the generated usage after the name, if given
+  std::string synopsis = {};            // replaces the generated usage after the name, if given
 
   std::string usage() const {
     if (!synopsis.empty()) return "cosserat " + name + " " + synopsis;

@@ -16,49 +16,129 @@ struct ChildRange {
 ChildRange children_of(const Model& m, int p) {
   return {m.children.data() + m.children_begin[p + 1], m.children.data() + m.children_begin[p + 2]};
 }
+
+// M U with U = u~ (row by row: (M U)_i = (m_i x u)^T, m_i the i-th row of M).
+inline Mat3 mul_skew(const Mat3& M, const Vec3& u) {
+  Mat3 r;
+  for (int i = 0; i < 3; ++i) r.row(i) = Vec3(M.row(i).transpose()).cross(u).transpose();
+  return r;
+}
+// U M with U = u~ (column by column).
+inline Mat3 skew_mul(const Vec3& u, const Mat3& M) {
+  Mat3 r;
+  for (int j = 0; j < 3; ++j) r.col(j) = u.cross(M.col(j));
+  return r;
+}
+
+// out += X^T A X with X = Ad_inv(g) = [[R^T, 0], [-R^T U, R^T]] = diag(R^T, R^T) [[I, 0], [-U, I]]
+// (U = u~), for a general (not necessarily symmetric) A = [[A11, A12], [A21, A22]]. With the
+// rotated blocks A'_ij = R A_ij R^T:
+//   X^T A X = [[A11' + U A21' - T12 U, T12], [A21' - A22' U, A22']],  T12 = A12' + U A22'.
+void add_congruence_Ad_inv(const SE3& g, const Mat6& A, Mat6& out) {
+  const Mat3& R = g.R;
+  const Vec3& u = g.u;
+  const Mat3 Rt = R.transpose();
+  const Mat3 A11 = R * (A.topLeftCorner<3, 3>() * Rt);
+  const Mat3 A12 = R * (A.topRightCorner<3, 3>() * Rt);
+  const Mat3 A21 = R * (A.bottomLeftCorner<3, 3>() * Rt);
+  const Mat3 A22 = R * (A.bottomRightCorner<3, 3>() * Rt);
+  const Mat3 T12 = A12 + skew_mul(u, A22);
+  out.topLeftCorner<3, 3>() += A11 + skew_mul(u, A21) - mul_skew(T12, u);
+  out.topRightCorner<3, 3>() += T12;
+  out.bottomLeftCorner<3, 3>() += A21 - mul_skew(A22, u);
+  out.bottomRightCorner<3, 3>() += A22;
+}
+
+// Each column of the 6 x n force subspace F to the parent frame of g: F <- Ad*_g F (in place).
+template <class Cols>
+inline void coAd_cols(const SE3& g, Cols& F) {
+  for (Eigen::Index c = 0; c < F.cols(); ++c) {
+    const Vec3 n = g.R * F.col(c).template tail<3>();
+    const Vec3 mo = g.R * F.col(c).template head<3>() + g.u.cross(n);
+    F.col(c).template head<3>() = mo;
+    F.col(c).template tail<3>() = n;
+  }
+}
+
+// The cross term of an ancestor b (motion subspace S_b, dofs from rb) and a force subspace F
+// (dofs from cf) in b's frame: M(rb.., cf..) += S_b^T F and M(cf.., rb..) += F^T S_b.
+template <class Cols>
+inline void add_cross(const Mat6X& Sb, const Cols& F, MatX& M, int rb, int cf) {
+  const Eigen::Index nb = Sb.cols(), nf = F.cols();
+  for (Eigen::Index c = 0; c < nf; ++c) {
+    const Vec6 f = F.col(c);
+    for (Eigen::Index r = 0; r < nb; ++r) {
+      const double x = Sb.col(r).dot(f);
+      M(rb + r, cf + c) += x;
+      M(cf + c, rb + r) += x;
+    }
+  }
+}
 }  // namespace
 
 // The composite-rigid-body recursion for any per-node 6x6 matrix (inertia for crba, fluid
 // resistance for fluid_damping): out_M = sum_i J_i^T A_i J_i, with the base coupling.
+// (For a non-symmetric A only the base coupling and the blocks S_b^T .. S_a, b an ancestor of a,
+// are those of J^T A J: the blocks below are filled as their transposes. Inertia and drag are
+// symmetric.)
 void composite(const Model& m, Data& d, Mat6 Node::*field, MatX& out_M, Mat6& out_base, Mat6X& out_F_base) {
   const int nn = static_cast<int>(m.nodes.size());
   // composite matrix in each node frame: Ic_i = A_i + sum_c Ad*_{g_ic} Ic_c Ad^-1_{g_ic}
   for (int i = nn - 1; i >= 0; --i) {
     Mat6 I = m.nodes[i].*field;
-    for (int c : children_of(m, i)) {
-      const Mat6 X = Ad_inv(d.g_rel[c]);
-      I.noalias() += X.transpose() * d.Ic[c] * X;
-    }
+    for (int c : children_of(m, i)) add_congruence_Ad_inv(d.g_rel[c], d.Ic[c], I);
     d.Ic[i] = I;
   }
   out_base.setZero();
-  for (int c : children_of(m, -1)) {
-    const Mat6 X = Ad_inv(d.g_rel[c]);
-    out_base.noalias() += X.transpose() * d.Ic[c] * X;
-  }
+  for (int c : children_of(m, -1)) add_congruence_Ad_inv(d.g_rel[c], d.Ic[c], out_base);
   out_M.setZero();
   out_F_base.setZero();
-  // M = sum_a [S_a^T Ic_a S_a + sum_{b ancestor of a} (S_a^T Ic_a X_{b->a} S_b + transpose)]
-  for (int a = 0; a < nn; ++a) {
-    const Node& na = m.nodes[a];
-    if (na.ndof == 0) continue;
-    auto Fa = d.Fs.leftCols(na.ndof);
-    Fa.noalias() = d.Ic[a] * d.S[a];
-    out_M.block(na.dof0, na.dof0, na.ndof, na.ndof).noalias() += d.S[a].transpose() * Fa;
-    for (int j = a;; j = m.nodes[j].parent) {
+  // M = sum_a [S_a^T Ic_a S_a + sum_{b ancestor of a} (S_b^T F_ab + F_ab^T S_b)], F_ab = Ad*_{g_ba} Ic_a S_a.
+  // A run of nodes a0..ak that share one dof block, each the parent of the next (the steps of one
+  // rod section), is a group: its force subspaces are summed Horner-like from its last node up,
+  // F <- Ad* F + Ic_a S_a, the cross terms inside the group being S_a^T F + F^T S_a with F
+  // transported to a before adding a's own term, and the walk above the group is done once with
+  // the sum. A node that does not continue the run starts a new group (a group of one node is the
+  // plain per-node walk).
+  for (int a0 = 0; a0 < nn;) {
+    const Node& na = m.nodes[a0];
+    if (na.ndof == 0) {
+      ++a0;
+      continue;
+    }
+    const int nd = na.ndof, q0 = na.dof0;
+    int ak = a0;
+    while (ak + 1 < nn && m.nodes[ak + 1].parent == ak && m.nodes[ak + 1].dof0 == q0 &&
+           m.nodes[ak + 1].ndof == nd)
+      ++ak;
+    auto F = d.Fs.leftCols(nd);
+    for (int a = ak; a >= a0; --a) {
+      const Mat6X& Sa = d.S[a];
+      if (a < ak) {
+        coAd_cols(d.g_rel[a + 1], F);
+        add_cross(Sa, F, out_M, q0, q0);  // a is an ancestor of the group's nodes below it
+      }
+      for (int c = 0; c < nd; ++c) {  // F += Ic_a S_a, and the diagonal term S_a^T Ic_a S_a
+        const Vec6 f = d.Ic[a] * Sa.col(c);
+        if (a < ak)
+          F.col(c) += f;
+        else
+          F.col(c) = f;
+        for (int r = 0; r < nd; ++r) out_M(q0 + r, q0 + c) += Sa.col(r).dot(f);
+      }
+    }
+    for (int j = a0;; j = m.nodes[j].parent) {
       const int b = m.nodes[j].parent;
-      for (int c = 0; c < na.ndof; ++c)  // force subspace to the parent frame (in place, no temporary)
-        Fa.col(c) = coAd_apply(d.g_rel[j], Vec6(Fa.col(c)));
+      coAd_cols(d.g_rel[j], F);  // force subspace to the parent frame
       if (b < 0) {
-        out_F_base.middleCols(na.dof0, na.ndof) += Fa;
+        out_F_base.middleCols(q0, nd) += F;
         break;
       }
       const Node& nb = m.nodes[b];
       if (nb.ndof == 0) continue;
-      auto blk = out_M.block(na.dof0, nb.dof0, na.ndof, nb.ndof);
-      blk.noalias() += Fa.transpose() * d.S[b];
-      out_M.block(nb.dof0, na.dof0, nb.ndof, na.ndof).noalias() += d.S[b].transpose() * Fa;
+      add_cross(d.S[b], F, out_M, nb.dof0, q0);
     }
+    a0 = ak + 1;
   }
 }
 

@@ -54,12 +54,18 @@ void fwd_velocity(const Model& m, Data& d) {
       const Vec6 psi = d.S[i] * vi;
       d.Omega_dot[i] = Omd;
       eta += psi;
-      // second time derivative of Omega at qacc = 0: the commutator is bilinear in q
-      cb = ddexp(-d.Omega[i], -Omd) * Omd;
+      // dS/dt = ddexp(-Omega, -Omega_dot) G + dexp(-Omega) dG/dt, and dG/dt is the commutator's
+      // c (ad_{xa_dot} Phi_b - ad_{xb_dot} Phi_a): so dS/dt v = ddexp Omega_dot + dexp 2c ad_{xa_dot} xb_dot
+      Mat6X& Sd = d.Sdot[i];
+      Sd.noalias() = ddexp(-d.Omega[i], -Omd) * d.G[i];
       if (n.commutator) {
         const Vec6 xad = n.Phi_a * vi, xbd = n.Phi_b * vi;
-        cb += dexp(-d.Omega[i]) * (2.0 * kZanna * n.h * n.h * ad_apply(xad, xbd));
+        const double c = kZanna * n.h * n.h;
+        const Mat6 Dm = dexp(-d.Omega[i]);
+        for (int k = 0; k < n.ndof; ++k)
+          Sd.col(k).noalias() += Dm * (c * (ad_apply(xad, n.Phi_b.col(k)) - ad_apply(xbd, n.Phi_a.col(k))));
       }
+      cb.noalias() = Sd * vi;
       cb += ad_apply(eta, psi);
     } else {
       d.Omega_dot[i].setZero();
@@ -90,16 +96,72 @@ Vec6 node_jdot_v(const Model& m, const Data& d, int node) {
 }
 
 namespace {
-// The partial step of the node containing X: node index and the Magnus twist from its parent
-// frame to X (and its dOmega/dq block).
-struct PartialStep {
-  int node, parent;
-  SE3 offset;
-  Vec6 Om;
-  Mat6X G;
+constexpr double kGauss = 0.28867513459481287;  // sqrt(3) / 6: Gauss points at 1/2 -+ this
+
+// The step of a rod section from abscissa Xp over a length h, described without a Node (no heap
+// memory): the Legendre weights of its two Gauss points. The strain basis is
+// Phi(X) = B (x) [P_0 .. P_order]((X - X0)/length), dof index c*(order+1)+k (model.hpp).
+struct StepPoints {
+  double h = 0.0;
+  bool commutator = false;
+  double Pa[32], Pb[32];
 };
 
-PartialStep partial_step(const Model& m, const Data& d, int r, double X, int section = -1) {
+void step_points(const Section& sec, double Xp, double h, bool commutator, StepPoints& sp) {
+  sp.h = h;
+  sp.commutator = commutator;
+  legendre01(sec.order, (Xp + h * (0.5 - kGauss) - sec.X0) / sec.length, sp.Pa);
+  legendre01(sec.order, (Xp + h * (0.5 + kGauss) - sec.X0) / sec.length, sp.Pb);
+}
+
+// Phi(X) x for a dof-block vector x (strain, or strain rate), from the Legendre weights P of X.
+Vec6 phi_apply(const Section& sec, const double* P, const double* x) {
+  const int nb = sec.order + 1;
+  Vec6 out = Vec6::Zero();
+  for (int c = 0; c < sec.B.cols(); ++c) {
+    double coef = 0.0;
+    for (int k = 0; k < nb; ++k) coef += x[c * nb + k] * P[k];
+    out += sec.B.col(c) * coef;
+  }
+  return out;
+}
+
+// The Magnus twist of the step (model.hpp) and, if G is given, G = dOmega/dq (6 x ndof). xa, xb:
+// the strains at the Gauss points (outputs).
+Vec6 step_twist_at(const Section& sec, const StepPoints& sp, const double* q, Mat6X* G, Vec6& xa, Vec6& xb) {
+  xa = phi_apply(sec, sp.Pa, q) + sec.rest_strain;
+  xb = phi_apply(sec, sp.Pb, q) + sec.rest_strain;
+  const double c = kZanna * sp.h * sp.h;
+  Vec6 Om = 0.5 * sp.h * (xa + xb);
+  if (sp.commutator) Om += c * ad_apply(xa, xb);
+  if (G) {
+    const int nb = sec.order + 1;
+    G->resize(6, sec.ndof);
+    for (int cc = 0; cc < sec.B.cols(); ++cc) {
+      const Vec6 Bc = sec.B.col(cc);
+      const Vec6 adaB = ad_apply(xa, Bc), adbB = ad_apply(xb, Bc);
+      for (int k = 0; k < nb; ++k) {
+        // d/dq ad_{xa} xb = ad_{xa} Phi_b - ad_{xb} Phi_a
+        auto col = G->col(cc * nb + k);
+        col = (0.5 * sp.h * (sp.Pa[k] + sp.Pb[k])) * Bc;
+        if (sp.commutator) col += c * (sp.Pb[k] * adaB - sp.Pa[k] * adbB);
+      }
+    }
+  }
+  return Om;
+}
+
+// The partial step of the node containing X: from the node's parent frame (abscissa Xp) to X.
+struct PartialStep {
+  int node = -1, parent = -1;
+  SE3 offset;
+  double Xp = 0.0;
+  bool full = false;  // X is the node itself: the step is the node's own (Data holds it)
+  StepPoints sp;
+  Vec6 Om, xa, xb;
+};
+
+void partial_step(const Model& m, const Data& d, int r, double X, int section, Mat6X* G, PartialStep& ps) {
   const Rod& rod = m.rods[r];
   X = std::clamp(X, 0.0, rod.length);
   int i = m.rod_node_at(r, X);
@@ -114,27 +176,28 @@ PartialStep partial_step(const Model& m, const Data& d, int r, double X, int sec
   }
   const Node& n = m.nodes[i];
   const Section& sec = m.sections[n.section];
-  const double Xp = n.X - n.h;  // abscissa of the parent frame
-  Node part = n;
-  part.h = X - Xp;
-  if (n.commutator) {
-    sec.basis(Xp + part.h * (0.5 - 0.28867513459481287), part.Phi_a);
-    sec.basis(Xp + part.h * (0.5 + 0.28867513459481287), part.Phi_b);
-  }
-  PartialStep ps{i, n.parent, n.offset, Vec6::Zero(), Mat6X(6, n.ndof)};
-  ps.Om = step_twist(part, d.q.segment(n.dof0, n.ndof), &ps.G);
-  return ps;
+  ps.node = i;
+  ps.parent = n.parent;
+  ps.offset = n.offset;
+  ps.Xp = n.X - n.h;  // abscissa of the parent frame
+  ps.full = X == n.X;
+  step_points(sec, ps.Xp, X - ps.Xp, n.commutator, ps.sp);
+  ps.Om = step_twist_at(sec, ps.sp, d.q.data() + n.dof0, G, ps.xa, ps.xb);
 }
 }  // namespace
 
 SE3 rod_pose(const Model& m, const Data& d, int r, double X) {
-  const PartialStep ps = partial_step(m, d, r, X);
+  PartialStep ps;
+  partial_step(m, d, r, X, -1, nullptr, ps);
   const SE3& gp = ps.parent < 0 ? d.base_pose : d.g[ps.parent];
+  if (ps.full) return d.g[ps.node];
   return gp * ps.offset * exp_se3(ps.Om);
 }
 
 void rod_jacobian(const Model& m, const Data& d, int r, double X, MatX& J) {
-  const PartialStep ps = partial_step(m, d, r, X);
+  PartialStep ps;
+  Mat6X G;
+  partial_step(m, d, r, X, -1, &G, ps);
   if (ps.parent >= 0) {
     node_jacobian(m, d, ps.parent, J);
     const Mat6 Ai = Ad_inv(ps.offset * exp_se3(ps.Om));
@@ -143,48 +206,67 @@ void rod_jacobian(const Model& m, const Data& d, int r, double X, MatX& J) {
     J.setZero(6, m.nv);
   }
   const Node& n = m.nodes[ps.node];
-  if (n.ndof > 0) J.middleCols(n.dof0, n.ndof) += dexp(-ps.Om) * ps.G;
+  if (n.ndof > 0) J.middleCols(n.dof0, n.ndof) += dexp(-ps.Om) * G;
 }
 
 int section_jacobian(const Model& m, const Data& d, int r, double X, Mat6X& J, Mat6X* Jdot, SE3* gX,
                      int section) {
-  const PartialStep ps = partial_step(m, d, r, X, section);
+  // scratch kept between calls (resized only when a larger section comes along)
+  thread_local Mat6X G, S, Sdot, AJ;
+  PartialStep ps;
+  partial_step(m, d, r, X, section, &G, ps);
   const int si = m.nodes[ps.node].section;
   const Section& sec = m.sections[si];
-  J.setZero(6, sec.ndof);
-  if (Jdot) Jdot->setZero(6, sec.ndof);
+  const int nd = sec.ndof;
+  J.setZero(6, nd);
+  if (Jdot) Jdot->setZero(6, nd);
   SE3 g;
-  Mat6X Sdot(6, sec.ndof), AJ(6, sec.ndof);
-  // one Magnus step of the section: J <- Ad^-1 J + S, Jdot <- Ad^-1 Jdot - ad_psi Ad^-1 J + Sdot
-  auto advance = [&](const Node& n, const SE3& grel, const Vec6& Om, const Mat6X& G) {
-    const Mat6 Ai = Ad_inv(grel);
-    const Mat6 Dm = dexp(-Om);
-    AJ.noalias() = Ai * J;
-    J = AJ;
-    J.noalias() += Dm * G;
-    g = g * grel;
-    if (!Jdot || sec.ndof == 0) return;
-    const auto vi = d.v.segment(n.dof0, n.ndof);
-    const Vec6 Omd = G * vi;
-    const Vec6 psi = Dm * Omd;
-    Sdot.noalias() = ddexp(-Om, -Omd) * G;
-    if (n.commutator) {
-      const double c = kZanna * n.h * n.h;
-      const Vec6 xad = n.Phi_a * vi, xbd = n.Phi_b * vi;
-      Sdot.noalias() += Dm * (c * (ad(xad) * n.Phi_b - ad(xbd) * n.Phi_a));
+  const double* v = d.v.data() + sec.dof0;
+  // One Magnus step of the section: J <- Ad^-1 J + S, Jdot <- Ad^-1 Jdot - ad_psi Ad^-1 J + Sdot,
+  // with S = dexp(-Om) G and Sdot = ddexp(-Om, -Om_dot) G + dexp(-Om) d/dt(G) (the commutator).
+  auto advance = [&](const SE3& grel, const Mat6X& Ss, const Mat6X& Sd) {
+    if (nd == 0) {
+      g = g * grel;
+      return;
     }
-    *Jdot = Ai * (*Jdot) - ad(psi) * AJ + Sdot;
+    const bool dot = Jdot != nullptr;
+    if (dot) AJ.resize(6, nd);
+    for (int k = 0; k < nd; ++k) {
+      const Vec6 a = Ad_inv_apply(grel, J.col(k));
+      if (dot) AJ.col(k) = a;
+      J.col(k) = a + Ss.col(k);
+    }
+    g = g * grel;
+    if (!dot) return;
+    Vec6 psi = Vec6::Zero();
+    for (int k = 0; k < nd; ++k) psi += Ss.col(k) * v[k];
+    for (int k = 0; k < nd; ++k)
+      Jdot->col(k) = Ad_inv_apply(grel, Jdot->col(k)) - ad_apply(psi, AJ.col(k)) + Sd.col(k);
   };
-  for (int i = sec.first_node; i < ps.node; ++i) advance(m.nodes[i], d.g_rel[i], d.Omega[i], d.G[i]);
-  // the last (possibly partial) step; Phi of the partial step for its commutator
-  Node part = m.nodes[ps.node];
-  if (part.commutator) {
-    const double Xp = part.X - part.h, h = std::clamp(X, 0.0, m.rods[r].length) - Xp;
-    part.h = h;
-    sec.basis(Xp + h * (0.5 - 0.28867513459481287), part.Phi_a);
-    sec.basis(Xp + h * (0.5 + 0.28867513459481287), part.Phi_b);
+  // whole steps: the node's own pose, S and dS/dt from fwd_position and fwd_velocity
+  const int last = ps.full ? ps.node + 1 : ps.node;
+  for (int i = sec.first_node; i < last; ++i) advance(d.g_rel[i], d.S[i], d.Sdot[i]);
+  if (!ps.full) {  // the last, partial step
+    const Mat6 Dm = dexp(-ps.Om);
+    S.noalias() = Dm * G;
+    if (Jdot && nd > 0) {
+      Vec6 Omd = Vec6::Zero();
+      for (int k = 0; k < nd; ++k) Omd += G.col(k) * v[k];
+      Sdot.noalias() = ddexp(-ps.Om, -Omd) * G;
+      if (ps.sp.commutator) {  // dG/dt: c (ad_{xa_dot} Phi_b - ad_{xb_dot} Phi_a), column by column
+        const StepPoints& sp = ps.sp;
+        const double c = kZanna * sp.h * sp.h;
+        const Vec6 xad = phi_apply(sec, sp.Pa, v), xbd = phi_apply(sec, sp.Pb, v);
+        const int nb = sec.order + 1;
+        for (int cc = 0; cc < sec.B.cols(); ++cc) {
+          const Vec6 Bc = sec.B.col(cc);
+          const Vec6 adaB = ad_apply(xad, Bc), adbB = ad_apply(xbd, Bc);
+          for (int k = 0; k < nb; ++k) Sdot.col(cc * nb + k).noalias() += Dm * (c * (sp.Pb[k] * adaB - sp.Pa[k] * adbB));
+        }
+      }
+    }
+    advance(ps.offset * exp_se3(ps.Om), S, Sdot);
   }
-  advance(part, ps.offset * exp_se3(ps.Om), ps.Om, ps.G);
   if (gX) *gX = g;
   return si;
 }

@@ -334,33 +334,85 @@ Vec6 coad_apply(const Vec6& a, const Vec6& F) {
   return r;
 }
 
+namespace {
+// Every matrix below is block lower triangular with equal diagonal blocks, [[X, 0], [Y, X]]:
+// ad_eta = [[w~, 0], [v~, w~]], its powers, their sums and their derivatives. With the identities
+// of skew matrices a~ b~ = b a^T - (a.b) I and w~^3 = -t^2 w~ (t = |w|, s = w.v), the powers of
+// A = ad_Omega = [[W, 0], [V, W]] are, block by block,
+//   A^1 = (W, V)
+//   A^2 = (W^2, P),                  W^2 = w w^T - t^2 I,  P = W V + V W = v w^T + w v^T - 2 s I
+//   A^3 = (-t^2 W, -t^2 V - 2 s W)
+//   A^4 = (-t^2 W^2, -t^2 P - 2 s W^2)
+// so no 6x6 (or even 3x3) product is needed, and the coefficient of each power is unchanged.
+struct Blk {
+  Mat3 X, Y;
+};
+
+inline Mat6 to_mat6(const Blk& B) {
+  Mat6 m;
+  m.topLeftCorner<3, 3>() = B.X;
+  m.topRightCorner<3, 3>().setZero();
+  m.bottomLeftCorner<3, 3>() = B.Y;
+  m.bottomRightCorner<3, 3>() = B.X;
+  return m;
+}
+
+// a b^T + b a^T - 2 (a.b) I (= a~ b~ + b~ a~)
+inline Mat3 sym_outer(const Vec3& a, const Vec3& b) {
+  Mat3 m = a * b.transpose();
+  m += m.transpose().eval();
+  m.diagonal().array() -= 2.0 * a.dot(b);
+  return m;
+}
+}  // namespace
+
 Mat6 dexp(const Vec6& Om) {
-  const double t = Om.head<3>().norm();
-  const Mat6 A = ad(Om);
-  const Mat6 A2 = A * A;
-  const Mat6 A3 = A2 * A;
-  const Mat6 A4 = A2 * A2;
-  return Mat6::Identity() + lc::c1(t) * A + lc::c2(t) * A2 + lc::c3(t) * A3 + lc::c4(t) * A4;
+  const Vec3 w = Om.head<3>(), v = Om.tail<3>();
+  const double t = w.norm(), t2 = t * t, s = w.dot(v);
+  const double C1 = lc::c1(t), C2 = lc::c2(t), C3 = lc::c3(t), C4 = lc::c4(t);
+  const Mat3 W = skew(w), V = skew(v);
+  Mat3 W2 = w * w.transpose();
+  W2.diagonal().array() -= t2;
+  const Mat3 P = sym_outer(w, v);
+  // I + c1 A + c2 A^2 + c3 A^3 + c4 A^4
+  Blk out;
+  out.X = C1 * W + C2 * W2 + C3 * (-t2 * W) + C4 * (-t2 * W2);
+  out.X.diagonal().array() += 1.0;
+  out.Y = C1 * V + C2 * P + C3 * (-t2 * V - 2.0 * s * W) + C4 * (-t2 * P - 2.0 * s * W2);
+  return to_mat6(out);
 }
 
 // d/de sum_k c_k(theta) ad^k: the coefficients change with theta (d theta = k.dk / theta, so
 // dc_k = (c_k'/theta)(k.dk), with c1'/t = t^2 d3 and c2'/t = t^2 d4), and each power ad^k
-// changes as sum_j ad^j ad_delta ad^{k-1-j}.
+// changes as E_k = sum_j ad^j ad_delta ad^{k-1-j}, the derivative of A^k along B = ad_delta: with
+// the block forms of the powers above (dt^2 = 2 k.dk, ds = dk.v + k.dv),
+//   E_1 = (Wd, Vd)
+//   E_2 = (dW^2, dP),  dW^2 = w dw^T + dw w^T - 2 (w.dw) I,  dP = sym_outer(w, dv) + sym_outer(dw, v)
+//   E_3 = (-t^2 Wd - 2 (k.dk) W, -t^2 Vd - 2 (k.dk) V - 2 ds W - 2 s Wd)
+//   E_4 = (-t^2 dW^2 - 2 (k.dk) W^2, -t^2 dP - 2 (k.dk) P - 2 ds W^2 - 2 s dW^2)
+// (E_2 = B A + A B, E_3 = B A^2 + A B A + A^2 B, ...).
 Mat6 ddexp(const Vec6& Om, const Vec6& de) {
-  const double t = Om.head<3>().norm();
-  const double kdk = Om.head<3>().dot(de.head<3>());
+  const Vec3 w = Om.head<3>(), v = Om.tail<3>();
+  const Vec3 dw = de.head<3>(), dv = de.tail<3>();
+  const double t = w.norm(), t2 = t * t;
+  const double kdk = w.dot(dw), s = w.dot(v), ds = dw.dot(v) + w.dot(dv);
   const double C1 = lc::c1(t), C2 = lc::c2(t), C3 = lc::c3(t), C4 = lc::c4(t);
-  const double D3 = lc::d3(t), D4 = lc::d4(t), D1 = t * t * D3, D2 = t * t * D4;
-  const Mat6 A = ad(Om), B = ad(de);
-  const Mat6 A2 = A * A, A3 = A2 * A;
-  const Mat6 BA = B * A, AB = A * B;
-  const Mat6 AB_A = AB * A;  // A B A
-  Mat6 out = kdk * (D1 * A + D2 * A2 + D3 * A3 + D4 * A2 * A2);
-  out += C1 * B;
-  out += C2 * (BA + AB);
-  out += C3 * (B * A2 + AB_A + A * AB);
-  out += C4 * (B * A3 + AB_A * A + A * AB_A + A2 * AB);
-  return out;
+  const double D3 = lc::d3(t), D4 = lc::d4(t), D1 = t2 * D3, D2 = t2 * D4;
+  const Mat3 W = skew(w), V = skew(v), Wd = skew(dw), Vd = skew(dv);
+  Mat3 W2 = w * w.transpose();
+  W2.diagonal().array() -= t2;
+  const Mat3 P = sym_outer(w, v);
+  const Mat3 dW2 = sym_outer(w, dw);
+  const Mat3 dP = sym_outer(w, dv) + sym_outer(dw, v);
+  Blk out;
+  // kdk (D1 A + D2 A^2 + D3 A^3 + D4 A^4)
+  out.X = kdk * (D1 * W + D2 * W2 + D3 * (-t2 * W) + D4 * (-t2 * W2));
+  out.Y = kdk * (D1 * V + D2 * P + D3 * (-t2 * V - 2.0 * s * W) + D4 * (-t2 * P - 2.0 * s * W2));
+  // + C1 E_1 + C2 E_2 + C3 E_3 + C4 E_4
+  out.X += C1 * Wd + C2 * dW2 + C3 * (-t2 * Wd - 2.0 * kdk * W) + C4 * (-t2 * dW2 - 2.0 * kdk * W2);
+  out.Y += C1 * Vd + C2 * dP + C3 * (-t2 * Vd - 2.0 * kdk * V - 2.0 * ds * W - 2.0 * s * Wd) +
+           C4 * (-t2 * dP - 2.0 * kdk * P - 2.0 * ds * W2 - 2.0 * s * dW2);
+  return to_mat6(out);
 }
 
 }  // namespace cosserat

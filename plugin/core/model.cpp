@@ -282,9 +282,11 @@ Data::Data(const Model& m) {
   Omega_dot.assign(nn, Vec6::Zero());
   G.resize(nn);
   S.resize(nn);
+  Sdot.resize(nn);
   for (int i = 0; i < nn; ++i) {
     G[i] = Mat6X::Zero(6, m.nodes[i].ndof);
     S[i] = Mat6X::Zero(6, m.nodes[i].ndof);
+    Sdot[i] = Mat6X::Zero(6, m.nodes[i].ndof);
   }
   eta.assign(nn, Vec6::Zero());
   cbias.assign(nn, Vec6::Zero());

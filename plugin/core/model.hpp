@@ -198,6 +198,7 @@ struct Data {
   std::vector<Vec6> Omega, Omega_dot;
   std::vector<Mat6X> G;    // dOmega/dq_i (6 x ndof)
   std::vector<Mat6X> S;    // motion subspace dexp(-Omega) G (6 x ndof)
+  std::vector<Mat6X> Sdot; // its time derivative (6 x ndof; fwd_velocity): cbias = ad_eta S v + Sdot v
   std::vector<Vec6> eta;   // body twist
   std::vector<Vec6> cbias; // velocity-product acceleration of the step: ad_eta S v + dS/dt v
   std::vector<Vec6> acc;   // body acceleration (scratch of rnea)

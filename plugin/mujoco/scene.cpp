@@ -246,9 +246,14 @@ void patch_rod_kinematics(const Scene& s, SceneData& sd, int r) {
     set_body_pose(m, d, p, g);
   }
   // capsules along the chord of their stretch of centreline (MuJoCo capsules lie along local z)
+  double X_prev = -1.0;  // consecutive capsules share their end points
+  Vec3 p_prev = Vec3::Zero();
   for (size_t k = 0; k < rb.geom_id.size(); ++k) {
     const RodGeomDecl& gd = rb.decl.geoms[k];
-    const Vec3 a = rod_pose(rb.model, rd, 0, gd.X_begin).u, b = rod_pose(rb.model, rd, 0, gd.X_end).u;
+    const Vec3 a = gd.X_begin == X_prev ? p_prev : rod_pose(rb.model, rd, 0, gd.X_begin).u;
+    const Vec3 b = rod_pose(rb.model, rd, 0, gd.X_end).u;
+    X_prev = gd.X_end;
+    p_prev = b;
     const Mat3 Rm = rod_pose(rb.model, rd, 0, 0.5 * (gd.X_begin + gd.X_end)).R;
     Vec3 z = b - a;
     z = z.norm() > 1e-300 ? Vec3(z.normalized()) : Vec3(Rm.col(0));
@@ -544,6 +549,9 @@ SceneData::SceneData(const Scene& s) {
   qpos_save.assign(nq, 0);
   qvel_save.assign(nv, 0);
   qM_save.assign(s.m->nM, 0);
+  qLD_save.assign(s.m->nM, 0);
+  qLDiagInv_save.assign(nv, 0);
+  qLDiagSqrtInv_save.assign(nv, 0);
   rk_q0.assign(nq, 0);
   rk_v0.assign(nv, 0);
   rk_a0.assign(na, 0);
@@ -802,8 +810,12 @@ void implicit_step(const Scene& s, SceneData& sd, bool rods = true) {
       Kv.noalias() = rb.model.K * sd.rod[r].v;
       for (int k = 0; k < rb.model.nv; ++k) sd.qacc_tmp[rb.dof0 + k] -= h * Kv(k);
     }
+  // keep M and its factor: restored after the solve (copies; no second factorisation)
   std::vector<mjtNum>& qM_save = sd.qM_save;
   std::copy(d->qM, d->qM + m->nM, qM_save.begin());
+  std::copy(d->qLD, d->qLD + m->nM, sd.qLD_save.begin());
+  std::copy(d->qLDiagInv, d->qLDiagInv + nv, sd.qLDiagInv_save.begin());
+  std::copy(d->qLDiagSqrtInv, d->qLDiagSqrtInv + nv, sd.qLDiagSqrtInv_save.begin());
   for (int i = 0; i < nv; ++i) d->qM[m->dof_Madr[i]] += h * m->dof_damping[i];
   if (rods)
     for (const auto& rb : s.rods)
@@ -816,7 +828,9 @@ void implicit_step(const Scene& s, SceneData& sd, bool rods = true) {
   mj_factorM(m, d);
   mj_solveM(m, d, d->qacc, sd.qacc_tmp.data(), 1);
   std::copy(qM_save.begin(), qM_save.end(), d->qM);
-  mj_factorM(m, d);
+  std::copy(sd.qLD_save.begin(), sd.qLD_save.end(), d->qLD);
+  std::copy(sd.qLDiagInv_save.begin(), sd.qLDiagInv_save.end(), d->qLDiagInv);
+  std::copy(sd.qLDiagSqrtInv_save.begin(), sd.qLDiagSqrtInv_save.end(), d->qLDiagSqrtInv);
   advance_with_qacc(s, sd);
 }
 

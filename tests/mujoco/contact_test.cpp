@@ -150,24 +150,38 @@ TEST(Contact, CapsulesFollowStretchAndBending) {
   }
 }
 
-// Dense and sparse Jacobians must give the same motion (all three solvers).
+// Dense and sparse Jacobians must give the same motion (all three solvers). Compared step by step
+// from the same state (qpos, qvel, warm start): a trajectory comparison would measure how fast the
+// constraint solver amplifies round-off (CG's iteration count switches at its tolerance, so a
+// 1e-16 change of M can grow to 1e-4 over a few hundred steps), not whether the equations agree.
 TEST(Contact, DenseAndSparseGiveIdenticalResults) {
   for (const char* solver : {"PGS", "CG", "Newton"}) {
     SCOPED_TRACE(solver);
     auto sd_ = load_scene_string(scene("elliptic", "dense", 3, 0.03, 5.0, 0.5, solver), kPath);
     auto ss_ = load_scene_string(scene("elliptic", "sparse", 3, 0.03, 5.0, 0.5, solver), kPath);
     SceneData a(*sd_), b(*ss_);
-    double worst = 0.0, moved = 0.0;
+    const mjModel* m = sd_->m;
+    double worst = 0.0, scale = 0.0;
+    int ncon_max = 0;
     for (int k = 0; k < 600; ++k) {
+      mju_copy(b.d->qpos, a.d->qpos, m->nq);
+      mju_copy(b.d->qvel, a.d->qvel, m->nv);
+      mju_copy(b.d->qacc_warmstart, a.d->qacc_warmstart, m->nv);
+      b.d->time = a.d->time;
+      forward(*sd_, a);
+      forward(*ss_, b);
+      ASSERT_EQ(a.d->ncon, b.d->ncon);
+      ncon_max = std::max(ncon_max, a.d->ncon);
+      for (int i = 0; i < m->nv; ++i) {
+        worst = std::max(worst, std::abs(a.d->qacc[i] - b.d->qacc[i]));
+        scale = std::max(scale, std::abs(a.d->qacc[i]));
+      }
       ASSERT_EQ(step(*sd_, a), Status::Ok);
-      ASSERT_EQ(step(*ss_, b), Status::Ok);
-      for (int i = 0; i < sd_->m->nq; ++i) worst = std::max(worst, std::abs(a.d->qpos[i] - b.d->qpos[i]));
     }
-    moved = std::abs(a.d->qpos[2] - 0.03);
-    EXPECT_GT(moved, 0.01);  // it fell onto the floor
-    EXPECT_GT(a.d->ncon, 0);
+    EXPECT_GT(std::abs(a.d->qpos[2] - 0.03), 0.01);  // it fell onto the floor
+    EXPECT_GT(ncon_max, 0);
     // same equations, different sparse/dense summation order: round-off level
-    EXPECT_LT(worst, 1e-9);
+    EXPECT_LT(worst, 1e-9 * scale) << "scale " << scale;
   }
 }
 
