@@ -9,7 +9,7 @@
 //      state), the solver core's functions on each rod (fwd_position, crba, fwd_velocity, rnea,
 //      passive) and the core kernels the coupling calls per step (section Jacobians at section
 //      ends for cdof and cdof_dot, rod poses for capsules and sites); the rest of each block is
-//      coupling glue. Grouped as kinematics, mass matrix, bias, passive (+ fluid), tendons,
+//      coupling glue. Grouped as kinematics, mass matrix, bias, passive, fluid (the plugin's), tendons,
 //      contacts, actuation, sensors, integrator, glue;
 //   3. the step with each feature switched off (contacts, constraint solver, gravity, actuation,
 //      passive forces, sensors, rod capsule collisions, tendons removed), from the same state,
@@ -227,6 +227,14 @@ json breakdown(const mj::Scene& s, mj::SceneData& sd, Sim& sim, const Ctx& c, st
       for (const auto& st2 : decl.sites) (void)rod_pose(rm, rd, 0, st2.X);
     });
   }
+  // the plugin's fluid (resistive-force theory; scene_fluid.hpp): its damping matrix (position
+  // stage, added into qM) and forces (velocity stage, into qfrc_passive); the values they add up
+  // while being timed are recomputed by the forward below
+  std::map<std::string, double> fl;
+  if (s.fluid.active) {
+    fl["fluid_damping"] = T([&] { mj::fluid_damping(s, sd); });
+    fl["fluid_forces"] = T([&] { mj::fluid_forces(s, sd); });
+  }
   mj::forward(s, sd);
   // heap allocations of each block and core function (one call each, from the same state)
   {
@@ -290,8 +298,10 @@ json breakdown(const mj::Scene& s, mj::SceneData& sd, Sim& sim, const Ctx& c, st
   cat["actuation and acceleration"] = t_act + t_acc;
   cat["sensors"] = t_spos + t_svel + t_sacc;
   cat["integrator"] = std::max(0.0, t_step - t_fwd);
+  cat["fluid (resistive-force theory)"] = sum(fl, {"fluid_damping", "fluid_forces"});
   cat["coupling glue (rest of fwd_position/fwd_velocity)"] =
-      std::max(0.0, t_pos - mj_pos - core_pos) + std::max(0.0, t_vel - mj_vel - core_vel);
+      std::max(0.0, t_pos - mj_pos - core_pos - sum(fl, {"fluid_damping"})) +
+      std::max(0.0, t_vel - mj_vel - core_vel - sum(fl, {"fluid_forces"}));
   j["step_us"] = 1e6 * t_step;
   j["forward_us"] = 1e6 * t_fwd;
   j["blocks_us"] = {{"fwd_position", 1e6 * t_pos}, {"sensorPos", 1e6 * t_spos},   {"fwd_velocity", 1e6 * t_vel},
@@ -305,7 +315,7 @@ json breakdown(const mj::Scene& s, mj::SceneData& sd, Sim& sim, const Ctx& c, st
   j["core_us"] = jc;
   j["categories_us"] = jcat;
   j["note"] = "MuJoCo stages timed on a copy of the patched mjData; core functions summed over rods; the glue is "
-              "what the public blocks cost beyond both. The rods' own fluid forces (if any) are inside the glue.";
+              "what the public blocks cost beyond both and beyond the plugin's fluid (fluid_damping, fluid_forces).";
   st.restore(m, d);
   return j;
 }

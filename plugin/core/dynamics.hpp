@@ -16,6 +16,8 @@ void crba(const Model& m, Data& d);
 // The same recursion for another per-node 6x6 matrix (node frame, angular first), e.g. the fluid
 // resistance Node::drag (fluid.hpp): out_M = sum_i J_i^T A_i J_i over the nodes, with the base
 // coupling out_base (6 x 6) and out_F_base (6 x nv) as for Ic_base and F_base. Uses d.Ic as scratch.
+// The per-node matrices must be symmetric (inertia and drag are): out_M is filled as a symmetric
+// matrix from its upper blocks.
 void composite(const Model& m, Data& d, Mat6 Node::*field, MatX& out_M, Mat6& out_base, Mat6X& out_F_base);
 // Recursive Newton-Euler: tau = M qacc + C v + gravity - external loads. After fwd_velocity.
 // `gravity` and `external` switch those contributions on; the base moves as d.base_twist/accel.

@@ -134,9 +134,9 @@ Vec6 step_twist_at(const Section& sec, const StepPoints& sp, const double* q, Ma
   const double c = kZanna * sp.h * sp.h;
   Vec6 Om = 0.5 * sp.h * (xa + xb);
   if (sp.commutator) Om += c * ad_apply(xa, xb);
-  if (G) {
+  if (G) {  // G's first ndof columns (a larger G keeps its memory: scratch reused across sections)
     const int nb = sec.order + 1;
-    G->resize(6, sec.ndof);
+    if (G->cols() < sec.ndof) G->resize(6, sec.ndof);
     for (int cc = 0; cc < sec.B.cols(); ++cc) {
       const Vec6 Bc = sec.B.col(cc);
       const Vec6 adaB = ad_apply(xa, Bc), adbB = ad_apply(xb, Bc);
@@ -206,12 +206,13 @@ void rod_jacobian(const Model& m, const Data& d, int r, double X, MatX& J) {
     J.setZero(6, m.nv);
   }
   const Node& n = m.nodes[ps.node];
-  if (n.ndof > 0) J.middleCols(n.dof0, n.ndof) += dexp(-ps.Om) * G;
+  if (n.ndof > 0) J.middleCols(n.dof0, n.ndof) += dexp(-ps.Om) * G.leftCols(n.ndof);
 }
 
 int section_jacobian(const Model& m, const Data& d, int r, double X, Mat6X& J, Mat6X* Jdot, SE3* gX,
                      int section) {
-  // scratch kept between calls (resized only when a larger section comes along)
+  // scratch kept between calls (only their first ndof columns are used: reallocated only when a
+  // section with more dofs comes along)
   thread_local Mat6X G, S, Sdot, AJ;
   PartialStep ps;
   partial_step(m, d, r, X, section, &G, ps);
@@ -230,7 +231,7 @@ int section_jacobian(const Model& m, const Data& d, int r, double X, Mat6X& J, M
       return;
     }
     const bool dot = Jdot != nullptr;
-    if (dot) AJ.resize(6, nd);
+    if (dot && AJ.cols() < nd) AJ.resize(6, nd);
     for (int k = 0; k < nd; ++k) {
       const Vec6 a = Ad_inv_apply(grel, J.col(k));
       if (dot) AJ.col(k) = a;
@@ -248,11 +249,13 @@ int section_jacobian(const Model& m, const Data& d, int r, double X, Mat6X& J, M
   for (int i = sec.first_node; i < last; ++i) advance(d.g_rel[i], d.S[i], d.Sdot[i]);
   if (!ps.full) {  // the last, partial step
     const Mat6 Dm = dexp(-ps.Om);
-    S.noalias() = Dm * G;
+    if (S.cols() < nd) S.resize(6, nd);
+    S.leftCols(nd).noalias() = Dm * G.leftCols(nd);
     if (Jdot && nd > 0) {
       Vec6 Omd = Vec6::Zero();
       for (int k = 0; k < nd; ++k) Omd += G.col(k) * v[k];
-      Sdot.noalias() = ddexp(-ps.Om, -Omd) * G;
+      if (Sdot.cols() < nd) Sdot.resize(6, nd);
+      Sdot.leftCols(nd).noalias() = ddexp(-ps.Om, -Omd) * G.leftCols(nd);
       if (ps.sp.commutator) {  // dG/dt: c (ad_{xa_dot} Phi_b - ad_{xb_dot} Phi_a), column by column
         const StepPoints& sp = ps.sp;
         const double c = kZanna * sp.h * sp.h;

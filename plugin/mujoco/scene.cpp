@@ -289,10 +289,10 @@ void patch_cdof(const Scene& s, SceneData& sd, int r) {
   mjData* d = sd.d;
   const RodBinding& rb = s.rods[r];
   cosserat::Data& rd = sd.rod[r];
-  Mat6X& J = sd.scratch[r].J;
   for (size_t i = 0; i < rb.proxy_body.size(); ++i) {
     const Section& sec = rb.model.sections[i];
     if (sec.ndof == 0) continue;
+    Mat6X& J = sd.scratch[r].J[i];
     section_jacobian(rb.model, rd, 0, sec.X0 + sec.length, J);
     const mjtNum* c = d->subtree_com + 3 * s.m->body_rootid[rb.proxy_body[i]];
     const Mat6 A = Ad(com_frame(rd.g[sec.end_node], c));
@@ -308,11 +308,11 @@ void patch_cdof_dot(const Scene& s, SceneData& sd, int r) {
   mjData* d = sd.d;
   const RodBinding& rb = s.rods[r];
   cosserat::Data& rd = sd.rod[r];
-  Mat6X& J = sd.scratch[r].J;
-  Mat6X& Jd = sd.scratch[r].Jd;
   for (size_t i = 0; i < rb.proxy_body.size(); ++i) {
     const Section& sec = rb.model.sections[i];
     if (sec.ndof == 0) continue;
+    Mat6X& J = sd.scratch[r].J[i];
+    Mat6X& Jd = sd.scratch[r].Jd[i];
     section_jacobian(rb.model, rd, 0, sec.X0 + sec.length, J, &Jd);
     const mjtNum* c = d->subtree_com + 3 * s.m->body_rootid[rb.proxy_body[i]];
     const Mat6 A = Ad(com_frame(rd.g[sec.end_node], c));
@@ -333,7 +333,7 @@ int point_correction(const Scene& s, const SceneData& sd, int r, int si, double 
   const mjData* d = sd.d;
   const RodBinding& rb = s.rods[r];
   const cosserat::Data& rd = sd.rod[r];
-  Mat6X J;
+  thread_local Mat6X J;  // scratch: no heap memory once sized
   section_jacobian(rb.model, rd, 0, X, J, nullptr, nullptr, si);
   const Section& sec = rb.model.sections[si];
   const SE3 gX = rod_pose(rb.model, rd, 0, X);
@@ -377,7 +377,7 @@ void efc_add(const mjModel* m, mjData* d, int row, int col, double val) {
 void patch_contacts(const Scene& s, SceneData& sd) {
   const mjModel* m = s.m;
   mjData* d = sd.d;
-  Mat6X dJ;
+  thread_local Mat6X dJ, C;  // scratch: no heap memory once sized
   for (int i = 0; i < d->ncon; ++i) {
     const mjContact& con = d->contact[i];
     if (con.efc_address < 0) continue;
@@ -395,9 +395,9 @@ void patch_contacts(const Scene& s, SceneData& sd) {
       const double X = gd.X_begin + t * (gd.X_end - gd.X_begin);
       const int col0 = point_correction(s, sd, r, gd.section, X, p, dJ);
       Eigen::Map<const Mat3r> frame(con.frame);
-      Mat6X C(6, dJ.cols());  // contact-frame rows of the correction, signed as J2 - J1
-      C.topRows<3>() = frame * dJ.topRows<3>();
-      C.bottomRows<3>() = frame * dJ.bottomRows<3>();
+      C.resize(6, dJ.cols());  // contact-frame rows of the correction, signed as J2 - J1
+      C.topRows<3>().noalias() = frame * dJ.topRows<3>();
+      C.bottomRows<3>().noalias() = frame * dJ.bottomRows<3>();
       if (side == 0) C = -C;
       const int row0 = con.efc_address, type = d->efc_type[row0];
       for (int k = 0; k < C.cols(); ++k) {
@@ -419,7 +419,7 @@ void patch_contacts(const Scene& s, SceneData& sd) {
 void patch_tendons(const Scene& s, SceneData& sd) {
   const mjModel* m = s.m;
   mjData* d = sd.d;
-  Mat6X dJ;
+  thread_local Mat6X dJ;  // scratch: no heap memory once sized
   for (int t = 0; t < m->ntendon; ++t) {
     const int adr = d->ten_wrapadr[t], num = d->ten_wrapnum[t];
     for (int k = 0; k < num; ++k) {
@@ -567,8 +567,10 @@ SceneData::SceneData(const Scene& s) {
     RodScratch& sc = scratch[r];
     for (int j = first_ancestor_dof(s.m, s.rods[r].base_body); j >= 0; j = s.m->dof_parentid[j]) sc.anc.push_back(j);
     sc.C.resize(6, static_cast<int>(sc.anc.size()));
-    sc.J.resize(6, s.rods[r].model.max_ndof);
-    sc.Jd.resize(6, s.rods[r].model.max_ndof);
+    for (const Section& sec : s.rods[r].model.sections) {
+      sc.J.emplace_back(6, sec.ndof);
+      sc.Jd.emplace_back(6, sec.ndof);
+    }
     sc.Kv.resize(s.rods[r].model.nv);
   }
 }

@@ -73,7 +73,7 @@ struct SceneData {
   struct RodScratch {
     std::vector<int> anc;  // MuJoCo dofs above the rod's base, nearest first
     Mat6X C;               // their base-frame columns (6 x anc.size())
-    Mat6X J, Jd;           // section Jacobian and its derivative
+    std::vector<Mat6X> J, Jd;  // per section: its Jacobian and the derivative (sized once)
     VecX Kv;
   };
   std::vector<RodScratch> scratch;  // per rod
