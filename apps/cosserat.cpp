@@ -407,8 +407,10 @@ struct Equilibrium {
     result = mj::equilibrium(*scene, *data);
   }
   json report() const {
-    return {{"converged", result.converged}, {"iterations", result.iterations}, {"residual", result.residual},
-            {"method", result.method},       {"load_steps", result.load_steps}, {"message", result.message}};
+    json j = {{"converged", result.converged}, {"iterations", result.iterations}, {"residual", result.residual},
+              {"method", result.method},       {"load_steps", result.load_steps}, {"message", result.message}};
+    if (result.method == "newton" && result.converged) j["omega2_min"] = result.omega2_min;
+    return j;
   }
   void print() const {
     const bool plain = result.message.empty() || result.message == "converged";
@@ -422,8 +424,11 @@ int cmd_equilibrium(int argc, char** argv) {
   std::string json_path;
   StateOptions state;
   CommandLine cl{"equilibrium", "static equilibrium under gravity, actuator controls and applied loads", {"MODEL.xml"}, {},
-                 "Newton's method with load continuation; scenes whose contacts, limits or equality\n"
-                 "constraints carry load are settled by dynamic relaxation (the report's \"method\").\n"
+                 "Newton's method with load continuation along the stable branch (a load step whose\n"
+                 "equilibrium is unstable is refused and split; \"omega2_min\" in the report is the smallest\n"
+                 "eigenvalue of K x = omega^2 M x there); scenes whose contacts, limits or equality constraints\n"
+                 "carry load, or where the stable branch cannot be followed, are settled by dynamic relaxation\n"
+                 "(the report's \"method\").\n"
                  "Exit status 1 when no equilibrium is found.\n"};
   cl.options.push_back(text_option("--json", "F", "write {converged, iterations, residual, sites, bodies, ...} ('-': stdout)", json_path));
   state.add_to(cl);

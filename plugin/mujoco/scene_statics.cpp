@@ -226,23 +226,56 @@ bool newton(StaticProblem& p, double lambda, const SceneStaticsOptions& opt, Sce
   return res.residual <= opt.tolerance;
 }
 
+// Stability of the equilibrium at the current qpos under load factor lambda: the smallest
+// eigenvalue omega^2 of Ks x = omega^2 M x, Ks the symmetric part of the tangent stiffness (a
+// negative one: the equilibrium is unstable, the rod would fall away from it). Returns true when
+// stable: omega^2_min >= -1e-7 |omega^2|_max (central differences leave noise of that order;
+// neutral directions, such as a free hinge without gravity, count as stable).
+bool stable_equilibrium(StaticProblem& p, const Scene& s, SceneData& sd, double lambda, double& omega2_min) {
+  const int n = p.nv();
+  omega2_min = 0.0;
+  if (n == 0) return true;
+  MatrixXd Kt;
+  p.stiffness(lambda, Kt);
+  VectorXd f(n);
+  p.force(lambda, f);  // the stages (and qM) at the equilibrium again
+  std::vector<mjtNum> full(static_cast<size_t>(n) * n);
+  mj_fullM(s.m, full.data(), sd.d->qM);
+  const MatrixXd M = Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(
+      full.data(), n, n);
+  const MatrixXd Ks = 0.5 * (Kt + Kt.transpose());
+  Eigen::GeneralizedSelfAdjointEigenSolver<MatrixXd> es(Ks, M, Eigen::EigenvaluesOnly);
+  if (es.info() != Eigen::Success) return true;  // M not positive definite: no verdict
+  const VectorXd& w = es.eigenvalues();
+  omega2_min = w(0);
+  const double big = std::max(std::abs(w(0)), std::abs(w(n - 1)));
+  return w(0) >= -1e-7 * big;
+}
+
 // Newton with load continuation (statics.cpp's scheme). On failure qpos is the last good step.
-bool solve_smooth(StaticProblem& p, const SceneStaticsOptions& opt, SceneStaticsResult& res) {
+// With opt.stable, a load step whose equilibrium is unstable is refused like a failed one (the
+// increment is halved): small enough increments follow the stable branch from the start.
+bool solve_smooth(StaticProblem& p, const Scene& s, SceneData& sd, const SceneStaticsOptions& opt,
+                  SceneStaticsResult& res) {
   double lam = 0.0, dlam = 1.0;
   std::vector<mjtNum> q_good = p.qpos();
   int halvings = 0;
   while (lam < 1.0) {
     const double target = std::min(1.0, lam + dlam);
-    if (newton(p, target, opt, res)) {
+    double w2 = 0.0;
+    if (newton(p, target, opt, res) && (!opt.stable || stable_equilibrium(p, s, sd, target, w2))) {
       lam = target;
       q_good = p.qpos();
       ++res.load_steps;
+      res.omega2_min = w2;
       dlam *= 2.0;
     } else {
+      if (opt.stable && w2 < 0) ++res.unstable_steps_refused;
       p.set_qpos(q_good);
       dlam *= 0.5;
       if (++halvings > opt.max_load_halvings) {
-        res.message = "no convergence: load continuation stalled at load factor " + std::to_string(lam);
+        res.message = "no convergence: load continuation stalled at load factor " + std::to_string(lam) +
+                      (res.unstable_steps_refused ? " (beyond it the equilibria found are unstable)" : "");
         return false;
       }
     }
@@ -354,7 +387,7 @@ SceneStaticsResult equilibrium(const Scene& s, SceneData& sd, const SceneStatics
   const std::vector<mjtNum> q_start(d->qpos, d->qpos + m->nq);
   {
     StaticProblem p(s, sd);
-    res.converged = solve_smooth(p, opt, res);
+    res.converged = solve_smooth(p, s, sd, opt, res);
   }
   // the smooth solution ignores constraint forces: check that none is needed there
   mju_zero(d->qvel, m->nv);

@@ -33,6 +33,10 @@ struct SceneStaticsOptions {
   bool relaxation = true;        // fall back to dynamic relaxation when constraints carry load
   double relaxation_tolerance = 1e-6;  // the relaxation's (looser) target on the full residual
   double relaxation_time = 30.0;       // [s] of simulated time before the relaxation gives up
+  // follow the stable branch: a load step is accepted only if its equilibrium is stable (no
+  // negative eigenvalue of Kt x = omega^2 M x); otherwise the increment is halved, and if the
+  // continuation stalls, the relaxation (which only settles in stable states) takes over
+  bool stable = true;
 };
 
 struct SceneStaticsResult {
@@ -43,6 +47,8 @@ struct SceneStaticsResult {
   double residual = 0.0;  // |f| / scale at the end (relaxation: |M qacc| / scale)
   double scale = 0.0;     // force scale: max(|qfrc_passive|, |loads|, |qfrc_constraint|)
   int constraint_rows = 0;  // active constraint rows (contacts, limits, equalities) at the end
+  double omega2_min = 0.0;  // Newton with opt.stable: smallest eigenvalue of Kt x = omega^2 M x [1/s^2]
+  int unstable_steps_refused = 0;  // load steps refused because their equilibrium was unstable
   std::string message;
 };
 
