@@ -791,11 +791,25 @@ void advance_with_qacc(const Scene& s, SceneData& sd) {
   mju_copy(m->dof_damping, damping.data(), m->nv);
 }
 
-// Implicit in the rods' stiffness and damping (`rods`), in MuJoCo's joint damping and in the
-// fluid's damping D_f:
+// Velocity derivative of an actuator's scalar force (MuJoCo 2.2.2: force = gain * input + bias with
+// gain and bias affine in length and velocity): d force / d velocity.
+double actuator_force_velocity_derivative(const mjModel* m, const mjData* d, int a) {
+  double dfdv = 0.0;
+  if (m->actuator_gaintype[a] == mjGAIN_AFFINE) {
+    const double input = m->actuator_dyntype[a] == mjDYN_NONE ? d->ctrl[a] : d->act[a - (m->nu - m->na)];
+    dfdv += m->actuator_gainprm[mjNGAIN * a + 2] * input;
+  }
+  if (m->actuator_biastype[a] == mjBIAS_AFFINE) dfdv += m->actuator_biasprm[mjNBIAS * a + 2];
+  return dfdv;
+}
+
+// Implicit in the rods' stiffness and damping (`rods`), in MuJoCo's joint damping, in the
+// velocity dependence of actuators on hinge and slide joints (`rods`: velocity servos such as a
+// flagellar motor are stiff dampers) and in the fluid's damping D_f:
 //   (M + h D + h^2 K) a = M qacc - h K v,   qacc the explicit accelerations (with constraint forces),
-// D = joint damping + rods' Kelvin-Voigt damping + D_f (rods = false: joint damping + D_f, K = 0:
-// MuJoCo's Euler with the fluid added to its implicit damping).
+// D = joint damping + rods' Kelvin-Voigt damping + actuators' -gear^2 d force/d velocity + D_f
+// (rods = false: joint damping + D_f, K = 0: MuJoCo's Euler with the fluid added to its implicit
+// damping). Actuators on other transmissions (tendons, sites, ball and free joints) stay explicit.
 // Assembled in MuJoCo's sparse qM (K and D live inside each section's dof chain, D_f in the
 // kinematic tree's pattern) and solved with MuJoCo's own factorisation; qM is restored afterwards.
 void implicit_step(const Scene& s, SceneData& sd, bool rods = true) {
@@ -819,6 +833,19 @@ void implicit_step(const Scene& s, SceneData& sd, bool rods = true) {
   std::copy(d->qLDiagInv, d->qLDiagInv + nv, sd.qLDiagInv_save.begin());
   std::copy(d->qLDiagSqrtInv, d->qLDiagSqrtInv + nv, sd.qLDiagSqrtInv_save.begin());
   for (int i = 0; i < nv; ++i) d->qM[m->dof_Madr[i]] += h * m->dof_damping[i];
+  if (rods && !(m->opt.disableflags & mjDSBL_ACTUATION))
+    for (int a = 0; a < m->nu; ++a) {
+      const int tt = m->actuator_trntype[a];
+      // a saturated force does not change with velocity
+      if (m->actuator_forcelimited[a] && (d->actuator_force[a] <= m->actuator_forcerange[2 * a] ||
+                                          d->actuator_force[a] >= m->actuator_forcerange[2 * a + 1]))
+        continue;
+      if (tt != mjTRN_JOINT && tt != mjTRN_JOINTINPARENT) continue;
+      const int j = m->actuator_trnid[2 * a];
+      if (m->jnt_type[j] != mjJNT_HINGE && m->jnt_type[j] != mjJNT_SLIDE) continue;
+      const double g = m->actuator_gear[6 * a];
+      d->qM[m->dof_Madr[m->jnt_dofadr[j]]] -= h * g * g * actuator_force_velocity_derivative(m, d, a);
+    }
   if (rods)
     for (const auto& rb : s.rods)
       for (int i = 0; i < rb.model.nv; ++i)
