@@ -465,7 +465,7 @@ int cmd_linearize(int argc, char** argv) {
   StateOptions state;
   CommandLine cl{"linearize", "linearise at the static equilibrium: natural frequencies and modal damping", {"MODEL.xml"}, {},
                  "Second-order form M ddq + D dq' + K dq = Bu du about the equilibrium (tangent space of qpos).\n"};
-  cl.options.push_back(text_option("--json", "F", "write {frequencies_hz: [ascending], damping_ratios, ...} ('-': stdout)", json_path));
+  cl.options.push_back(text_option("--json", "F", "write {frequencies_hz: [ascending], damping_ratios, omega2, unstable_modes, ...} ('-': stdout)", json_path));
   cl.options.push_back(flag_option("--matrices", "include M, D, K and Bu in the JSON", matrices));
   state.add_to(cl);
   const auto pos = cl.parse(argc, argv);
@@ -481,11 +481,17 @@ int cmd_linearize(int argc, char** argv) {
     for (int i = 0; i < lin.damping_ratios.size(); ++i)  // NaN (rigid-body modes) becomes null
       zeta.push_back(std::isfinite(lin.damping_ratios(i)) ? json(lin.damping_ratios(i)) : json(nullptr));
     j["damping_ratios"] = zeta;
+    j["omega2"] = std::vector<double>(lin.omega2.data(), lin.omega2.data() + lin.omega2.size());
+    j["unstable_modes"] = lin.unstable_modes;
     j["nv"] = m->nv;
     j["nu"] = m->nu;
     j["equilibrium"] = eq.report();
+    json warnings = json::array();
     if (eq.result.method != "newton")
-      j["warnings"] = {"equilibrium found by " + eq.result.method + "; constraint forces are not linearised"};
+      warnings.push_back("equilibrium found by " + eq.result.method + "; constraint forces are not linearised");
+    if (lin.unstable_modes > 0)
+      warnings.push_back(std::to_string(lin.unstable_modes) + " unstable mode(s) (omega2 < 0): the equilibrium is unstable");
+    if (!warnings.empty()) j["warnings"] = warnings;
     if (matrices) {
       j["M"] = matrix_json(lin.M);
       j["D"] = matrix_json(lin.D);
@@ -496,6 +502,9 @@ int cmd_linearize(int argc, char** argv) {
   }
   if (json_path != "-") {
     eq.print();
+    if (lin.unstable_modes > 0)
+      std::printf("warning: %d unstable mode(s) (omega^2 < 0, listed as 0 Hz): the equilibrium is unstable\n",
+                  lin.unstable_modes);
     std::printf("natural frequencies [Hz] (damping ratio):\n");
     for (int i = 0; i < lin.frequencies_hz.size(); ++i) {
       std::printf("  %3d  %12.6g", i + 1, lin.frequencies_hz(i));

@@ -50,11 +50,13 @@ void state_space(Linearization& L) {
   // Kt is symmetric for conservative loads; follower loads make it slightly unsymmetric.
   const MatX Ks = 0.5 * (L.Kt + L.Kt.transpose());
   L.frequencies_hz.resize(n);
+  L.omega2.resize(n);
   L.damping_ratios.resize(0);
   if ((L.Kt - Ks).norm() <= 1e-6 * Ks.norm()) {
     Eigen::GeneralizedSelfAdjointEigenSolver<MatX> es(Ks, L.M);  // ascending, x^T M x = 1
     L.damping_ratios.resize(n);
     for (int i = 0; i < n; ++i) {
+      L.omega2(i) = es.eigenvalues()(i);
       const double w = std::sqrt(std::max(es.eigenvalues()(i), 0.0));
       const VecX x = es.eigenvectors().col(i);
       L.frequencies_hz(i) = w / (2.0 * M_PI);
@@ -65,8 +67,15 @@ void state_space(Linearization& L) {
     std::vector<double> w2;
     for (int i = 0; i < n; ++i) w2.push_back(es.eigenvalues()(i).real());
     std::sort(w2.begin(), w2.end());
-    for (int i = 0; i < n; ++i) L.frequencies_hz(i) = std::sqrt(std::max(w2[i], 0.0)) / (2.0 * M_PI);
+    for (int i = 0; i < n; ++i) {
+      L.omega2(i) = w2[i];
+      L.frequencies_hz(i) = std::sqrt(std::max(w2[i], 0.0)) / (2.0 * M_PI);
+    }
   }
+  L.unstable_modes = 0;
+  const double big = n > 0 ? L.omega2.cwiseAbs().maxCoeff() : 0.0;
+  for (int i = 0; i < n; ++i)
+    if (L.omega2(i) < -1e-7 * big) ++L.unstable_modes;
 }
 
 }  // namespace cosserat

@@ -11,7 +11,10 @@ namespace cosserat {
 struct Linearization {
   MatX A, B;            // state-space matrices (2 nv x 2 nv, 2 nv x nu)
   MatX M, D, Kt, Bu;    // second-order form
-  VecX frequencies_hz;  // undamped natural frequencies, ascending (from Kt x = w^2 M x)
+  VecX frequencies_hz;  // undamped natural frequencies, ascending (from Kt x = w^2 M x; an unstable
+                        // mode, w^2 < 0, shows as 0 Hz: see omega2 and unstable_modes)
+  VecX omega2;          // the eigenvalues w^2 [1/s^2], ascending, signed (real parts if Kt is unsymmetric)
+  int unstable_modes = 0;  // modes with w^2 < -1e-7 max|w^2|: the equilibrium is unstable
   VecX damping_ratios;  // modal damping x^T D x / (2 w x^T M x) of those modes (NaN for w = 0);
                         // empty when Kt is not symmetric (follower loads)
 };

@@ -91,7 +91,9 @@ std::unique_ptr<Scene> load_scene_string(const std::string& xml, const std::stri
 void forward(const Scene& s, SceneData& sd);
 // One time step with s.integrator (or `method`). Returns Diverged (and restores the state) when
 // the state goes non-finite. Euler and Implicit treat the fluid's damping implicitly (as joint
-// damping); with the plugin's fluid inactive, Euler is MuJoCo's mj_Euler.
+// damping); with the plugin's fluid inactive, Euler is MuJoCo's mj_Euler. Implicit also treats
+// the rods' stiffness and damping and the velocity dependence of actuators on hinge and slide
+// joints implicitly (linearised backward Euler).
 Status step(const Scene& s, SceneData& sd);
 Status step(const Scene& s, SceneData& sd, Integrator method);
 // qpos = qpos0, qvel = 0, time = 0, and MuJoCo's mj_resetData.

@@ -332,3 +332,23 @@ TEST(Linearize, KelvinVoigtViscosityGivesNegativeRealParts) {
 }
 
 }  // namespace
+
+// An inverted pendulum (point mass m at height l above a hinge, gravity g) is an equilibrium at
+// q = 0 with one unstable mode: omega^2 = -g/l exactly; hanging down, +g/l and stable.
+TEST(Linearize, InvertedPendulumHasOneUnstableMode) {
+  for (const double up : {1.0, -1.0}) {
+    SCOPED_TRACE(up > 0 ? "inverted" : "hanging");
+    const double mass = 0.3, l = 0.4, g = 9.81;
+    Model m;
+    const int j = m.add_joint(-1, SE3::Identity(), JointType::Revolute, Vec3::UnitY());
+    m.add_body(j, mass, Vec3(0, 0, up * l), Mat3::Zero());
+    m.gravity = Vec3(0, 0, -g);
+    m.finalize();
+    Data d(m);
+    const Linearization L = linearize(m, d);
+    ASSERT_EQ(L.omega2.size(), 1);
+    EXPECT_NEAR(L.omega2(0), -up * g / l, 1e-6 * g / l);
+    EXPECT_EQ(L.unstable_modes, up > 0 ? 1 : 0);
+    EXPECT_NEAR(L.frequencies_hz(0), up > 0 ? 0.0 : std::sqrt(g / l) / (2 * M_PI), 1e-6);
+  }
+}
