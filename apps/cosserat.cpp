@@ -66,12 +66,13 @@ const char* integrator_name(Integrator in) {
     case Integrator::Euler: return "euler";
     case Integrator::Implicit: return "implicit";
     case Integrator::RK4: return "rk4";
+    case Integrator::Trapezoidal: return "trapezoidal";
   }
   return "?";
 }
 
 Option integrator_option(std::optional<Integrator>& target) {
-  return {"--integrator", "NAME", "euler | implicit | rk4 (default: implicit with rods, euler without)",
+  return {"--integrator", "NAME", "euler | implicit | trapezoidal | rk4 (default: implicit with rods, euler without)",
           [&target](const std::string& v) { target = parse_integrator("--integrator", v); }};
 }
 

@@ -75,7 +75,7 @@ struct PictureOptions {
     c.options.push_back(text_option("--key", "K", "start from keyframe K (name or index)", key));
     c.options.push_back(text_option("--ctrl", "U", "actuator controls: nu numbers separated by commas (after --key)", ctrl));
     c.options.push_back(positive_option("--timestep", "h", "time step [s] (default: the model's <option timestep>)", timestep));
-    c.options.push_back(text_option("--integrator", "NAME", "euler | implicit | rk4 (default: implicit with rods, euler without)", integrator));
+    c.options.push_back(text_option("--integrator", "NAME", "euler | implicit | trapezoidal | rk4 (default: implicit with rods, euler without)", integrator));
   }
 
   void finish() {

@@ -239,6 +239,7 @@ const char* method_name(Method m) {
     case Method::Euler: return "euler";
     case Method::Implicit: return "implicit";
     case Method::RK4: return "rk4";
+    case Method::Trapezoidal: return "trapezoidal";
   }
   return "?";
 }
@@ -250,7 +251,10 @@ class RodSim : public Sim {
   RodSim(const std::string& xml, const std::string& path, Method method, double h)
       : scene_(mj::load_scene_string(xml, path)), data_(*scene_) {
     scene_->m->opt.timestep = h;
-    integ_ = method == Method::Euler ? Integrator::Euler : method == Method::RK4 ? Integrator::RK4 : Integrator::Implicit;
+    integ_ = method == Method::Euler         ? Integrator::Euler
+             : method == Method::RK4         ? Integrator::RK4
+             : method == Method::Trapezoidal ? Integrator::Trapezoidal
+                                             : Integrator::Implicit;
   }
   const mjModel* m() const override { return scene_->m; }
   mjData* d() override { return data_.d; }

@@ -65,7 +65,7 @@ mjModel* load_mujoco_string(const std::string& xml, const std::string& path);
 
 // --------------------------------------------------------------------------- simulations --
 
-enum class Method { Euler, Implicit, RK4 };
+enum class Method { Euler, Implicit, RK4, Trapezoidal };  // Trapezoidal: ours only
 const char* method_name(Method m);
 
 // One simulation, ours (Scene + SceneData, our integrators) or MuJoCo's (mjModel + mjData, mj_step

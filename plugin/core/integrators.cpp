@@ -9,25 +9,36 @@ std::optional<Integrator> integrator_from_name(std::string_view n) {
   if (n == "euler") return Integrator::Euler;
   if (n == "implicit") return Integrator::Implicit;
   if (n == "rk4") return Integrator::RK4;
+  if (n == "trapezoidal") return Integrator::Trapezoidal;
   return std::nullopt;
 }
 
 namespace {
-// Semi-implicit step; `stiffness_implicit` selects Implicit over Euler.
-void step_semi_implicit(const Model& m, Data& d, double h, bool stiffness_implicit) {
+// Semi-implicit step; `stiffness_implicit` selects Implicit (theta = 1) or Trapezoidal
+// (theta = 1/2) over Euler (damping implicit, stiffness explicit). With v+ = v + dv:
+//   (M + theta h D + theta^2 h^2 K) v+ = (M + theta h D + theta^2 h^2 K) v + h M a - theta h^2 K v,
+//   q+ = q + h ((1 - theta) v + theta v+),   M a = tau_act - bias - K (q - q_ref) - D v.
+void step_semi_implicit(const Model& m, Data& d, double h, bool stiffness_implicit, double theta = 1.0) {
   smooth_forces(m, d);  // qfrc_passive is an output; the force used below splits it
   d.tmp = d.q - m.q_ref;
   d.rhs = d.qfrc_actuator - d.qfrc_bias;
   d.rhs.noalias() -= m.K * d.tmp;
   d.rhs *= h;
   d.rhs.noalias() += d.M * d.v;
-  d.A = d.M + h * m.D;
-  if (stiffness_implicit) d.A += (h * h) * m.K;
+  if (theta != 1.0) {  // (theta h D + theta^2 h^2 K) v - h D v - theta h^2 K v (d.tmp: scratch)
+    d.tmp.noalias() = m.D * d.v;
+    d.rhs += ((theta - 1.0) * h) * d.tmp;
+    d.tmp.noalias() = m.K * d.v;
+    d.rhs += ((theta * theta - theta) * h * h) * d.tmp;
+  }
+  d.A = d.M + (theta * h) * m.D;
+  if (stiffness_implicit) d.A += (theta * theta * h * h) * m.K;
   d.ldlt.compute(d.A);
   d.tmp = d.ldlt.solve(d.rhs);  // v+
   d.qacc = (d.tmp - d.v) / h;
+  d.q.noalias() += ((1.0 - theta) * h) * d.v;
   d.v = d.tmp;
-  d.q.noalias() += h * d.v;
+  d.q.noalias() += (theta * h) * d.v;
 }
 
 void step_rk4(const Model& m, Data& d, double h) {
@@ -56,6 +67,7 @@ Status step(const Model& m, Data& d, double h, Integrator method) {
     case Integrator::Euler: step_semi_implicit(m, d, h, false); break;
     case Integrator::Implicit: step_semi_implicit(m, d, h, true); break;
     case Integrator::RK4: step_rk4(m, d, h); break;
+    case Integrator::Trapezoidal: step_semi_implicit(m, d, h, true, 0.5); break;
   }
   if (!d.q.allFinite() || !d.v.allFinite()) {
     // our own divergence check: restore the last good state and report

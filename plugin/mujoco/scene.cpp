@@ -550,6 +550,7 @@ SceneData::SceneData(const Scene& s) {
   qvel_save.assign(nv, 0);
   qM_save.assign(s.m->nM, 0);
   qLD_save.assign(s.m->nM, 0);
+  tmp_qacc_full.assign(nv, 0);
   qLDiagInv_save.assign(nv, 0);
   qLDiagSqrtInv_save.assign(nv, 0);
   rk_q0.assign(nq, 0);
@@ -812,19 +813,23 @@ double actuator_force_velocity_derivative(const mjModel* m, const mjData* d, int
 // damping). Actuators on other transmissions (tendons, sites, ball and free joints) stay explicit.
 // Assembled in MuJoCo's sparse qM (K and D live inside each section's dof chain, D_f in the
 // kinematic tree's pattern) and solved with MuJoCo's own factorisation; qM is restored afterwards.
-void implicit_step(const Scene& s, SceneData& sd, bool rods = true) {
+//
+// theta = 1/2 (Trapezoidal, rods only): the trapezoidal rule on the same linearisation,
+//   (M + h/2 D + h^2/4 K) a = M qacc - h/2 K v,  q+ = q + h (v + h a / 2),  v+ = v + h a:
+// no numerical damping of the linear modes, second order.
+void implicit_step(const Scene& s, SceneData& sd, bool rods = true, double theta = 1.0) {
   const mjModel* m = s.m;
   mjData* d = sd.d;
-  const double h = m->opt.timestep;
+  const double h = m->opt.timestep, th = theta * h;
   const int nv = m->nv;
-  // rhs = M qacc - h K v
+  // rhs = M qacc - theta h K v
   mj_mulM(m, d, sd.qacc_tmp.data(), d->qacc);
   if (rods)
     for (size_t r = 0; r < s.rods.size(); ++r) {
       const RodBinding& rb = s.rods[r];
       VecX& Kv = sd.scratch[r].Kv;
       Kv.noalias() = rb.model.K * sd.rod[r].v;
-      for (int k = 0; k < rb.model.nv; ++k) sd.qacc_tmp[rb.dof0 + k] -= h * Kv(k);
+      for (int k = 0; k < rb.model.nv; ++k) sd.qacc_tmp[rb.dof0 + k] -= th * Kv(k);
     }
   // keep M and its factor: restored after the solve (copies; no second factorisation)
   std::vector<mjtNum>& qM_save = sd.qM_save;
@@ -832,7 +837,7 @@ void implicit_step(const Scene& s, SceneData& sd, bool rods = true) {
   std::copy(d->qLD, d->qLD + m->nM, sd.qLD_save.begin());
   std::copy(d->qLDiagInv, d->qLDiagInv + nv, sd.qLDiagInv_save.begin());
   std::copy(d->qLDiagSqrtInv, d->qLDiagSqrtInv + nv, sd.qLDiagSqrtInv_save.begin());
-  for (int i = 0; i < nv; ++i) d->qM[m->dof_Madr[i]] += h * m->dof_damping[i];
+  for (int i = 0; i < nv; ++i) d->qM[m->dof_Madr[i]] += th * m->dof_damping[i];
   if (rods && !(m->opt.disableflags & mjDSBL_ACTUATION))
     for (int a = 0; a < m->nu; ++a) {
       const int tt = m->actuator_trntype[a];
@@ -844,23 +849,37 @@ void implicit_step(const Scene& s, SceneData& sd, bool rods = true) {
       const int j = m->actuator_trnid[2 * a];
       if (m->jnt_type[j] != mjJNT_HINGE && m->jnt_type[j] != mjJNT_SLIDE) continue;
       const double g = m->actuator_gear[6 * a];
-      d->qM[m->dof_Madr[m->jnt_dofadr[j]]] -= h * g * g * actuator_force_velocity_derivative(m, d, a);
+      d->qM[m->dof_Madr[m->jnt_dofadr[j]]] -= th * g * g * actuator_force_velocity_derivative(m, d, a);
     }
   if (rods)
     for (const auto& rb : s.rods)
       for (int i = 0; i < rb.model.nv; ++i)
         for (int j = 0; j <= i; ++j) {
-          const double a = h * rb.model.D(i, j) + h * h * rb.model.K(i, j);
+          const double a = th * rb.model.D(i, j) + th * th * rb.model.K(i, j);
           if (a != 0.0) d->qM[m->dof_Madr[rb.dof0 + i] + (i - j)] += a;
         }
-  add_fluid_damping(s, sd, h);  // fluid hook: + h D_f (no-op without the fluid)
+  add_fluid_damping(s, sd, th);  // fluid hook: + theta h D_f (no-op without the fluid)
   mj_factorM(m, d);
   mj_solveM(m, d, d->qacc, sd.qacc_tmp.data(), 1);
   std::copy(qM_save.begin(), qM_save.end(), d->qM);
   std::copy(sd.qLD_save.begin(), sd.qLD_save.end(), d->qLD);
   std::copy(sd.qLDiagInv_save.begin(), sd.qLDiagInv_save.end(), d->qLDiagInv);
   std::copy(sd.qLDiagSqrtInv_save.begin(), sd.qLDiagSqrtInv_save.end(), d->qLDiagSqrtInv);
+  if (theta == 1.0) {
+    advance_with_qacc(s, sd);
+    return;
+  }
+  // positions advance with v + theta h a: Euler's update with qacc scaled by theta, then the
+  // velocity gets the whole step (and qacc, the warm start, the whole acceleration)
+  std::vector<mjtNum>& a = sd.tmp_qacc_full;
+  std::copy(d->qacc, d->qacc + nv, a.begin());
+  std::vector<mjtNum>& v0 = sd.rk_v0;  // RK4's scratch, free here
+  std::copy(d->qvel, d->qvel + nv, v0.begin());
+  mju_scl(d->qacc, a.data(), theta, nv);
   advance_with_qacc(s, sd);
+  for (int i = 0; i < nv; ++i) d->qvel[i] = v0[i] + h * a[i];
+  std::copy(a.begin(), a.end(), d->qacc);
+  std::copy(a.begin(), a.end(), d->qacc_warmstart);
 }
 
 // Classic RK4 on (qpos, qvel, act) with our forward at every stage (MuJoCo's mj_RungeKutta calls
@@ -939,6 +958,10 @@ Status step(const Scene& s, SceneData& sd, Integrator method) {
       implicit_step(s, sd);
       break;
     case Integrator::RK4: rk4_step(s, sd); break;
+    case Integrator::Trapezoidal:
+      forward(s, sd);
+      implicit_step(s, sd, true, 0.5);
+      break;
   }
   if (!state_finite(m, d)) {
     mju_copy(d->qpos, sd.qpos_save.data(), m->nq);

@@ -203,6 +203,8 @@ TEST(Scene, SoftRigidTreeMatchesStandaloneCore) {
   expect_same_trajectory("icc", 3, 0, 0.0, Integrator::Euler, 1e-9);
   // GVS with 8 dofs per section: MuJoCo needs helper bodies (6 dofs per body at most)
   expect_same_trajectory("kl", 2, 1, 0.2, Integrator::Implicit, 1e-9);
+  expect_same_trajectory("sr", 2, 0, 0.5, Integrator::Trapezoidal, 1e-9);
+  expect_same_trajectory("kl", 2, 1, 0.2, Integrator::Trapezoidal, 1e-9);
 }
 
 // A rod hanging from a rigid body at the tip of another rod (nested rods): the inner rod's base
