@@ -166,13 +166,13 @@ def stress_section(path):
     out += ["Largest stable step (energy does not grow, state finite) of each integrator, and whether the "
             "resting state (static equilibrium) then stays put (tip drift < 1e-6 L):", ""]
     mat = j.get("material", [])
-    out += ["| Young's modulus [Pa] | L/r | euler | implicit | rk4 |", "|---|---|---|---|---|"]
+    out += ["| Young's modulus [Pa] | L/r | euler | implicit | trapezoidal | rk4 |", "|---|---|---|---|---|---|"]
     cases = {}
     for r in mat:
         cases.setdefault((r["young"], r["slenderness"]), {})[r["method"]] = r
     for (E, sl), by in sorted(cases.items()):
         cells = []
-        for m in ("euler", "implicit", "rk4"):
+        for m in ("euler", "implicit", "trapezoidal", "rk4"):
             r = by.get(m)
             if not r:
                 cells.append("-")
@@ -199,14 +199,14 @@ def stress_section(path):
                        f"| {r.get('energy_growth', 0):.1e} | {fmt_t(r['wall_s'])} |")
         out.append("")
     if j.get("tipmass"):
-        out += ["Heavy tip masses (largest stable step):", "", "| tip mass / rod mass | euler | implicit | rk4 |",
-                "|---|---|---|---|"]
+        out += ["Heavy tip masses (largest stable step):", "", "| tip mass / rod mass | euler | implicit | trapezoidal | rk4 |",
+                "|---|---|---|---|---|"]
         by = {}
         for r in j["tipmass"]:
             by.setdefault(r["tip_mass_ratio"], {})[r["method"]] = r.get("largest_stable_step")
         for ratio, d in sorted(by.items()):
             out.append(f"| {ratio:g} | " + " | ".join("none" if d.get(m) is None else f"{d[m]:g}"
-                                                      for m in ("euler", "implicit", "rk4")) + " |")
+                                                      for m in ("euler", "implicit", "trapezoidal", "rk4")) + " |")
         out.append("")
     if j.get("contact"):
         out += ["Hard contact:", ""]

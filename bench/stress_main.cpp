@@ -197,7 +197,7 @@ json result_json(const Result& r) {
   return j;
 }
 
-const Method kMethods[3] = {Method::Euler, Method::Implicit, Method::RK4};
+const Method kMethods[4] = {Method::Euler, Method::Implicit, Method::Trapezoidal, Method::RK4};
 
 }  // namespace
 
