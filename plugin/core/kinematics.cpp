@@ -34,8 +34,13 @@ void fwd_position(const Model& m, Data& d) {
   const int nn = static_cast<int>(m.nodes.size());
   for (int i = 0; i < nn; ++i) {
     const Node& n = m.nodes[i];
-    d.Omega[i] = step_twist(n, d.q.segment(n.dof0, n.ndof), &d.G[i]);
-    d.g_rel[i] = n.offset * exp_se3(d.Omega[i]);
+    if (n.ndof == 0) {  // constant (Model::finalize)
+      d.Omega[i] = n.fixed_Omega;
+      d.g_rel[i] = n.fixed_rel;
+    } else {
+      d.Omega[i] = step_twist(n, d.q.segment(n.dof0, n.ndof), &d.G[i]);
+      d.g_rel[i] = n.offset * exp_se3(d.Omega[i]);
+    }
     d.g[i] = (n.parent < 0 ? d.base_pose : d.g[n.parent]) * d.g_rel[i];
     if (n.ndof > 0) d.S[i].noalias() = dexp(-d.Omega[i]) * d.G[i];
   }

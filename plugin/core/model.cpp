@@ -1,6 +1,8 @@
 // Building the node tree of a soft-rigid model (see model.hpp for the structure).
 #include "model.hpp"
 
+#include "kinematics.hpp"
+
 #include <cmath>
 #include <stdexcept>
 
@@ -214,6 +216,11 @@ int Model::add_dof_actuator(int dof, const std::string& name) {
 
 void Model::finalize() {
   require(!finalized, "finalize called twice");
+  for (Node& n : nodes)  // steps without dofs are constant: computed once
+    if (n.ndof == 0) {
+      n.fixed_Omega = step_twist(n, VecX(), nullptr);
+      n.fixed_rel = n.offset * exp_se3(n.fixed_Omega);
+    }
   K = MatX::Zero(nv, nv);
   D = MatX::Zero(nv, nv);
   q_ref = VecX::Zero(nv);

@@ -75,6 +75,9 @@ struct Node {
   bool free_joint = false;  // a 6-dof free joint (floating base): no static equilibrium
   int rod = -1, section = -1;
   double X = 0.0;         // material abscissa along its rod
+  // ndof = 0 (rigid section steps, fixed frames): the constant step, set by finalize()
+  Vec6 fixed_Omega = Vec6::Zero();
+  SE3 fixed_rel;          // offset * exp(fixed_Omega)
 };
 
 struct Section {
