@@ -19,14 +19,17 @@
 //   contact    a 1 kg sphere dropped on a clamped rod (stiff contact), and a rod resting on the
 //              floor (drift).
 // Usage: stress [--quick] [--out DIR]. Writes DIR/stress.json.
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <functional>
 #include <string>
 #include <vector>
 
-#include "common.hpp"
 #include <Eigen/Eigenvalues>
+
+#include "common.hpp"
 
 #include "scene_statics.hpp"
 
@@ -230,6 +233,19 @@ int main(int argc, char** argv) {
                                                : std::vector<double>{1e-2, 5e-3, 2e-3, 1e-3, 5e-4, 2e-4, 1e-4,
                                                                      5e-5, 2e-5, 1e-5, 5e-6, 2e-6, 1e-6};
   const long nsteps = quick ? 150 : 1000;
+  // The largest step of the grid (searched downwards) at which steps(h) steps pass the energy
+  // check, or 0 if none; every trial is appended to `tried`.
+  auto largest_stable = [&](const std::string& xml, Method m, const std::function<long(double)>& steps, json& tried) {
+    for (double h : steps_grid) {
+      const Result r = energy_run(xml, m, h, steps(h));
+      json t = result_json(r);
+      t["h"] = h;
+      tried.push_back(t);
+      if (r.pass) return h;
+    }
+    return 0.0;
+  };
+  const auto fixed_steps = [&](double) { return nsteps; };
 
   // ---- material x slenderness x integrator: largest stable step, then a resting run at it
   std::printf("== material: Young's modulus x slenderness, largest stable step per integrator (%ld steps)\n", nsteps);
@@ -248,18 +264,8 @@ int main(int argc, char** argv) {
         row["young"] = E;
         row["slenderness"] = sl;
         row["method"] = method_name(m);
-        double hmax = 0;
         json tried = json::array();
-        for (double h : steps_grid) {
-          const Result r = energy_run(xml, m, h, nsteps);
-          json t = result_json(r);
-          t["h"] = h;
-          tried.push_back(t);
-          if (r.pass) {
-            hmax = h;
-            break;
-          }
-        }
+        const double hmax = largest_stable(xml, m, fixed_steps, tried);
         row["runs"] = tried;
         row["largest_stable_step"] = hmax > 0 ? json(hmax) : json(nullptr);
         char what[128];
@@ -340,13 +346,11 @@ int main(int argc, char** argv) {
     // one notch of the grid below the largest step stable over 1000 steps (as in the material
     // sweep; a run at the very edge of stability is not what anyone would choose), then nlong
     // steps at it
-    double h = 0;
-    for (size_t k = 0; k < steps_grid.size(); ++k)
-      if (energy_run(scene_xml(c), m, steps_grid[k], nsteps).pass) {
-        h = k + 1 < steps_grid.size() ? steps_grid[k + 1] : steps_grid[k];
-        break;
-      }
-    if (h == 0) continue;
+    json tried = json::array();
+    const double edge = largest_stable(scene_xml(c), m, fixed_steps, tried);
+    if (edge == 0) continue;
+    const auto k = std::find(steps_grid.begin(), steps_grid.end(), edge) - steps_grid.begin();
+    const double h = k + 1 < static_cast<long>(steps_grid.size()) ? steps_grid[k + 1] : edge;
     const Result r = energy_run(scene_xml(c), m, h, nlong);
     json row = result_json(r);
     row["method"] = method_name(m);
@@ -365,18 +369,8 @@ int main(int argc, char** argv) {
     c.tip_mass = ratio * rod_mass;
     const std::string xml = scene_xml(c);
     for (Method m : kMethods) {
-      double hmax = 0;
       json tried = json::array();
-      for (double h : steps_grid) {
-        const Result r = energy_run(xml, m, h, nsteps);
-        json t = result_json(r);
-        t["h"] = h;
-        tried.push_back(t);
-        if (r.pass) {
-          hmax = h;
-          break;
-        }
-      }
+      const double hmax = largest_stable(xml, m, fixed_steps, tried);
       json row;
       row["tip_mass_ratio"] = ratio;
       row["method"] = method_name(m);
@@ -397,16 +391,6 @@ int main(int argc, char** argv) {
   // ---- hard contact
   std::printf("== contact: a 1 kg sphere dropped on a clamped rod; a rod resting on the floor\n");
   json ct = json::array();
-  auto largest_stable = [&](const std::string& xml, Method m, double T, json& tried) {
-    for (double h : steps_grid) {
-      const Result r = energy_run(xml, m, h, std::max(50L, static_cast<long>(T / h)));
-      json t = result_json(r);
-      t["h"] = h;
-      tried.push_back(t);
-      if (r.pass) return h;
-    }
-    return 0.0;
-  };
   for (Method m : kMethods) {
     Case c;
     c.E = 1e7;
@@ -417,8 +401,9 @@ int main(int argc, char** argv) {
     const std::string ball_xml = scene_xml(c);
     json tried_free = json::array(), tried_ball = json::array();
     const double T = quick ? 0.15 : 0.4;  // the ball hits the rod at about 0.03 s
-    const double h_free = largest_stable(free_xml, m, T, tried_free);
-    const double h_ball = largest_stable(ball_xml, m, T, tried_ball);
+    const auto over_T = [T](double h) { return std::max(50L, static_cast<long>(T / h)); };
+    const double h_free = largest_stable(free_xml, m, over_T, tried_free);
+    const double h_ball = largest_stable(ball_xml, m, over_T, tried_ball);
     Result r;
     r.pass = h_ball > 0 && h_ball >= h_free;
     if (!r.pass)

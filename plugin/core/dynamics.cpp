@@ -195,12 +195,7 @@ double cable_integral(const Model& m, const Data& d, int c, double s, Eigen::Ref
     const Section& sec = m.sections[pt.section];
     const int nb = sec.order + 1;
     legendre01(sec.order, (pt.X - sec.X0) / sec.length, P);
-    Vec6 xi = sec.rest_strain;  // strain at X: B (x) P q + xi*
-    for (int col = 0; col < sec.B.cols(); ++col) {
-      double coef = 0.0;
-      for (int k = 0; k < nb; ++k) coef += d.q(sec.dof0 + col * nb + k) * P[k];
-      xi += sec.B.col(col) * coef;
-    }
+    const Vec6 xi = sec.basis_apply(P, d.q.data() + sec.dof0) + sec.rest_strain;  // strain at X
     const Vec3 dX = cab.d_begin + (pt.X - cab.X_begin) * dd;
     const Vec3 tv = xi.tail<3>() + xi.head<3>().cross(dX) + dd;
     const double tn = tv.norm();

@@ -119,23 +119,11 @@ void step_points(const Section& sec, double Xp, double h, bool commutator, StepP
   legendre01(sec.order, (Xp + h * (0.5 + kGauss) - sec.X0) / sec.length, sp.Pb);
 }
 
-// Phi(X) x for a dof-block vector x (strain, or strain rate), from the Legendre weights P of X.
-Vec6 phi_apply(const Section& sec, const double* P, const double* x) {
-  const int nb = sec.order + 1;
-  Vec6 out = Vec6::Zero();
-  for (int c = 0; c < sec.B.cols(); ++c) {
-    double coef = 0.0;
-    for (int k = 0; k < nb; ++k) coef += x[c * nb + k] * P[k];
-    out += sec.B.col(c) * coef;
-  }
-  return out;
-}
-
 // The Magnus twist of the step (model.hpp) and, if G is given, G = dOmega/dq (6 x ndof). xa, xb:
 // the strains at the Gauss points (outputs).
 Vec6 step_twist_at(const Section& sec, const StepPoints& sp, const double* q, Mat6X* G, Vec6& xa, Vec6& xb) {
-  xa = phi_apply(sec, sp.Pa, q) + sec.rest_strain;
-  xb = phi_apply(sec, sp.Pb, q) + sec.rest_strain;
+  xa = sec.basis_apply(sp.Pa, q) + sec.rest_strain;
+  xb = sec.basis_apply(sp.Pb, q) + sec.rest_strain;
   const double c = kZanna * sp.h * sp.h;
   Vec6 Om = 0.5 * sp.h * (xa + xb);
   if (sp.commutator) Om += c * ad_apply(xa, xb);
@@ -166,7 +154,10 @@ struct PartialStep {
   Vec6 Om, xa, xb;
 };
 
-void partial_step(const Model& m, const Data& d, int r, double X, int section, Mat6X* G, PartialStep& ps) {
+// When X is the node itself (ps.full) its step is in Data already: Om, xa, xb and G are computed
+// then only if `when_full`.
+void partial_step(const Model& m, const Data& d, int r, double X, int section, Mat6X* G, PartialStep& ps,
+                  bool when_full) {
   const Rod& rod = m.rods[r];
   X = std::clamp(X, 0.0, rod.length);
   int i = m.rod_node_at(r, X);
@@ -186,6 +177,7 @@ void partial_step(const Model& m, const Data& d, int r, double X, int section, M
   ps.offset = n.offset;
   ps.Xp = n.X - n.h;  // abscissa of the parent frame
   ps.full = X == n.X;
+  if (ps.full && !when_full) return;
   step_points(sec, ps.Xp, X - ps.Xp, n.commutator, ps.sp);
   ps.Om = step_twist_at(sec, ps.sp, d.q.data() + n.dof0, G, ps.xa, ps.xb);
 }
@@ -193,16 +185,16 @@ void partial_step(const Model& m, const Data& d, int r, double X, int section, M
 
 SE3 rod_pose(const Model& m, const Data& d, int r, double X) {
   PartialStep ps;
-  partial_step(m, d, r, X, -1, nullptr, ps);
-  const SE3& gp = ps.parent < 0 ? d.base_pose : d.g[ps.parent];
+  partial_step(m, d, r, X, -1, nullptr, ps, false);
   if (ps.full) return d.g[ps.node];
+  const SE3& gp = ps.parent < 0 ? d.base_pose : d.g[ps.parent];
   return gp * ps.offset * exp_se3(ps.Om);
 }
 
 void rod_jacobian(const Model& m, const Data& d, int r, double X, MatX& J) {
   PartialStep ps;
   Mat6X G;
-  partial_step(m, d, r, X, -1, &G, ps);
+  partial_step(m, d, r, X, -1, &G, ps, true);
   if (ps.parent >= 0) {
     node_jacobian(m, d, ps.parent, J);
     const Mat6 Ai = Ad_inv(ps.offset * exp_se3(ps.Om));
@@ -220,7 +212,7 @@ int section_jacobian(const Model& m, const Data& d, int r, double X, Mat6X& J, M
   // section with more dofs comes along)
   thread_local Mat6X G, S, Sdot, AJ;
   PartialStep ps;
-  partial_step(m, d, r, X, section, &G, ps);
+  partial_step(m, d, r, X, section, &G, ps, false);
   const int si = m.nodes[ps.node].section;
   const Section& sec = m.sections[si];
   const int nd = sec.ndof;
@@ -264,7 +256,7 @@ int section_jacobian(const Model& m, const Data& d, int r, double X, Mat6X& J, M
       if (ps.sp.commutator) {  // dG/dt: c (ad_{xa_dot} Phi_b - ad_{xb_dot} Phi_a), column by column
         const StepPoints& sp = ps.sp;
         const double c = kZanna * sp.h * sp.h;
-        const Vec6 xad = phi_apply(sec, sp.Pa, v), xbd = phi_apply(sec, sp.Pb, v);
+        const Vec6 xad = sec.basis_apply(sp.Pa, v), xbd = sec.basis_apply(sp.Pb, v);
         const int nb = sec.order + 1;
         for (int cc = 0; cc < sec.B.cols(); ++cc) {
           const Vec6 Bc = sec.B.col(cc);
@@ -284,9 +276,9 @@ Vec6 rod_strain(const Model& m, const Data& d, int r, double X) {
   X = std::clamp(X, 0.0, rod.length);
   const Node& n = m.nodes[m.rod_node_at(r, X)];
   const Section& sec = m.sections[n.section];
-  Mat6X Phi;
-  sec.basis(X, Phi);
-  return Phi * d.q.segment(sec.dof0, sec.ndof) + sec.rest_strain;
+  double P[32];
+  legendre01(sec.order, (X - sec.X0) / sec.length, P);
+  return sec.basis_apply(P, d.q.data() + sec.dof0) + sec.rest_strain;
 }
 
 }  // namespace cosserat

@@ -50,6 +50,17 @@ void Section::basis(double X, Mat6X& Phi) const {
     for (int k = 0; k < nb; ++k) Phi.col(c * nb + k) = B.col(c) * P[k];
 }
 
+Vec6 Section::basis_apply(const double* P, const double* x) const {
+  const int nb = order + 1;
+  Vec6 out = Vec6::Zero();
+  for (int c = 0; c < B.cols(); ++c) {
+    double coef = 0.0;
+    for (int k = 0; k < nb; ++k) coef += x[c * nb + k] * P[k];
+    out += B.col(c) * coef;
+  }
+  return out;
+}
+
 int Model::add_joint(int parent, const SE3& placement, JointType type, const Vec3& axis, double pitch,
                      double stiffness, double damping) {
   require(!finalized, "add_joint after finalize");

@@ -91,6 +91,9 @@ struct Section {
   int first_node = 0, end_node = 0;  // nodes inside the section: first_node..end_node (end at X0+L)
   // Strain basis Phi(X) = B (x) [P_0 .. P_order]((X - X0)/length): dof index = c*(order+1)+k.
   void basis(double X, Mat6X& Phi) const;
+  // Phi(X) x for the section's dof block x (strains, or strain rates), given the Legendre weights
+  // P = [P_0 .. P_order]((X - X0)/length) (legendre01): no matrix is formed.
+  Vec6 basis_apply(const double* P, const double* x) const;
 };
 
 struct Rod {

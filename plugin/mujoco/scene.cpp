@@ -550,7 +550,6 @@ SceneData::SceneData(const Scene& s) {
   qvel_save.assign(nv, 0);
   qM_save.assign(s.m->nM, 0);
   qLD_save.assign(s.m->nM, 0);
-  tmp_qacc_full.assign(nv, 0);
   qLDiagInv_save.assign(nv, 0);
   qLDiagSqrtInv_save.assign(nv, 0);
   rk_q0.assign(nq, 0);
@@ -871,7 +870,7 @@ void implicit_step(const Scene& s, SceneData& sd, bool rods = true, double theta
   }
   // positions advance with v + theta h a: Euler's update with qacc scaled by theta, then the
   // velocity gets the whole step (and qacc, the warm start, the whole acceleration)
-  std::vector<mjtNum>& a = sd.tmp_qacc_full;
+  std::vector<mjtNum>& a = sd.qacc_tmp;  // the solve's right-hand side, free now
   std::copy(d->qacc, d->qacc + nv, a.begin());
   std::vector<mjtNum>& v0 = sd.rk_v0;  // RK4's scratch, free here
   std::copy(d->qvel, d->qvel + nv, v0.begin());
