@@ -15,22 +15,14 @@
 #include <vector>
 
 
+#include "support/loaded_scene.hpp"
+
 using namespace cosserat;
 namespace rd = cosserat::render;
 
 namespace {
 
-const std::string kModels = std::string(COSSERAT_SOURCE_DIR) + "/models/";
-
-struct Loaded {
-  std::unique_ptr<mj::Scene> scene;
-  std::unique_ptr<mj::SceneData> data;
-  explicit Loaded(const std::string& model, double t = 0.0) : scene(mj::load_scene(kModels + model)) {
-    data = std::make_unique<mj::SceneData>(*scene);
-    for (long k = std::lround(t / scene->m->opt.timestep); k > 0; --k) mj::step(*scene, *data);
-    mj::fwd_position(*scene, *data);
-  }
-};
+using Loaded = cosserat::testing::LoadedScene;
 
 // Pixel (column, row from the top) of a world point seen by the scene's camera; false when behind.
 bool project(const mjvScene& scn, int width, int height, const Vec3& p, double& col, double& row) {

@@ -11,22 +11,14 @@
 
 #include "kinematics.hpp"
 
+#include "support/loaded_scene.hpp"
+
 using namespace cosserat;
 namespace rd = cosserat::render;
 
 namespace {
 
-const std::string kModels = std::string(COSSERAT_SOURCE_DIR) + "/models/";
-
-struct Loaded {
-  std::unique_ptr<mj::Scene> scene;
-  std::unique_ptr<mj::SceneData> data;
-  explicit Loaded(const std::string& model, double t = 0.0) : scene(mj::load_scene(kModels + model)) {
-    data = std::make_unique<mj::SceneData>(*scene);
-    for (long k = std::lround(t / scene->m->opt.timestep); k > 0; --k) mj::step(*scene, *data);
-    mj::fwd_position(*scene, *data);
-  }
-};
+using Loaded = cosserat::testing::LoadedScene;
 
 // The abstract scene MuJoCo makes for the state (what the renderer hands to rod_tubes).
 struct AbstractScene {
