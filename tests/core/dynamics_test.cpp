@@ -241,12 +241,7 @@ TEST(Dynamics, BaseCouplingEqualsFreeJointBlocks) {
   RodSpec a = rod_spec("sr", 2, 1, 0.3, 0.01);
   a.section.rest_strain << 0.2, -0.3, 0.5, 1.0, 0.0, 0.02;
   SE3 place(exp_so3(Vec3(0.3, 0.1, -0.2)), Vec3(0.05, 0.01, 0.0));
-  Model fixed, floating;
-  fixed.add_rod(-1, place, a);
-  fixed.finalize();
-  const int fj = floating.add_joint(-1, SE3::Identity(), JointType::Free);
-  floating.add_rod(fj, place, a);
-  floating.finalize();
+  auto [fixed, floating] = fixed_and_floating(a, place);
   Data df(fixed), dl(floating);
   df.q = 0.3 * VecX::Random(fixed.nv);
   df.v = 0.5 * VecX::Random(fixed.nv);

@@ -82,12 +82,7 @@ TEST(Fluid, ForceAndBaseCouplingWithMovingBase) {
   a.radius_tip = 0.004;
   a.section.rest_strain << 12.0, 0.0, 25.0, 1.0, 0.0, 0.0;  // helical
   SE3 place(exp_so3(Vec3(0.3, 0.1, -0.2)), Vec3(0.05, 0.01, 0.0));
-  Model fixed, floating;
-  fixed.add_rod(-1, place, a);
-  fixed.finalize();
-  const int fj = floating.add_joint(-1, SE3::Identity(), JointType::Free);
-  floating.add_rod(fj, place, a);
-  floating.finalize();
+  auto [fixed, floating] = fixed_and_floating(a, place);
   RodFluid f;
   f.viscosity = kMu;
   const RodFluidInfo info = set_rod_drag(fixed, 0, f);

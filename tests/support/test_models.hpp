@@ -22,6 +22,21 @@ inline RodSpec rod_spec(const char* basis_name, int sections, int order, double 
   return s;
 }
 
+// The same rod clamped at `place` in the world (first) and hanging there from a free joint, a
+// floating base (second): the base-coupling tests compare the two.
+struct FixedAndFloating {
+  Model fixed, floating;
+};
+inline FixedAndFloating fixed_and_floating(const RodSpec& spec, const SE3& place) {
+  FixedAndFloating out;
+  out.fixed.add_rod(-1, place, spec);
+  out.fixed.finalize();
+  const int fj = out.floating.add_joint(-1, SE3::Identity(), JointType::Free);
+  out.floating.add_rod(fj, place, spec);
+  out.floating.finalize();
+  return out;
+}
+
 // A soft-rigid tree: revolute joint -> rigid link -> rod (GVS order 1, 2 sections) -> rigid tip
 // body -> helical-rest rod (PCS) on a spherical joint, plus a second branch rod at the base.
 inline Model hybrid_tree(bool with_cable = true) {
