@@ -57,7 +57,7 @@ void on_mujoco_error(const char* msg) {
 
 Integrator parse_integrator(const std::string& flag, const std::string& text) {
   const auto in = cosserat::integrator_from_name(text);
-  if (!in) fail(flag + ": unknown integrator '" + text + "' (euler, implicit, rk4)");
+  if (!in) fail(flag + ": unknown integrator '" + text + "' (euler, implicit, trapezoidal, genalpha, rk4)");
   return *in;
 }
 
@@ -67,12 +67,13 @@ const char* integrator_name(Integrator in) {
     case Integrator::Implicit: return "implicit";
     case Integrator::RK4: return "rk4";
     case Integrator::Trapezoidal: return "trapezoidal";
+    case Integrator::GeneralizedAlpha: return "genalpha";
   }
   return "?";
 }
 
 Option integrator_option(std::optional<Integrator>& target) {
-  return {"--integrator", "NAME", "euler | implicit | trapezoidal | rk4 (default: implicit with rods, euler without)",
+  return {"--integrator", "NAME", "euler | implicit | trapezoidal | genalpha | rk4 (default: implicit with rods, euler without)",
           [&target](const std::string& v) { target = parse_integrator("--integrator", v); }};
 }
 
@@ -186,11 +187,30 @@ struct SimOptions {
   double duration = 1.0;
   std::optional<double> timestep;
   std::optional<Integrator> integrator;
+  std::optional<int> newton;
+  double newton_tol = 1e-6;
+  std::optional<double> rho;
 
   void add_to(CommandLine& c) {
     c.options.push_back(positive_option("--duration", "T", "simulated time [s] (default 1)", duration));
     c.options.push_back(optional_positive_option("--timestep", "h", "time step [s] (default: the model's <option timestep>)", timestep));
     c.options.push_back(integrator_option(integrator));
+    c.options.push_back({"--newton", "N",
+                         "implicit and trapezoidal: up to N Newton corrections per step, making the step fully implicit "
+                         "(every force, constraints included, at the end of the step); a step that does not converge is "
+                         "split in halves. 0: one linearised solve (default: 10 for trapezoidal, 0 for implicit)",
+                         [this](const std::string& v) { newton = parse_int("--newton", v, 0); }});
+    c.options.push_back(positive_option("--newton-tol", "TOL",
+                                        "tolerance of the Newton corrections: h |delta a| <= TOL (|v| + h |a|), "
+                                        "max norms over the dofs (default 1e-6)",
+                                        newton_tol));
+    c.options.push_back({"--rho", "R",
+                         "genalpha: spectral radius at infinite frequency, 0 <= R <= 1 (default 0.8; 1: no damping of "
+                         "stiff modes, the trapezoidal rule; 0: the most damping)",
+                         [this](const std::string& v) {
+                           rho = parse_number("--rho", v);
+                           if (!(*rho >= 0.0 && *rho <= 1.0)) fail("--rho: " + v + " is not in [0, 1]");
+                         }});
   }
 };
 
@@ -229,6 +249,9 @@ class Simulation {
   Simulation(const std::string& path, const SimOptions& o, const StateOptions& state) : scene_(mj::load_scene(path)) {
     if (o.timestep) scene_->m->opt.timestep = *o.timestep;
     integrator_ = o.integrator.value_or(scene_->integrator);
+    if (o.newton) scene_->newton_iterations = *o.newton;
+    scene_->newton_tol = o.newton_tol;
+    if (o.rho) scene_->rho_inf = *o.rho;
     data_ = std::make_unique<mj::SceneData>(*scene_);
     state.apply(*scene_, *data_);
     steps_ = std::llround(o.duration / timestep());
@@ -383,16 +406,25 @@ int cmd_run(int argc, char** argv) {
     add_positions(j, out, s.data());
     j["diverged"] = diverged;
     j["warnings"] = warnings;
+    if (s.scene().newton_for(s.integrator()) > 0) {
+      const auto& ns = s.data().newton_stats;
+      j["newton"] = {{"iterations", ns.iterations}, {"splits", ns.splits}, {"unconverged", ns.unconverged}};
+    }
     write_json(json_path, j);
   }
   if (json_path != "-") {
     std::printf("simulated %.6g s in %ld steps (%s, h = %g s) in %.3f s wall; energy %.6g -> %.6g J (max drift %.2e)\n",
                 s.time(), k, integrator_name(s.integrator()), s.timestep(), wall, energy.initial(), energy.final(),
                 energy.max_rel_drift());
+    if (s.scene().newton_for(s.integrator()) > 0) {
+      const auto& ns = s.data().newton_stats;
+      std::printf("newton: %.2f corrections per step, %ld steps split, %ld unconverged\n",
+                  k > 0 ? double(ns.iterations) / double(k) : 0.0, ns.splits, ns.unconverged);
+    }
     print_positions(out, s.data());
     for (const auto& w : warnings) std::printf("warning: %s\n", w.c_str());
   }
-  if (diverged) fail("simulation diverged: " + s.data().warning + " (try a smaller --timestep or --integrator implicit)");
+  if (diverged) fail("simulation diverged: " + s.data().warning + " (try a smaller --timestep, --integrator implicit, or --newton 10)");
   return 0;
 }
 
@@ -715,6 +747,7 @@ int cmd_demo(int argc, char** argv) {
                 text_option("--out", "DIR", "output directory (default out/demo)", o.out)};
   if (!cl.parse(argc, argv)) return 0;
   const Integrator integrator = o.integrator.value_or(Integrator::Implicit);
+  if (integrator == Integrator::GeneralizedAlpha) fail("--integrator genalpha: MuJoCo scenes only (the demo runs the core solver)");
 
   const Model m = demo_model(o);
   Data d(m);

@@ -1,5 +1,7 @@
 #include "integrators.hpp"
 
+#include <stdexcept>
+
 #include "dynamics.hpp"
 #include "kinematics.hpp"
 
@@ -10,6 +12,7 @@ std::optional<Integrator> integrator_from_name(std::string_view n) {
   if (n == "implicit") return Integrator::Implicit;
   if (n == "rk4") return Integrator::RK4;
   if (n == "trapezoidal") return Integrator::Trapezoidal;
+  if (n == "genalpha") return Integrator::GeneralizedAlpha;
   return std::nullopt;
 }
 
@@ -68,6 +71,8 @@ Status step(const Model& m, Data& d, double h, Integrator method) {
     case Integrator::Implicit: step_semi_implicit(m, d, h, true); break;
     case Integrator::RK4: step_rk4(m, d, h); break;
     case Integrator::Trapezoidal: step_semi_implicit(m, d, h, true, 0.5); break;
+    case Integrator::GeneralizedAlpha:
+      throw std::invalid_argument("the generalized-alpha integrator is the scene's (mj::step) only");
   }
   if (!d.q.allFinite() || !d.v.allFinite()) {
     // our own divergence check: restore the last good state and report

@@ -559,6 +559,14 @@ SceneData::SceneData(const Scene& s) {
   rk_kv.assign(4 * nv, 0);
   rk_ka.assign(4 * na, 0);
   rk_dx.assign(nv, 0);
+  A_LD.assign(s.m->nM, 0);
+  A_LDiagInv.assign(nv, 0);
+  for (auto* v : {&newton.v0, &newton.f0, &newton.A0, &newton.A, &newton.r, &newton.y, &newton.delta, &newton.v_end})
+    v->assign(nv, 0);
+  newton.q0.assign(nq, 0);
+  newton.q_end.assign(nq, 0);
+  newton.act0.assign(na, 0);
+  newton.act_dot0.assign(na, 0);
   fluid_qD.assign(s.fluid.active ? s.m->nM : 0, 0);
   fluid_f.assign(s.fluid.active ? nv : 0, 0);
   fluid_cols.setZero(6, s.fluid.max_chain);
@@ -803,40 +811,26 @@ double actuator_force_velocity_derivative(const mjModel* m, const mjData* d, int
   return dfdv;
 }
 
-// Implicit in the rods' stiffness and damping (`rods`), in MuJoCo's joint damping, in the
-// velocity dependence of actuators on hinge and slide joints (`rods`: velocity servos such as a
-// flagellar motor are stiff dampers) and in the fluid's damping D_f:
-//   (M + h D + h^2 K) a = M qacc - h K v,   qacc the explicit accelerations (with constraint forces),
-// D = joint damping + rods' Kelvin-Voigt damping + actuators' -gear^2 d force/d velocity + D_f
-// (rods = false: joint damping + D_f, K = 0: MuJoCo's Euler with the fluid added to its implicit
-// damping). Actuators on other transmissions (tendons, sites, ball and free joints) stay explicit.
+// The implicit step's matrix
+//   A = M + cD h D + cK h^2 K,
+// D = joint damping + rods' Kelvin-Voigt damping + actuators' -gear^2 d force/d velocity + fluid
+// damping D_f, K the rods' stiffness (rods = false: joint damping + D_f, K = 0: MuJoCo's Euler with
+// the fluid added to its implicit damping). Velocity-dependent actuators count only on hinge and
+// slide joints (velocity servos such as a flagellar motor are stiff dampers) and when `rods`;
+// actuators on other transmissions (tendons, sites, ball and free joints) stay explicit.
 // Assembled in MuJoCo's sparse qM (K and D live inside each section's dof chain, D_f in the
-// kinematic tree's pattern) and solved with MuJoCo's own factorisation; qM is restored afterwards.
-//
-// theta = 1/2 (Trapezoidal, rods only): the trapezoidal rule on the same linearisation,
-//   (M + h/2 D + h^2/4 K) a = M qacc - h/2 K v,  q+ = q + h (v + h a / 2),  v+ = v + h a:
-// no numerical damping of the linear modes, second order.
-void implicit_step(const Scene& s, SceneData& sd, bool rods = true, double theta = 1.0) {
+// kinematic tree's pattern), after forward, and factorised with MuJoCo's own factorisation; the
+// factor is kept in sd.A_LD / sd.A_LDiagInv, and qM with its factor is restored (copies).
+void factor_implicit(const Scene& s, SceneData& sd, bool rods, double cD, double cK) {
   const mjModel* m = s.m;
   mjData* d = sd.d;
-  const double h = m->opt.timestep, th = theta * h;
+  const double h = m->opt.timestep, hD = cD * h, hK = cK * h * h;
   const int nv = m->nv;
-  // rhs = M qacc - theta h K v
-  mj_mulM(m, d, sd.qacc_tmp.data(), d->qacc);
-  if (rods)
-    for (size_t r = 0; r < s.rods.size(); ++r) {
-      const RodBinding& rb = s.rods[r];
-      VecX& Kv = sd.scratch[r].Kv;
-      Kv.noalias() = rb.model.K * sd.rod[r].v;
-      for (int k = 0; k < rb.model.nv; ++k) sd.qacc_tmp[rb.dof0 + k] -= th * Kv(k);
-    }
-  // keep M and its factor: restored after the solve (copies; no second factorisation)
-  std::vector<mjtNum>& qM_save = sd.qM_save;
-  std::copy(d->qM, d->qM + m->nM, qM_save.begin());
+  std::copy(d->qM, d->qM + m->nM, sd.qM_save.begin());
   std::copy(d->qLD, d->qLD + m->nM, sd.qLD_save.begin());
   std::copy(d->qLDiagInv, d->qLDiagInv + nv, sd.qLDiagInv_save.begin());
   std::copy(d->qLDiagSqrtInv, d->qLDiagSqrtInv + nv, sd.qLDiagSqrtInv_save.begin());
-  for (int i = 0; i < nv; ++i) d->qM[m->dof_Madr[i]] += th * m->dof_damping[i];
+  for (int i = 0; i < nv; ++i) d->qM[m->dof_Madr[i]] += hD * m->dof_damping[i];
   if (rods && !(m->opt.disableflags & mjDSBL_ACTUATION))
     for (int a = 0; a < m->nu; ++a) {
       const int tt = m->actuator_trntype[a];
@@ -848,37 +842,216 @@ void implicit_step(const Scene& s, SceneData& sd, bool rods = true, double theta
       const int j = m->actuator_trnid[2 * a];
       if (m->jnt_type[j] != mjJNT_HINGE && m->jnt_type[j] != mjJNT_SLIDE) continue;
       const double g = m->actuator_gear[6 * a];
-      d->qM[m->dof_Madr[m->jnt_dofadr[j]]] -= th * g * g * actuator_force_velocity_derivative(m, d, a);
+      d->qM[m->dof_Madr[m->jnt_dofadr[j]]] -= hD * g * g * actuator_force_velocity_derivative(m, d, a);
     }
   if (rods)
     for (const auto& rb : s.rods)
       for (int i = 0; i < rb.model.nv; ++i)
         for (int j = 0; j <= i; ++j) {
-          const double a = th * rb.model.D(i, j) + th * th * rb.model.K(i, j);
+          const double a = hD * rb.model.D(i, j) + hK * rb.model.K(i, j);
           if (a != 0.0) d->qM[m->dof_Madr[rb.dof0 + i] + (i - j)] += a;
         }
-  add_fluid_damping(s, sd, th);  // fluid hook: + theta h D_f (no-op without the fluid)
+  add_fluid_damping(s, sd, hD);  // fluid hook: + cD h D_f (no-op without the fluid)
   mj_factorM(m, d);
-  mj_solveM(m, d, d->qacc, sd.qacc_tmp.data(), 1);
-  std::copy(qM_save.begin(), qM_save.end(), d->qM);
+  std::copy(d->qLD, d->qLD + m->nM, sd.A_LD.begin());
+  std::copy(d->qLDiagInv, d->qLDiagInv + nv, sd.A_LDiagInv.begin());
+  std::copy(sd.qM_save.begin(), sd.qM_save.end(), d->qM);
   std::copy(sd.qLD_save.begin(), sd.qLD_save.end(), d->qLD);
   std::copy(sd.qLDiagInv_save.begin(), sd.qLDiagInv_save.end(), d->qLDiagInv);
   std::copy(sd.qLDiagSqrtInv_save.begin(), sd.qLDiagSqrtInv_save.end(), d->qLDiagSqrtInv);
-  if (theta == 1.0) {
+}
+
+// x = A^-1 y with the factor of factor_implicit (swapped into mjData for mj_solveM, MuJoCo's only
+// public LDL^T solve, then swapped back).
+void solve_implicit(const Scene& s, SceneData& sd, mjtNum* x, const mjtNum* y) {
+  mjData* d = sd.d;
+  std::swap_ranges(sd.A_LD.begin(), sd.A_LD.end(), d->qLD);
+  std::swap_ranges(sd.A_LDiagInv.begin(), sd.A_LDiagInv.end(), d->qLDiagInv);
+  mj_solveM(s.m, d, x, y, 1);
+  std::swap_ranges(sd.A_LD.begin(), sd.A_LD.end(), d->qLD);
+  std::swap_ranges(sd.A_LDiagInv.begin(), sd.A_LDiagInv.end(), d->qLDiagInv);
+}
+
+// The state update q+ = q + h (v + h aq), v+ = v + h av, act+ = act + h act_dot, time + h, with aq
+// in d->qacc on entry and av in `av` (nullptr: av = aq, MuJoCo's Euler update without its implicit
+// damping, already in the accelerations). d->qacc and the constraint solver's warm start are av
+// afterwards.
+void advance(const Scene& s, SceneData& sd, const mjtNum* av) {
+  mjData* d = sd.d;
+  const int nv = s.m->nv;
+  if (!av) {
     advance_with_qacc(s, sd);
     return;
   }
-  // positions advance with v + theta h a: Euler's update with qacc scaled by theta, then the
-  // velocity gets the whole step (and qacc, the warm start, the whole acceleration)
-  std::vector<mjtNum>& a = sd.qacc_tmp;  // the solve's right-hand side, free now
-  std::copy(d->qacc, d->qacc + nv, a.begin());
   std::vector<mjtNum>& v0 = sd.rk_v0;  // RK4's scratch, free here
   std::copy(d->qvel, d->qvel + nv, v0.begin());
-  mju_scl(d->qacc, a.data(), theta, nv);
   advance_with_qacc(s, sd);
-  for (int i = 0; i < nv; ++i) d->qvel[i] = v0[i] + h * a[i];
-  std::copy(a.begin(), a.end(), d->qacc);
-  std::copy(a.begin(), a.end(), d->qacc_warmstart);
+  const double h = s.m->opt.timestep;
+  for (int i = 0; i < nv; ++i) d->qvel[i] = v0[i] + h * av[i];
+  std::copy(av, av + nv, d->qacc);
+  std::copy(av, av + nv, d->qacc_warmstart);
+}
+
+// One linearised implicit step (after forward, d->qacc MuJoCo's explicit accelerations with the
+// constraint forces): with A = M + theta h D + theta^2 h^2 K,
+//   A a = M qacc - theta h K v,   q+ = q + h (v + theta h a),  v+ = v + h a.
+// theta = 1 (Implicit) is linearised backward Euler; theta = 1/2 (Trapezoidal) the trapezoidal rule
+// on the same linearisation: no numerical damping of the linear modes.
+void implicit_step(const Scene& s, SceneData& sd, bool rods = true, double theta = 1.0) {
+  const mjModel* m = s.m;
+  mjData* d = sd.d;
+  const int nv = m->nv;
+  const double th = theta * m->opt.timestep;
+  // rhs = M qacc - theta h K v
+  mj_mulM(m, d, sd.qacc_tmp.data(), d->qacc);
+  if (rods)
+    for (size_t r = 0; r < s.rods.size(); ++r) {
+      const RodBinding& rb = s.rods[r];
+      VecX& Kv = sd.scratch[r].Kv;
+      Kv.noalias() = rb.model.K * sd.rod[r].v;
+      for (int k = 0; k < rb.model.nv; ++k) sd.qacc_tmp[rb.dof0 + k] -= th * Kv(k);
+    }
+  factor_implicit(s, sd, rods, theta, theta * theta);
+  solve_implicit(s, sd, d->qacc, sd.qacc_tmp.data());
+  if (theta == 1.0) {
+    advance(s, sd, nullptr);
+    return;
+  }
+  std::vector<mjtNum>& a = sd.qacc_tmp;  // the solve's right-hand side, free now
+  std::copy(d->qacc, d->qacc + nv, a.begin());
+  mju_scl(d->qacc, a.data(), theta, nv);
+  advance(s, sd, a.data());
+}
+
+// The one-step schemes the Newton iterations solve, on M qddot = f(q, v) with f the scene's forward
+// dynamics (every force, constraints included). With A the end acceleration of the step (Arnold
+// and Bruls' pseudo-acceleration for the generalized-alpha method), A0 that of the previous step:
+//   q+ = q + h v + h^2 (cq0 A0 + cq1 A),  v+ = v + h (cv0 A0 + cv1 A),
+//   (1 - am) A + am A0 = (1 - af) f(q+, v+) + af f(q, v).
+struct Scheme {
+  double cq0, cq1, cv0, cv1, am, af;
+  bool carry;  // A0 is carried from the previous step (otherwise A0 = f(q, v))
+};
+Scheme backward_euler() { return {0, 1, 0, 1, 0, 0, false}; }
+Scheme trapezoidal_rule() { return {0.25, 0.25, 0.5, 0.5, 0.5, 0.5, false}; }
+// Chung and Hulbert's parameters for the spectral radius rho at infinite frequency (rho = 1: the
+// trapezoidal rule; rho < 1 damps the stiff modes, second order for every rho in [0, 1]).
+Scheme generalized_alpha(double rho) {
+  const double am = (2 * rho - 1) / (rho + 1), af = rho / (rho + 1);
+  const double gamma = 0.5 - am + af, beta = 0.25 * (1 - am + af) * (1 - am + af);
+  return {0.5 - beta, beta, 1 - gamma, gamma, am, af, true};
+}
+
+// The state (q+, v+) of the scheme for the end acceleration w.A (from the saved start state).
+void set_end_state(const Scene& s, SceneData& sd, const Scheme& sc) {
+  const mjModel* m = s.m;
+  mjData* d = sd.d;
+  SceneData::NewtonScratch& w = sd.newton;
+  const int nv = m->nv;
+  std::copy(w.q0.begin(), w.q0.end(), d->qpos);
+  std::copy(w.v0.begin(), w.v0.end(), d->qvel);
+  std::copy(w.act0.begin(), w.act0.end(), d->act);
+  std::copy(w.act_dot0.begin(), w.act_dot0.end(), d->act_dot);
+  d->time = w.t0;
+  for (int i = 0; i < nv; ++i) {
+    d->qacc[i] = sc.cq0 * w.A0[i] + sc.cq1 * w.A[i];
+    w.y[i] = sc.cv0 * w.A0[i] + sc.cv1 * w.A[i];
+  }
+  advance(s, sd, w.y.data());
+}
+
+// One step of the scheme by simplified Newton iterations: the first iterate is the linearised
+// step, each correction solves A_N delta = M r with the step's matrix
+//   A_N = M + c (cv1 h D + cq1 h^2 K),  c = (1 - af) / (1 - am),
+// and the residual r = ((1 - af) f(q+, v+) + af f(q, v) - am A0) / (1 - am) - A. Returns whether the
+// velocity correction h cv1 |delta| fell below newton_tol (|v+| + h |a_v|) (absolute 1e-12) before
+// the iterations ran out or stopped contracting; either way the state is the last iterate's.
+bool newton_step(const Scene& s, SceneData& sd, const Scheme& sc, int iterations) {
+  const mjModel* m = s.m;
+  mjData* d = sd.d;
+  const int nq = m->nq, nv = m->nv, na = m->na;
+  const double h = m->opt.timestep;
+  SceneData::NewtonScratch& w = sd.newton;
+  forward(s, sd);
+  // the carried A0 is valid if the state is the one the previous step ended with
+  const bool carried = sc.carry && w.carry_valid && w.t_end == d->time &&
+                       std::equal(w.q_end.begin(), w.q_end.end(), d->qpos) &&
+                       std::equal(w.v_end.begin(), w.v_end.end(), d->qvel);
+  std::copy(d->qpos, d->qpos + nq, w.q0.begin());
+  std::copy(d->qvel, d->qvel + nv, w.v0.begin());
+  std::copy(d->act, d->act + na, w.act0.begin());
+  std::copy(d->act_dot, d->act_dot + na, w.act_dot0.begin());
+  std::copy(d->qacc, d->qacc + nv, w.f0.begin());
+  if (!carried) std::copy(w.f0.begin(), w.f0.end(), w.A0.begin());
+  w.t0 = d->time;
+  // first iterate: the linearised step (backward Euler, or the trapezoidal rule whose average
+  // acceleration a gives A = 2 a - f(q, v))
+  const bool be = sc.cq1 == 1.0;
+  implicit_step(s, sd, true, be ? 1.0 : 0.5);
+  for (int i = 0; i < nv; ++i) w.A[i] = be ? d->qacc[i] : 2.0 * d->qacc[i] - w.f0[i];
+  const double c = (1.0 - sc.af) / (1.0 - sc.am);
+  if (!be && (c * sc.cv1 != 0.5 || c * sc.cq1 != 0.25)) {
+    factor_implicit(s, sd, true, c * sc.cv1, c * sc.cq1);
+  }
+  if (!be) set_end_state(s, sd, sc);
+  bool converged = false;
+  double first = 0.0;
+  for (int k = 0; k < iterations; ++k) {
+    forward(s, sd);  // at (q+, v+)
+    ++sd.newton_stats.iterations;
+    for (int i = 0; i < nv; ++i)
+      w.r[i] = ((1.0 - sc.af) * d->qacc[i] + sc.af * w.f0[i] - sc.am * w.A0[i]) / (1.0 - sc.am) - w.A[i];
+    mj_mulM(m, d, w.y.data(), w.r.data());
+    solve_implicit(s, sd, w.delta.data(), w.y.data());
+    double dmax = 0.0, vmax = 0.0, amax = 0.0;
+    for (int i = 0; i < nv; ++i) {
+      w.A[i] += w.delta[i];
+      dmax = std::max(dmax, std::abs(w.delta[i]));
+      const double av = sc.cv0 * w.A0[i] + sc.cv1 * w.A[i];
+      amax = std::max(amax, std::abs(av));
+      vmax = std::max(vmax, std::abs(w.v0[i] + h * av));
+    }
+    set_end_state(s, sd, sc);
+    const double norm = h * sc.cv1 * dmax;
+    if (!std::isfinite(norm)) break;
+    if (norm <= s.newton_tol * (vmax + h * amax) + 1e-12) {
+      converged = true;
+      break;
+    }
+    if (k == 0) first = norm;
+    else if (norm > 10.0 * first) break;  // diverging (a single rise is tolerated: the corrections
+                                          // of a simplified Newton need not decrease monotonically)
+  }
+  w.carry_valid = sc.carry;
+  std::copy(w.A.begin(), w.A.end(), w.A0.begin());
+  std::copy(d->qpos, d->qpos + nq, w.q_end.begin());
+  std::copy(d->qvel, d->qvel + nv, w.v_end.begin());
+  w.t_end = d->time;
+  return converged;
+}
+
+// newton_step, with a step whose iterations do not converge redone as two half steps (down to
+// h / 2^kMaxSplit; below that the last iterate is kept and counted as unconverged).
+void newton_step_split(const Scene& s, SceneData& sd, const Scheme& sc, int iterations, int depth = 0) {
+  constexpr int kMaxSplit = 6;
+  SceneData::NewtonScratch& w = sd.newton;
+  if (newton_step(s, sd, sc, iterations)) return;
+  if (depth == kMaxSplit) {
+    ++sd.newton_stats.unconverged;
+    return;
+  }
+  mjData* d = sd.d;
+  std::copy(w.q0.begin(), w.q0.end(), d->qpos);
+  std::copy(w.v0.begin(), w.v0.end(), d->qvel);
+  std::copy(w.act0.begin(), w.act0.end(), d->act);
+  d->time = w.t0;
+  w.carry_valid = false;  // the half steps start from A0 = f(q, v)
+  ++sd.newton_stats.splits;
+  const double h = s.m->opt.timestep;
+  s.m->opt.timestep = 0.5 * h;
+  newton_step_split(s, sd, sc, iterations, depth + 1);
+  newton_step_split(s, sd, sc, iterations, depth + 1);
+  s.m->opt.timestep = h;
 }
 
 // Classic RK4 on (qpos, qvel, act) with our forward at every stage (MuJoCo's mj_RungeKutta calls
@@ -953,13 +1126,24 @@ Status step(const Scene& s, SceneData& sd, Integrator method) {
         mj_Euler(m, d);
       break;
     case Integrator::Implicit:
+      if (const int n = s.newton_for(method); n > 0) {
+        newton_step_split(s, sd, backward_euler(), n);
+        break;
+      }
       forward(s, sd);
       implicit_step(s, sd);
       break;
     case Integrator::RK4: rk4_step(s, sd); break;
     case Integrator::Trapezoidal:
+      if (const int n = s.newton_for(method); n > 0) {
+        newton_step_split(s, sd, trapezoidal_rule(), n);
+        break;
+      }
       forward(s, sd);
       implicit_step(s, sd, true, 0.5);
+      break;
+    case Integrator::GeneralizedAlpha:
+      newton_step_split(s, sd, generalized_alpha(s.rho_inf), std::max(1, s.newton_for(method)));
       break;
   }
   if (!state_finite(m, d)) {

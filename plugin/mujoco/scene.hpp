@@ -54,6 +54,21 @@ struct Scene {
   std::vector<int> site_section;  // per MuJoCo site: section (proxy) of the rod carrying it
   std::string path;
   Integrator integrator = Integrator::Implicit;  // default: Implicit with rods, Euler without
+  // Newton iterations of the implicit and trapezoidal steps. With N > 0 the step is the fully
+  // implicit theta method (backward Euler, or the trapezoidal rule, with every force at the end of
+  // the step), solved by up to N simplified-Newton corrections to the relative velocity tolerance
+  // newton_tol; a step that does not converge is redone as two half steps (down to h/64). 0: one
+  // linearised solve (stiffness and damping implicit, the rest explicit). -1 (default): 10 for
+  // the trapezoidal rule (linearised, it is only a W-method whose undamped stiff modes slowly
+  // blow up under the explicit nonlinear terms), 0 for implicit (linearised backward Euler damps
+  // them). See step().
+  int newton_iterations = -1;
+  double newton_tol = 1e-6;
+  double rho_inf = 0.8;  // generalized alpha: spectral radius at infinite frequency, in [0, 1]
+  int newton_for(Integrator method) const {
+    if (newton_iterations >= 0) return newton_iterations;
+    return method == Integrator::Trapezoidal || method == Integrator::GeneralizedAlpha ? 10 : 0;
+  }
   SceneFluid fluid;               // low-Reynolds fluid (scene_fluid.hpp); inactive without viscosity
 };
 
@@ -77,6 +92,22 @@ struct SceneData {
     VecX Kv;
   };
   std::vector<RodScratch> scratch;  // per rod
+  // the implicit step's factor (A = M + theta h D + theta^2 h^2 K, MuJoCo's qLD layout)
+  std::vector<mjtNum> A_LD, A_LDiagInv;
+  struct NewtonScratch {
+    std::vector<mjtNum> q0, v0, act0, act_dot0, f0, A0, A, r, y, delta;
+    double t0 = 0.0;
+    // generalized alpha: the end acceleration A0 carries over to the next step if it starts from
+    // the state this one ended with
+    bool carry_valid = false;
+    std::vector<mjtNum> q_end, v_end;
+    double t_end = 0.0;
+  } newton;
+  struct NewtonStats {  // totals since construction (Scene::newton_iterations > 0)
+    long iterations = 0;   // corrections (each one forward evaluation)
+    long splits = 0;       // steps redone as two half steps
+    long unconverged = 0;  // steps of h/64 kept without convergence
+  } newton_stats;
   // fluid (scene_fluid.hpp): damping in qM's sparse layout (nM), its force, body columns
   std::vector<mjtNum> fluid_qD, fluid_f;
   Mat6X fluid_cols;

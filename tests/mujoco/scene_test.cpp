@@ -178,6 +178,7 @@ Model core_arm(const Scene& s) {
 void expect_same_trajectory(const char* strain, int sections, int order, double visc, Integrator it, double tol) {
   SCOPED_TRACE(std::string(strain) + " sections " + std::to_string(sections) + " order " + std::to_string(order));
   auto s = load_scene_string(arm_xml(strain, sections, order, visc), kPath);
+  s->newton_iterations = 0;  // the core's implicit and trapezoidal steps are the linearised ones
   SceneData sd(*s);
   const Model cm = core_arm(*s);
   Data cd(cm);

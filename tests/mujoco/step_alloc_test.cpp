@@ -42,7 +42,8 @@ TEST(SceneStepAlloc, NoHeapAllocationInStep) {
   for (const std::string& name : models) {
     auto s = load_scene(kModels + name);
     const double h = s->m->opt.timestep;
-    for (Integrator it : {Integrator::Euler, Integrator::Implicit, Integrator::RK4}) {
+    for (Integrator it : {Integrator::Euler, Integrator::Implicit, Integrator::RK4, Integrator::Trapezoidal,
+                          Integrator::GeneralizedAlpha}) {
       SCOPED_TRACE(name + " integrator " + std::to_string(static_cast<int>(it)));
       SceneData sd(*s);
       if (s->m->nkey > 0) mj_resetDataKeyframe(s->m, sd.d, 0);
@@ -50,7 +51,8 @@ TEST(SceneStepAlloc, NoHeapAllocationInStep) {
       s->m->opt.timestep = h;
       for (int k = 0; k < static_cast<int>(0.3 / h); ++k) ASSERT_EQ(step(*s, sd, Integrator::Implicit), Status::Ok);
       // the explicit integrators need small steps on the stiff rods (bench/README.md, stress)
-      s->m->opt.timestep = it == Integrator::Implicit ? h : std::min(h, 1e-5);
+      const bool a_stable = it == Integrator::Implicit || it == Integrator::Trapezoidal || it == Integrator::GeneralizedAlpha;
+      s->m->opt.timestep = a_stable ? h : std::min(h, 1e-5);
       for (int k = 0; k < 5; ++k) ASSERT_EQ(step(*s, sd, it), Status::Ok);  // scratch reaches its size
       const int ncon = sd.d->ncon;
       alloc_probe::arm();
