@@ -240,6 +240,9 @@ const char* method_name(Method m) {
     case Method::Implicit: return "implicit";
     case Method::RK4: return "rk4";
     case Method::Trapezoidal: return "trapezoidal";
+    case Method::TrapezoidalLinear: return "trapezoidal-lin";
+    case Method::GeneralizedAlpha: return "genalpha";
+    case Method::ImplicitNewton: return "implicit-newton";
   }
   return "?";
 }
@@ -251,10 +254,21 @@ class RodSim : public Sim {
   RodSim(const std::string& xml, const std::string& path, Method method, double h)
       : scene_(mj::load_scene_string(xml, path)), data_(*scene_) {
     scene_->m->opt.timestep = h;
-    integ_ = method == Method::Euler         ? Integrator::Euler
-             : method == Method::RK4         ? Integrator::RK4
-             : method == Method::Trapezoidal ? Integrator::Trapezoidal
-                                             : Integrator::Implicit;
+    switch (method) {
+      case Method::Euler: integ_ = Integrator::Euler; break;
+      case Method::RK4: integ_ = Integrator::RK4; break;
+      case Method::Implicit: integ_ = Integrator::Implicit; break;
+      case Method::ImplicitNewton:
+        integ_ = Integrator::Implicit;
+        scene_->newton_iterations = 10;
+        break;
+      case Method::Trapezoidal: integ_ = Integrator::Trapezoidal; break;
+      case Method::TrapezoidalLinear:
+        integ_ = Integrator::Trapezoidal;
+        scene_->newton_iterations = 0;
+        break;
+      case Method::GeneralizedAlpha: integ_ = Integrator::GeneralizedAlpha; break;
+    }
   }
   const mjModel* m() const override { return scene_->m; }
   mjData* d() override { return data_.d; }

@@ -219,14 +219,17 @@ Problem cantilever(const Options& o) {
   if (o.quick) {
     p.families.push_back({"PCS / implicit", false, false, Method::Implicit, {2, 4}, 0, {1e-3, 5e-4}});
     p.families.push_back({"GVS 2 sec / rk4", false, false, Method::RK4, {1, 2}, 2, {1e-3, 5e-4}});
-    p.families.push_back({"GVS 2 sec / trapezoidal", false, false, Method::Trapezoidal, {1}, 2, {5e-3, 2e-3}});
+    p.families.push_back({"GVS 2 sec / trapezoidal-lin", false, false, Method::TrapezoidalLinear, {1}, 2, {5e-3, 2e-3}});
     p.families.push_back({"native hinge / euler", true, false, Method::Euler, {4, 8}, 0, {1e-3, 5e-4}});
     p.families.push_back({"native hinge clamp 2EI/ds / euler", true, false, Method::Euler, {4, 8}, 0, {1e-3, 5e-4}, 2.0});
   } else {
-    for (Method m : {Method::Implicit, Method::Trapezoidal, Method::RK4, Method::Euler}) {
+    for (Method m : {Method::Implicit, Method::TrapezoidalLinear, Method::RK4, Method::Euler}) {
       p.families.push_back({std::string("PCS / ") + method_name(m), false, false, m, {1, 2, 4, 8, 16}, 0, ours_h});
       p.families.push_back({std::string("GVS 2 sec / ") + method_name(m), false, false, m, {1, 2, 3, 4}, 2, ours_h});
     }
+    // the fully implicit second-order schemes (Newton iterations): GVS only
+    for (Method m : {Method::Trapezoidal, Method::GeneralizedAlpha})
+      p.families.push_back({std::string("GVS 2 sec / ") + method_name(m), false, false, m, {1, 2, 3, 4}, 2, ours_h});
     for (Method m : {Method::Euler, Method::RK4, Method::Implicit})
       p.families.push_back({std::string("native hinge / ") + method_name(m), true, false, m, {4, 8, 16, 32, 64}, 0, native_h});
     p.families.push_back({"native ball / euler", true, true, Method::Euler, {4, 8, 16, 32, 64}, 0, native_h});
@@ -289,7 +292,7 @@ Problem circle(const Options& o) {
     p.families.push_back({"PCS / implicit", false, false, Method::Implicit, {1, 2}, 0, {1e-2, 5e-3}});
     p.families.push_back({"native hinge / euler", true, false, Method::Euler, {4, 8}, 0, {1e-3, 5e-4}});
   } else {
-    for (Method m : {Method::Implicit, Method::Trapezoidal, Method::RK4})
+    for (Method m : {Method::Implicit, Method::TrapezoidalLinear, Method::RK4})
       p.families.push_back({std::string("PCS / ") + method_name(m), false, false, m, {1, 2, 4, 8}, 0, ours_h});
     p.families.push_back({"GVS 1 sec / implicit", false, false, Method::Implicit, {1, 2}, 1, ours_h});
     for (Method m : {Method::Euler, Method::Implicit, Method::RK4})
@@ -406,9 +409,9 @@ Problem octopus(const Options& o) {
     p.families.push_back({"PCS / implicit", false, false, Method::Implicit, {2, 4}, 0, {1e-3, 5e-4}});
     p.families.push_back({"native hinge / euler", true, false, Method::Euler, {8}, 0, {1e-3, 5e-4}});
   } else {
-    for (Method m : {Method::Implicit, Method::Trapezoidal, Method::RK4})
+    for (Method m : {Method::Implicit, Method::TrapezoidalLinear, Method::RK4})
       p.families.push_back({std::string("PCS / ") + method_name(m), false, false, m, {2, 4, 8, 16, 32}, 0, ours_h});
-    for (Method m : {Method::Implicit, Method::Trapezoidal, Method::RK4})
+    for (Method m : {Method::Implicit, Method::TrapezoidalLinear, Method::RK4})
       p.families.push_back({std::string("GVS 2 sec / ") + method_name(m), false, false, m, {1, 2, 3, 4}, 2, ours_h});
     for (Method m : {Method::Euler, Method::Implicit, Method::RK4})
       p.families.push_back({std::string("native hinge / ") + method_name(m), true, false, m, {8, 16, 32, 64}, 0, native_h});
