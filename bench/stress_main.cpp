@@ -19,7 +19,8 @@
 //   tipmass    tip masses 1 .. 1000 x the rod's mass: largest stable step of each integrator;
 //   contact    a 1 kg sphere dropped on a clamped rod (stiff contact), and a rod resting on the
 //              floor (drift).
-// Usage: stress [--quick] [--out DIR]. Writes DIR/stress.json.
+// Usage: stress [--quick] [--out DIR] [--only PART]... (PART: material, turns, long, soft, tipmass,
+// contact; repeatable; default all). Writes DIR/stress.json.
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -209,15 +210,25 @@ const Method kMethods[] = {Method::Euler,       Method::Implicit,         Method
 int main(int argc, char** argv) {
   bool quick = false;
   std::string out = "docs/bench";
+  std::vector<std::string> only;  // parts to run (empty: all)
+  const std::vector<std::string> parts = {"material", "turns", "long", "soft", "tipmass", "contact"};
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
-    if (a == "--quick") quick = true;
-    else if (a == "--out" && i + 1 < argc) out = argv[++i];
+    if (a == "--quick")
+      quick = true;
+    else if (a == "--out" && i + 1 < argc)
+      out = argv[++i];
+    else if (a == "--only" && i + 1 < argc && std::find(parts.begin(), parts.end(), argv[i + 1]) != parts.end())
+      only.push_back(argv[++i]);
     else {
-      std::fprintf(stderr, "usage: stress [--quick] [--out DIR]\n");
+      std::fprintf(stderr,
+                   "usage: stress [--quick] [--out DIR] [--only material|turns|long|soft|tipmass|contact]...\n");
       return 1;
     }
   }
+  const auto wanted = [&](const char* part) {
+    return only.empty() || std::find(only.begin(), only.end(), part) != only.end();
+  };
   mju_user_warning = [](const char*) {};
   json report;
   report["machine"] = machine_info();
@@ -231,9 +242,9 @@ int main(int argc, char** argv) {
     if (!r.pass) ++failures, failure_list.push_back(what + ": " + r.reason);
   };
 
-  const std::vector<double> steps_grid = quick ? std::vector<double>{1e-2, 1e-3, 1e-4}
-                                               : std::vector<double>{1e-2, 5e-3, 2e-3, 1e-3, 5e-4, 2e-4, 1e-4,
-                                                                     5e-5, 2e-5, 1e-5, 5e-6, 2e-6, 1e-6};
+  const std::vector<double> steps_grid =
+      quick ? std::vector<double>{1e-2, 1e-3, 1e-4}
+            : std::vector<double>{1e-2, 5e-3, 2e-3, 1e-3, 5e-4, 2e-4, 1e-4, 5e-5, 2e-5, 1e-5, 5e-6, 2e-6, 1e-6};
   const long nsteps = quick ? 150 : 1000;
   // The largest step of the grid (searched downwards) at which steps(h) steps pass the energy
   // check (steps(h) <= 0: h is skipped), or 0 if none; every trial is appended to `tried`.
@@ -250,218 +261,230 @@ int main(int argc, char** argv) {
   };
   const auto fixed_steps = [&](double) { return nsteps; };
 
-  // ---- material x slenderness x integrator: largest stable step, then a resting run at it
-  std::printf("== material: Young's modulus x slenderness, largest stable step per integrator (%ld steps)\n", nsteps);
-  const std::vector<double> moduli = quick ? std::vector<double>{1e3, 1e7, 1e11}
-                                           : std::vector<double>{1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11};
-  const std::vector<double> slender = quick ? std::vector<double>{10, 1000} : std::vector<double>{10, 100, 1000};
-  json mat = json::array();
-  for (double E : moduli)
-    for (double sl : slender) {
-      Case c;
-      c.E = E;
-      c.r = c.L / sl;
-      const std::string xml = scene_xml(c);
-      for (Method m : kMethods) {
-        json row;
-        row["young"] = E;
-        row["slenderness"] = sl;
-        row["method"] = method_name(m);
-        json tried = json::array();
-        const double hmax = largest_stable(xml, m, fixed_steps, tried);
-        row["runs"] = tried;
-        row["largest_stable_step"] = hmax > 0 ? json(hmax) : json(nullptr);
-        char what[128];
-        std::snprintf(what, sizeof what, "E=%.0e L/r=%-4g %-8s largest stable h = %s", E, sl, method_name(m),
-                      hmax > 0 ? std::to_string(hmax).substr(0, 7).c_str() : "none");
-        if (hmax > 0) {
-          const long nrest = quick ? 100 : 1000;
-          Result rest = rest_run(xml, c.L, m, hmax, nrest);
-          row["rest"] = result_json(rest);
-          if (!rest.pass && rest.unstable_equilibrium) {
-            rest.pass = true;  // drifting away from an unstable equilibrium is physics
-            rest.reason = "n/a: " + rest.reason;
-          } else if (!rest.pass && rest.reason.rfind("no equilibrium", 0) != 0) {
-            // the same simulated time at a 10x smaller step: is it the step?
-            const Result small = rest_run(xml, c.L, m, hmax / 10, 10 * nrest);
-            row["rest_at_tenth_step"] = result_json(small);
-            rest.reason += small.pass ? "; passes at h/10 (same time)" : "; also at h/10: " + small.reason;
+  if (wanted("material")) {
+    // ---- material x slenderness x integrator: largest stable step, then a resting run at it
+    std::printf("== material: Young's modulus x slenderness, largest stable step per integrator (%ld steps)\n", nsteps);
+    const std::vector<double> moduli = quick ? std::vector<double>{1e3, 1e7, 1e11}
+                                             : std::vector<double>{1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11};
+    const std::vector<double> slender = quick ? std::vector<double>{10, 1000} : std::vector<double>{10, 100, 1000};
+    json mat = json::array();
+    for (double E : moduli)
+      for (double sl : slender) {
+        Case c;
+        c.E = E;
+        c.r = c.L / sl;
+        const std::string xml = scene_xml(c);
+        for (Method m : kMethods) {
+          json row;
+          row["young"] = E;
+          row["slenderness"] = sl;
+          row["method"] = method_name(m);
+          json tried = json::array();
+          const double hmax = largest_stable(xml, m, fixed_steps, tried);
+          row["runs"] = tried;
+          row["largest_stable_step"] = hmax > 0 ? json(hmax) : json(nullptr);
+          char what[128];
+          std::snprintf(what, sizeof what, "E=%.0e L/r=%-4g %-8s largest stable h = %s", E, sl, method_name(m),
+                        hmax > 0 ? std::to_string(hmax).substr(0, 7).c_str() : "none");
+          if (hmax > 0) {
+            const long nrest = quick ? 100 : 1000;
+            Result rest = rest_run(xml, c.L, m, hmax, nrest);
+            row["rest"] = result_json(rest);
+            if (!rest.pass && rest.unstable_equilibrium) {
+              rest.pass = true;  // drifting away from an unstable equilibrium is physics
+              rest.reason = "n/a: " + rest.reason;
+            } else if (!rest.pass && rest.reason.rfind("no equilibrium", 0) != 0) {
+              // the same simulated time at a 10x smaller step: is it the step?
+              const Result small = rest_run(xml, c.L, m, hmax / 10, 10 * nrest);
+              row["rest_at_tenth_step"] = result_json(small);
+              rest.reason += small.pass ? "; passes at h/10 (same time)" : "; also at h/10: " + small.reason;
+            }
+            note(std::string(what) + ", resting", rest);
+          } else {
+            Result none;
+            none.reason = "no stable step down to " + std::to_string(steps_grid.back());
+            note(what, none);
           }
-          note(std::string(what) + ", resting", rest);
-        } else {
-          Result none;
-          none.reason = "no stable step down to " + std::to_string(steps_grid.back());
-          note(what, none);
+          mat.push_back(row);
         }
-        mat.push_back(row);
+      }
+    report["material"] = mat;
+  }
+  if (wanted("turns")) {
+    // ---- several full turns, and nearly straight sections (no gravity, undamped, RK4)
+    std::printf("== turns: one section bent and twisted through several turns / nearly straight (rk4)\n");
+    json turns = json::array();
+    const std::vector<double> angles =
+        quick ? std::vector<double>{1e-12, 1e-6, 2 * kPi, 5 * 2 * kPi}
+              : std::vector<double>{0.0, 1e-12, 1e-9, 1e-6, 1e-4, 1e-3, 1.0, kPi, 2 * kPi, 3 * 2 * kPi, 5 * 2 * kPi};
+    for (double theta : angles) {
+      Case c;
+      c.E = 1e6;
+      c.sections = 1;
+      c.strain = "sr";
+      c.gravity = false;
+      const std::string xml = scene_xml(c);
+      for (Method m : {Method::RK4, Method::Implicit}) {
+        const double h = 1e-4;
+        auto init = [&](Sim& s) {
+          const mjModel* mm = s.m();
+          // bend (ky) and twist (kx) so that |k| L = theta, plus a little stretch and shear
+          const double k = theta / c.L;
+          auto set = [&](const char* j, double v) {
+            const int id = mj_name2id(mm, mjOBJ_JOINT, j);
+            s.d()->qpos[mm->jnt_qposadr[id]] = v;
+          };
+          set("rod/s0/ky", 0.8 * k);
+          set("rod/s0/kx", 0.6 * k);
+          set("rod/s0/px", 1e-3);
+          set("rod/s0/py", 1e-4);
+        };
+        const Result r = energy_run(xml, m, h, quick ? 200 : 2000, init);
+        json row = result_json(r);
+        row["theta"] = theta;
+        row["method"] = method_name(m);
+        row["h"] = h;
+        turns.push_back(row);
+        char what[128];
+        std::snprintf(what, sizeof what, "theta = %-10.3g (%.2f turns) %s h=%g", theta, theta / (2 * kPi),
+                      method_name(m), h);
+        note(what, r);
       }
     }
-  report["material"] = mat;
-
-  // ---- several full turns, and nearly straight sections (no gravity, undamped, RK4)
-  std::printf("== turns: one section bent and twisted through several turns / nearly straight (rk4)\n");
-  json turns = json::array();
-  const std::vector<double> angles =
-      quick ? std::vector<double>{1e-12, 1e-6, 2 * kPi, 5 * 2 * kPi}
-            : std::vector<double>{0.0, 1e-12, 1e-9, 1e-6, 1e-4, 1e-3, 1.0, kPi, 2 * kPi, 3 * 2 * kPi, 5 * 2 * kPi};
-  for (double theta : angles) {
-    Case c;
-    c.E = 1e6;
-    c.sections = 1;
-    c.strain = "sr";
-    c.gravity = false;
-    const std::string xml = scene_xml(c);
-    for (Method m : {Method::RK4, Method::Implicit}) {
-      const double h = 1e-4;
-      auto init = [&](Sim& s) {
-        const mjModel* mm = s.m();
-        // bend (ky) and twist (kx) so that |k| L = theta, plus a little stretch and shear
-        const double k = theta / c.L;
-        auto set = [&](const char* j, double v) {
-          const int id = mj_name2id(mm, mjOBJ_JOINT, j);
-          s.d()->qpos[mm->jnt_qposadr[id]] = v;
-        };
-        set("rod/s0/ky", 0.8 * k);
-        set("rod/s0/kx", 0.6 * k);
-        set("rod/s0/px", 1e-3);
-        set("rod/s0/py", 1e-4);
-      };
-      const Result r = energy_run(xml, m, h, quick ? 200 : 2000, init);
+    report["turns"] = turns;
+  }
+  if (wanted("long")) {
+    // ---- long runs
+    const long nlong = quick ? 5000 : 100000;
+    std::printf(
+        "== long: %ld steps of the cantilever (E = 1e7, L/r = 100) one grid step below the largest step stable over "
+        "%ld steps\n",
+        nlong, nsteps);
+    json lng = json::array();
+    for (Method m : kMethods) {
+      Case c;
+      // one notch of the grid below the largest step stable over 1000 steps (as in the material
+      // sweep; a run at the very edge of stability is not what anyone would choose), then nlong
+      // steps at it
+      json tried = json::array();
+      const double edge = largest_stable(scene_xml(c), m, fixed_steps, tried);
+      if (edge == 0) continue;
+      const auto k = std::find(steps_grid.begin(), steps_grid.end(), edge) - steps_grid.begin();
+      const double h = k + 1 < static_cast<long>(steps_grid.size()) ? steps_grid[k + 1] : edge;
+      const Result r = energy_run(scene_xml(c), m, h, nlong);
       json row = result_json(r);
-      row["theta"] = theta;
       row["method"] = method_name(m);
       row["h"] = h;
-      turns.push_back(row);
-      char what[128];
-      std::snprintf(what, sizeof what, "theta = %-10.3g (%.2f turns) %s h=%g", theta, theta / (2 * kPi), method_name(m), h);
-      note(what, r);
+      lng.push_back(row);
+      note(std::string("long run ") + method_name(m) + " h=" + std::to_string(h).substr(0, 6), r);
     }
+    report["long"] = lng;
   }
-  report["turns"] = turns;
-
-  // ---- long runs
-  const long nlong = quick ? 5000 : 100000;
-  std::printf("== long: %ld steps of the cantilever (E = 1e7, L/r = 100) one grid step below the largest step stable over %ld steps\n",
-              nlong, nsteps);
-  json lng = json::array();
-  for (Method m : kMethods) {
-    Case c;
-    // one notch of the grid below the largest step stable over 1000 steps (as in the material
-    // sweep; a run at the very edge of stability is not what anyone would choose), then nlong
-    // steps at it
-    json tried = json::array();
-    const double edge = largest_stable(scene_xml(c), m, fixed_steps, tried);
-    if (edge == 0) continue;
-    const auto k = std::find(steps_grid.begin(), steps_grid.end(), edge) - steps_grid.begin();
-    const double h = k + 1 < static_cast<long>(steps_grid.size()) ? steps_grid[k + 1] : edge;
-    const Result r = energy_run(scene_xml(c), m, h, nlong);
-    json row = result_json(r);
-    row["method"] = method_name(m);
-    row["h"] = h;
-    lng.push_back(row);
-    note(std::string("long run ") + method_name(m) + " h=" + std::to_string(h).substr(0, 6), r);
-  }
-  report["long"] = lng;
-
-  // ---- a string too soft for its own weight (docs/bench/repro/soft_string_collapse.xml): it
-  // stretches 6-8x and compresses sections towards zero length. Every integrator at h = 2 ms for
-  // 3 s (quick: 1 s); the explicit ones (euler, rk4) that fail there get their largest stable step
-  // below it instead (explicit methods are not expected to take stiff steps).
-  const double soft_T = quick ? 1.0 : 3.0;
-  std::printf("== soft string: E = 1e3 Pa, L/r = 1000, %g s at h = 2 ms\n", soft_T);
-  json soft = json::array();
-  const std::string soft_xml = read_file(COSSERAT_SOURCE_DIR "/docs/bench/repro/soft_string_collapse.xml");
-  for (Method m : kMethods) {
-    const double h = 2e-3;
-    Result r = energy_run(soft_xml, m, h, std::lround(soft_T / h));
-    json row = result_json(r);
-    row["method"] = method_name(m);
-    row["h"] = h;
-    if (!r.pass && (m == Method::Euler || m == Method::RK4)) {
-      json tried = json::array();
-      const double hmax = largest_stable(soft_xml, m, [&](double hh) { return hh < h ? std::lround(soft_T / hh) : 0L; }, tried);
-      row["runs_below"] = tried;
-      row["largest_stable_step"] = hmax > 0 ? json(hmax) : json(nullptr);
-      r.pass = hmax > 0 && hmax < h;
-      r.reason = "explicit, unstable at 2 ms (" + r.reason + "); largest stable step " +
-                 (hmax > 0 ? std::to_string(hmax).substr(0, 7) : std::string("none"));
-    }
-    soft.push_back(row);
-    note(std::string("soft string ") + method_name(m) + " h=0.002", r);
-  }
-  report["soft_string"] = soft;
-
-  // ---- heavy tip masses
-  std::printf("== tipmass: tip mass x rod mass, largest stable step per integrator\n");
-  json tm = json::array();
-  for (double ratio : quick ? std::vector<double>{1, 1000} : std::vector<double>{1, 10, 100, 1000}) {
-    Case c;
-    const double rod_mass = c.rho * kPi * c.r * c.r * c.L;
-    c.tip_mass = ratio * rod_mass;
-    const std::string xml = scene_xml(c);
+  if (wanted("soft")) {
+    // ---- a string too soft for its own weight (docs/bench/repro/soft_string_collapse.xml): it
+    // stretches 6-8x and compresses sections towards zero length. Every integrator at h = 2 ms for
+    // 3 s (quick: 1 s); the explicit ones (euler, rk4) that fail there get their largest stable step
+    // below it instead (explicit methods are not expected to take stiff steps).
+    const double soft_T = quick ? 1.0 : 3.0;
+    std::printf("== soft string: E = 1e3 Pa, L/r = 1000, %g s at h = 2 ms\n", soft_T);
+    json soft = json::array();
+    const std::string soft_xml = read_file(COSSERAT_SOURCE_DIR "/docs/bench/repro/soft_string_collapse.xml");
     for (Method m : kMethods) {
-      json tried = json::array();
-      const double hmax = largest_stable(xml, m, fixed_steps, tried);
-      json row;
-      row["tip_mass_ratio"] = ratio;
+      const double h = 2e-3;
+      Result r = energy_run(soft_xml, m, h, std::lround(soft_T / h));
+      json row = result_json(r);
       row["method"] = method_name(m);
-      row["runs"] = tried;
-      row["largest_stable_step"] = hmax > 0 ? json(hmax) : json(nullptr);
-      Result r;
-      r.pass = hmax > 0;
-      if (!r.pass) r.reason = "no stable step";
-      char what[128];
-      std::snprintf(what, sizeof what, "tip mass %4g x rod %-8s largest stable h = %s", ratio, method_name(m),
-                    hmax > 0 ? std::to_string(hmax).substr(0, 7).c_str() : "none");
-      note(what, r);
-      tm.push_back(row);
+      row["h"] = h;
+      if (!r.pass && (m == Method::Euler || m == Method::RK4)) {
+        json tried = json::array();
+        const double hmax = largest_stable(
+            soft_xml, m, [&](double hh) { return hh < h ? std::lround(soft_T / hh) : 0L; }, tried);
+        row["runs_below"] = tried;
+        row["largest_stable_step"] = hmax > 0 ? json(hmax) : json(nullptr);
+        r.pass = hmax > 0 && hmax < h;
+        r.reason = "explicit, unstable at 2 ms (" + r.reason + "); largest stable step " +
+                   (hmax > 0 ? std::to_string(hmax).substr(0, 7) : std::string("none"));
+      }
+      soft.push_back(row);
+      note(std::string("soft string ") + method_name(m) + " h=0.002", r);
     }
+    report["soft_string"] = soft;
   }
-  report["tipmass"] = tm;
-
-  // ---- hard contact
-  std::printf("== contact: a 1 kg sphere dropped on a clamped rod; a rod resting on the floor\n");
-  json ct = json::array();
-  for (Method m : kMethods) {
-    Case c;
-    c.E = 1e7;
-    c.sections = 8;
-    c.rod_extra = R"(solref="0.002 1")";
-    const std::string free_xml = scene_xml(c);
-    c.extra_body = R"(<body name="ball" pos="0.3 0 1.04"><freejoint/><geom type="sphere" size="0.03" mass="1" solref="0.002 1"/></body>)";
-    const std::string ball_xml = scene_xml(c);
-    json tried_free = json::array(), tried_ball = json::array();
-    const double T = quick ? 0.15 : 0.4;  // the ball hits the rod at about 0.03 s
-    const auto over_T = [T](double h) { return std::max(50L, static_cast<long>(T / h)); };
-    const double h_free = largest_stable(free_xml, m, over_T, tried_free);
-    const double h_ball = largest_stable(ball_xml, m, over_T, tried_ball);
-    Result r;
-    r.pass = h_ball > 0 && h_ball >= h_free;
-    if (!r.pass)
-      r.reason = "contact lowers the largest stable step from " + std::to_string(h_free) + " to " + std::to_string(h_ball);
-    json row;
-    row["case"] = "1 kg sphere dropped from 5 mm above a clamped rod (E = 1e7, 8 kl sections, solref 0.002)";
-    row["method"] = method_name(m);
-    row["largest_stable_step_without_contact"] = h_free > 0 ? json(h_free) : json(nullptr);
-    row["largest_stable_step_with_contact"] = h_ball > 0 ? json(h_ball) : json(nullptr);
-    row["runs_without_contact"] = tried_free;
-    row["runs_with_contact"] = tried_ball;
-    row["pass"] = r.pass;
-    ct.push_back(row);
-    char what[160];
-    std::snprintf(what, sizeof what, "sphere on rod %-8s largest stable h: %g with contact, %g without", method_name(m),
-                  h_ball, h_free);
-    note(what, r);
+  if (wanted("tipmass")) {
+    // ---- heavy tip masses
+    std::printf("== tipmass: tip mass x rod mass, largest stable step per integrator\n");
+    json tm = json::array();
+    for (double ratio : quick ? std::vector<double>{1, 1000} : std::vector<double>{1, 10, 100, 1000}) {
+      Case c;
+      const double rod_mass = c.rho * kPi * c.r * c.r * c.L;
+      c.tip_mass = ratio * rod_mass;
+      const std::string xml = scene_xml(c);
+      for (Method m : kMethods) {
+        json tried = json::array();
+        const double hmax = largest_stable(xml, m, fixed_steps, tried);
+        json row;
+        row["tip_mass_ratio"] = ratio;
+        row["method"] = method_name(m);
+        row["runs"] = tried;
+        row["largest_stable_step"] = hmax > 0 ? json(hmax) : json(nullptr);
+        Result r;
+        r.pass = hmax > 0;
+        if (!r.pass) r.reason = "no stable step";
+        char what[128];
+        std::snprintf(what, sizeof what, "tip mass %4g x rod %-8s largest stable h = %s", ratio, method_name(m),
+                      hmax > 0 ? std::to_string(hmax).substr(0, 7).c_str() : "none");
+        note(what, r);
+        tm.push_back(row);
+      }
+    }
+    report["tipmass"] = tm;
   }
-  for (Method m : kMethods) {
-    Case c;
-    c.E = 1e6;
-    c.sections = 4;
-    c.viscosity = 0;
-    c.rod_extra = R"(pos="0 0 0.005" )";
-    std::string xml = scene_xml(c);
-    // lying on the floor: the rod's base is not clamped above the floor but rides on a free body
-    xml = R"(<mujoco model="rest_on_floor">
+  if (wanted("contact")) {
+    // ---- hard contact
+    std::printf("== contact: a 1 kg sphere dropped on a clamped rod; a rod resting on the floor\n");
+    json ct = json::array();
+    for (Method m : kMethods) {
+      Case c;
+      c.E = 1e7;
+      c.sections = 8;
+      c.rod_extra = R"(solref="0.002 1")";
+      const std::string free_xml = scene_xml(c);
+      c.extra_body =
+          R"(<body name="ball" pos="0.3 0 1.04"><freejoint/><geom type="sphere" size="0.03" mass="1" solref="0.002 1"/></body>)";
+      const std::string ball_xml = scene_xml(c);
+      json tried_free = json::array(), tried_ball = json::array();
+      const double T = quick ? 0.15 : 0.4;  // the ball hits the rod at about 0.03 s
+      const auto over_T = [T](double h) { return std::max(50L, static_cast<long>(T / h)); };
+      const double h_free = largest_stable(free_xml, m, over_T, tried_free);
+      const double h_ball = largest_stable(ball_xml, m, over_T, tried_ball);
+      Result r;
+      r.pass = h_ball > 0 && h_ball >= h_free;
+      if (!r.pass)
+        r.reason =
+            "contact lowers the largest stable step from " + std::to_string(h_free) + " to " + std::to_string(h_ball);
+      json row;
+      row["case"] = "1 kg sphere dropped from 5 mm above a clamped rod (E = 1e7, 8 kl sections, solref 0.002)";
+      row["method"] = method_name(m);
+      row["largest_stable_step_without_contact"] = h_free > 0 ? json(h_free) : json(nullptr);
+      row["largest_stable_step_with_contact"] = h_ball > 0 ? json(h_ball) : json(nullptr);
+      row["runs_without_contact"] = tried_free;
+      row["runs_with_contact"] = tried_ball;
+      row["pass"] = r.pass;
+      ct.push_back(row);
+      char what[160];
+      std::snprintf(what, sizeof what, "sphere on rod %-8s largest stable h: %g with contact, %g without",
+                    method_name(m), h_ball, h_free);
+      note(what, r);
+    }
+    for (Method m : kMethods) {
+      Case c;
+      c.E = 1e6;
+      c.sections = 4;
+      c.viscosity = 0;
+      c.rod_extra = R"(pos="0 0 0.005" )";
+      std::string xml = scene_xml(c);
+      // lying on the floor: the rod's base is not clamped above the floor but rides on a free body
+      xml = R"(<mujoco model="rest_on_floor">
   <option timestep="0.001" gravity="0 0 -9.81"/>
   <worldbody>
     <geom name="floor" type="plane" size="2 2 0.1"/>
@@ -470,38 +493,39 @@ int main(int argc, char** argv) {
     </body>
   </worldbody>
 </mujoco>)";
-    // settle, then measure the drift over further steps
-    Result r;
-    try {
-      auto sim = make_rod_sim(xml, "rest_on_floor.xml", m, 1e-3);
-      const int tip = sim->site_id("rod/tip");
-      const Trajectory settle = run(*sim, 2.0, 1e-3, 2.0, {tip});
-      if (settle.diverged) {
-        r.reason = "diverged while settling";
-      } else {
-        const Vec3 p0 = settle.p.back()[0];
-        const Trajectory tr = run(*sim, quick ? 0.5 : 5.0, 1e-3, 0.5, {tip});
-        r.steps = settle.steps + tr.steps;
-        r.wall = settle.wall + tr.wall;
-        if (tr.diverged) {
-          r.reason = "diverged";
+      // settle, then measure the drift over further steps
+      Result r;
+      try {
+        auto sim = make_rod_sim(xml, "rest_on_floor.xml", m, 1e-3);
+        const int tip = sim->site_id("rod/tip");
+        const Trajectory settle = run(*sim, 2.0, 1e-3, 2.0, {tip});
+        if (settle.diverged) {
+          r.reason = "diverged while settling";
         } else {
-          r.drift = (tr.p.back()[0] - p0).norm() / 0.5;
-          r.pass = r.drift < 1e-4;
-          if (!r.pass) r.reason = "creeps by " + std::to_string(r.drift) + " L";
+          const Vec3 p0 = settle.p.back()[0];
+          const Trajectory tr = run(*sim, quick ? 0.5 : 5.0, 1e-3, 0.5, {tip});
+          r.steps = settle.steps + tr.steps;
+          r.wall = settle.wall + tr.wall;
+          if (tr.diverged) {
+            r.reason = "diverged";
+          } else {
+            r.drift = (tr.p.back()[0] - p0).norm() / 0.5;
+            r.pass = r.drift < 1e-4;
+            if (!r.pass) r.reason = "creeps by " + std::to_string(r.drift) + " L";
+          }
         }
+      } catch (const std::exception& e) {
+        r.reason = e.what();
       }
-    } catch (const std::exception& e) {
-      r.reason = e.what();
+      json row = result_json(r);
+      row["case"] = "rod resting on the floor (free hub), drift after settling";
+      row["method"] = method_name(m);
+      row["h"] = 1e-3;
+      ct.push_back(row);
+      note(std::string("rod resting on the floor, drift after 2 s, ") + method_name(m), r);
     }
-    json row = result_json(r);
-    row["case"] = "rod resting on the floor (free hub), drift after settling";
-    row["method"] = method_name(m);
-    row["h"] = 1e-3;
-    ct.push_back(row);
-    note(std::string("rod resting on the floor, drift after 2 s, ") + method_name(m), r);
+    report["contact"] = ct;
   }
-  report["contact"] = ct;
 
   report["failures"] = failures;
   report["failure_list"] = failure_list;
