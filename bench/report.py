@@ -163,6 +163,8 @@ def plot_work_precision(j, png):
 def stress_section(path):
     j = load(path)
     out = ["## Stability stress tests", "", f"Machine: {machine_line(j['machine'])}.", ""]
+    if j.get("parts_note"):
+        out += [j["parts_note"], ""]
     out += ["Largest stable step (energy does not grow, state finite) of each integrator, and whether the "
             "resting state (static equilibrium) then stays put (tip drift < 1e-6 L):", ""]
     mat = j.get("material", [])
