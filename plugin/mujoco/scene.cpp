@@ -942,17 +942,23 @@ Scheme generalized_alpha(double rho) {
   return {0.5 - beta, beta, 1 - gamma, gamma, am, af, true};
 }
 
-// The state (q+, v+) of the scheme for the end acceleration w.A (from the saved start state).
-void set_end_state(const Scene& s, SceneData& sd, const Scheme& sc) {
-  const mjModel* m = s.m;
+// Back to the start state newton_step saved (qpos, qvel, act, act_dot, time).
+void restore_start(SceneData& sd) {
   mjData* d = sd.d;
-  SceneData::NewtonScratch& w = sd.newton;
-  const int nv = m->nv;
+  const SceneData::NewtonScratch& w = sd.newton;
   std::copy(w.q0.begin(), w.q0.end(), d->qpos);
   std::copy(w.v0.begin(), w.v0.end(), d->qvel);
   std::copy(w.act0.begin(), w.act0.end(), d->act);
   std::copy(w.act_dot0.begin(), w.act_dot0.end(), d->act_dot);
   d->time = w.t0;
+}
+
+// The state (q+, v+) of the scheme for the end acceleration w.A (from the saved start state).
+void set_end_state(const Scene& s, SceneData& sd, const Scheme& sc) {
+  mjData* d = sd.d;
+  SceneData::NewtonScratch& w = sd.newton;
+  const int nv = s.m->nv;
+  restore_start(sd);
   for (int i = 0; i < nv; ++i) {
     d->qacc[i] = sc.cq0 * w.A0[i] + sc.cq1 * w.A[i];
     w.y[i] = sc.cv0 * w.A0[i] + sc.cv1 * w.A[i];
@@ -1040,11 +1046,7 @@ void newton_step_split(const Scene& s, SceneData& sd, const Scheme& sc, int iter
     ++sd.newton_stats.unconverged;
     return;
   }
-  mjData* d = sd.d;
-  std::copy(w.q0.begin(), w.q0.end(), d->qpos);
-  std::copy(w.v0.begin(), w.v0.end(), d->qvel);
-  std::copy(w.act0.begin(), w.act0.end(), d->act);
-  d->time = w.t0;
+  restore_start(sd);
   w.carry_valid = false;  // the half steps start from A0 = f(q, v)
   ++sd.newton_stats.splits;
   const double h = s.m->opt.timestep;

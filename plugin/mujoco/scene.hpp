@@ -61,7 +61,8 @@ struct Scene {
   // linearised solve (stiffness and damping implicit, the rest explicit). -1 (default): 10 for
   // the trapezoidal rule (linearised, it is only a W-method whose undamped stiff modes slowly
   // blow up under the explicit nonlinear terms), 0 for implicit (linearised backward Euler damps
-  // them). See step().
+  // them). The generalized-alpha method has no linearised form here: it always iterates (0 counts
+  // as 1). See step().
   int newton_iterations = -1;
   double newton_tol = 1e-6;
   double rho_inf = 0.8;  // generalized alpha: spectral radius at infinite frequency, in [0, 1]
