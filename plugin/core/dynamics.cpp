@@ -83,9 +83,18 @@ inline void add_cross(const Mat6X& Sb, const Cols& F, MatX& M, int rb, int cf) {
 // symmetric.)
 void composite(const Model& m, Data& d, Mat6 Node::*field, MatX& out_M, Mat6& out_base, Mat6X& out_F_base) {
   const int nn = static_cast<int>(m.nodes.size());
+  // a fixed subtree's composite is constant (Model::update_fixed_composites); only the inertia and
+  // the drag have one
+  Mat6 Node::*fixed = field == &Node::inertia ? &Node::inertia_sub : field == &Node::drag ? &Node::drag_sub : nullptr;
   // composite matrix in each node frame: Ic_i = A_i + sum_c Ad*_{g_ic} Ic_c Ad^-1_{g_ic}
+  // (the nodes inside a fixed subtree are not visited: their Ic is left as it was)
   for (int i = nn - 1; i >= 0; --i) {
-    Mat6 I = m.nodes[i].*field;
+    const Node& n = m.nodes[i];
+    if (fixed && n.fixed_subtree) {
+      if (n.parent < 0 || !m.nodes[n.parent].fixed_subtree) d.Ic[i] = n.*fixed;
+      continue;
+    }
+    Mat6 I = n.*field;
     for (int c : children_of(m, i)) add_congruence_Ad_inv(d.g_rel[c], d.Ic[c], I);
     d.Ic[i] = I;
   }
@@ -152,13 +161,20 @@ void rnea(const Model& m, Data& d, const Eigen::Ref<const VecX>& qacc, bool grav
   if (gravity) a0.tail<3>() -= d.base_pose.R.transpose() * m.gravity;
   for (int i = 0; i < nn; ++i) {
     const Node& n = m.nodes[i];
-    Vec6 a = Ad_inv_apply(d.g_rel[i], n.parent < 0 ? a0 : d.acc[n.parent]) + d.cbias[i];
-    if (n.ndof > 0) a.noalias() += d.S[i] * qacc.segment(n.dof0, n.ndof);
-    d.acc[i] = a;
-    // Newton-Euler in the body frame: f = M acc + ad*_eta M eta - f_ext
-    const Vec6 h = n.inertia * d.eta[i];
-    Vec6 f = n.inertia * a + coad_apply(d.eta[i], h);
-    if (external) {
+    Vec6 f = Vec6::Zero();
+    if (n.fixed_subtree && n.parent >= 0 && m.nodes[n.parent].fixed_subtree) {
+      // inside a fixed subtree: its root carries the subtree's inertia; only loads remain here
+    } else {
+      Vec6 a = Ad_inv_apply(d.g_rel[i], n.parent < 0 ? a0 : d.acc[n.parent]) + d.cbias[i];
+      if (n.ndof > 0) a.noalias() += d.S[i] * qacc.segment(n.dof0, n.ndof);
+      d.acc[i] = a;
+      // Newton-Euler in the body frame: f = M acc + ad*_eta M eta - f_ext (for the root of a fixed
+      // subtree, with the subtree's composite inertia: its parts move rigidly with it)
+      const Mat6& I = n.fixed_subtree ? n.inertia_sub : n.inertia;
+      const Vec6 h = I * d.eta[i];
+      f = I * a + coad_apply(d.eta[i], h);
+    }
+    if (external && !(d.f_ext_body[i].isZero(0.0) && d.f_ext_world[i].isZero(0.0))) {
       const Mat3 Rt = d.g[i].R.transpose();
       f -= d.f_ext_body[i];
       f.head<3>() -= Rt * d.f_ext_world[i].head<3>();
@@ -171,6 +187,7 @@ void rnea(const Model& m, Data& d, const Eigen::Ref<const VecX>& qacc, bool grav
   for (int i = nn - 1; i >= 0; --i) {
     const Node& n = m.nodes[i];
     if (n.ndof > 0) tau.segment(n.dof0, n.ndof).noalias() += d.S[i].transpose() * d.F[i];
+    if (n.fixed_subtree && d.F[i].isZero(0.0)) continue;  // nothing to transmit (no load inside)
     (n.parent >= 0 ? d.F[n.parent] : d.f_base) += coAd_apply(d.g_rel[i], d.F[i]);
   }
 }

@@ -70,6 +70,7 @@ RodFluidInfo set_rod_drag(Model& m, int rod, const RodFluid& f) {
       n.drag.diagonal() << c.crot, 0.0, 0.0, c.ct, c.cn, c.cn;
       n.drag *= n.dX;
     }
+  if (m.finalized) m.update_fixed_composites();
   return info;
 }
 

@@ -266,7 +266,31 @@ void Model::finalize() {
   for (int i = 0; i < nn; ++i) children[fill[nodes[i].parent + 1]++] = i;
   max_ndof = 0;
   for (const auto& n : nodes) max_ndof = std::max(max_ndof, n.ndof);
+  // fixed subtrees (children come after their parents: add_* appends them so)
+  for (int i = 0; i < nn; ++i) require(nodes[i].parent < i, "internal: a node precedes its parent");
+  for (int i = nn - 1; i >= 0; --i) {
+    bool fixed = nodes[i].ndof == 0;
+    for (int k = children_begin[i + 1]; k < children_begin[i + 2] && fixed; ++k) fixed = nodes[children[k]].fixed_subtree;
+    nodes[i].fixed_subtree = fixed;
+  }
   finalized = true;
+  update_fixed_composites();
+}
+
+void Model::update_fixed_composites() {
+  const int nn = static_cast<int>(nodes.size());
+  for (int i = nn - 1; i >= 0; --i) {
+    Node& n = nodes[i];
+    if (!n.fixed_subtree) continue;
+    n.inertia_sub = n.inertia;
+    n.drag_sub = n.drag;
+    for (int k = children_begin[i + 1]; k < children_begin[i + 2]; ++k) {
+      const Node& c = nodes[children[k]];
+      const Mat6 X = Ad_inv(c.fixed_rel);  // node twist -> child twist
+      n.inertia_sub.noalias() += X.transpose() * c.inertia_sub * X;
+      n.drag_sub.noalias() += X.transpose() * c.drag_sub * X;
+    }
+  }
 }
 
 int Model::rod_index(const std::string& name) const {

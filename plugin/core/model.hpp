@@ -71,6 +71,12 @@ struct Node {
   Mat6 inertia = Mat6::Zero();  // lumped spatial inertia in the node frame
   Mat6 drag = Mat6::Zero();     // lumped fluid resistance in the node frame: wrench -drag * eta on
                                 // the node in a fluid at rest (fluid.hpp; zero without a fluid)
+  // A node without dofs whose descendants have none either moves rigidly with its parent: the
+  // composites of inertia and drag over its subtree are constant in its frame. finalize() computes
+  // them (Model::update_fixed_composites: call it again after editing inertia or drag), and crba,
+  // fluid_damping and rnea use them instead of visiting the subtree.
+  bool fixed_subtree = false;
+  Mat6 inertia_sub = Mat6::Zero(), drag_sub = Mat6::Zero();
   double dX = 0.0;        // rod length this node stands for in quadratures (0 for non-rod nodes)
   bool free_joint = false;  // a 6-dof free joint (floating base): no static equilibrium
   int rod = -1, section = -1;
@@ -160,8 +166,12 @@ struct Model {
   int add_rod(int parent, const SE3& placement, const RodSpec& spec);
   int add_cable(const Cable& c, const std::string& name = "");  // also adds its actuator
   int add_dof_actuator(int dof, const std::string& name = "");
-  // Computes K, D and the child lists. Throws std::invalid_argument on inconsistent input.
+  // Computes K, D, the child lists and the fixed-subtree composites. Throws std::invalid_argument
+  // on inconsistent input.
   void finalize();
+  // Node::inertia_sub and Node::drag_sub from the nodes' inertia and drag (finalize and
+  // set_rod_drag call it; call it yourself after editing them on a finalized model).
+  void update_fixed_composites();
 
   // --- queries ---
   int nu() const { return static_cast<int>(actuators.size()); }

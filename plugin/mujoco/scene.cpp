@@ -76,6 +76,61 @@ bool is_descendant(const mjModel* m, int b, int ancestor) {
   return ancestor == 0;
 }
 
+// Pose of a capsule along the chord a-b of its stretch of centreline, its local x from the
+// cross-section frame Rm (MuJoCo capsules lie along local z); `half` gets the chord's half-length.
+SE3 capsule_frame(const Vec3& a, const Vec3& b, const Mat3& Rm, double& half) {
+  Vec3 z = b - a;
+  z = z.norm() > 1e-300 ? Vec3(z.normalized()) : Vec3(Rm.col(0));
+  Vec3 x = Rm.col(1) - Rm.col(1).dot(z) * z;
+  x = x.norm() > 1e-9 ? Vec3(x.normalized()) : Vec3(z.unitOrthogonal());
+  SE3 g;
+  g.R << x, z.cross(x), z;
+  g.u = 0.5 * (a + b);
+  half = 0.5 * (b - a).norm();
+  return g;
+}
+
+SE3 capsule_pose(const cosserat::Model& m, const cosserat::Data& d, const RodGeomDecl& gd, double& half) {
+  return capsule_frame(rod_pose(m, d, 0, gd.X_begin).u, rod_pose(m, d, 0, gd.X_end).u,
+                       rod_pose(m, d, 0, 0.5 * (gd.X_begin + gd.X_end)).R, half);
+}
+
+SE3 site_pose(const cosserat::Model& m, const cosserat::Data& d, const RodSiteDecl& sd) {
+  SE3 g = rod_pose(m, d, 0, sd.X);
+  g.u += g.R * sd.pos;
+  return g;
+}
+
+const SE3& anchor_pose(const cosserat::Data& d, int anchor) { return anchor < 0 ? d.base_pose : d.g[anchor]; }
+
+// RodBinding::geom_fixed and site_fixed: placements on rigid sections, from the rest state (they
+// do not depend on the state).
+void fix_rigid_placements(RodBinding& rb) {
+  const cosserat::Model& m = rb.model;
+  cosserat::Data d(m);
+  cosserat::fwd_position(m, d);
+  rb.geom_fixed.assign(rb.decl.geoms.size(), {});
+  for (size_t k = 0; k < rb.decl.geoms.size(); ++k) {
+    const RodGeomDecl& gd = rb.decl.geoms[k];
+    const Section& sec = m.sections[gd.section];
+    if (sec.ndof != 0 || gd.X_begin < sec.X0 || gd.X_end > sec.X0 + sec.length) continue;
+    RodBinding::Fixed& f = rb.geom_fixed[k];
+    f.fixed = true;
+    f.anchor = sec.start_node;
+    f.rel = anchor_pose(d, f.anchor).inverse() * capsule_pose(m, d, gd, f.half);
+  }
+  rb.site_fixed.assign(rb.decl.sites.size(), {});
+  for (size_t k = 0; k < rb.decl.sites.size(); ++k) {
+    const RodSiteDecl& sdl = rb.decl.sites[k];
+    const Section& sec = m.sections[m.nodes[m.rod_node_at(0, sdl.X)].section];
+    if (sec.ndof != 0) continue;
+    RodBinding::Fixed& f = rb.site_fixed[k];
+    f.fixed = true;
+    f.anchor = sec.start_node;
+    f.rel = anchor_pose(d, f.anchor).inverse() * site_pose(m, d, sdl);
+  }
+}
+
 RodBinding bind_rod(const mjModel* m, const RodDecl& decl) {
   RodBinding rb;
   rb.decl = decl;
@@ -108,6 +163,7 @@ RodBinding bind_rod(const mjModel* m, const RodDecl& decl) {
   }
   for (const auto& g : decl.geoms) rb.geom_id.push_back(require_id(m, mjOBJ_GEOM, g.name, decl));
   for (const auto& s : decl.sites) rb.site_id.push_back(require_id(m, mjOBJ_SITE, s.name, decl));
+  fix_rigid_placements(rb);
   const int last = rb.proxy_body.back();
   rb.below_begin = last + 1;
   rb.below_end = rb.below_begin;
@@ -245,35 +301,35 @@ void patch_rod_kinematics(const Scene& s, SceneData& sd, int r) {
     for (int b : rb.helper_body[i]) set_body_pose(m, d, b, g);
     set_body_pose(m, d, p, g);
   }
-  // capsules along the chord of their stretch of centreline (MuJoCo capsules lie along local z)
+  // capsules along the chord of their stretch of centreline
   double X_prev = -1.0;  // consecutive capsules share their end points
   Vec3 p_prev = Vec3::Zero();
   for (size_t k = 0; k < rb.geom_id.size(); ++k) {
     const RodGeomDecl& gd = rb.decl.geoms[k];
-    const Vec3 a = gd.X_begin == X_prev ? p_prev : rod_pose(rb.model, rd, 0, gd.X_begin).u;
-    const Vec3 b = rod_pose(rb.model, rd, 0, gd.X_end).u;
-    X_prev = gd.X_end;
-    p_prev = b;
-    const Mat3 Rm = rod_pose(rb.model, rd, 0, 0.5 * (gd.X_begin + gd.X_end)).R;
-    Vec3 z = b - a;
-    z = z.norm() > 1e-300 ? Vec3(z.normalized()) : Vec3(Rm.col(0));
-    Vec3 x = Rm.col(1) - Rm.col(1).dot(z) * z;
-    x = x.norm() > 1e-9 ? Vec3(x.normalized()) : Vec3(z.unitOrthogonal());
+    const RodBinding::Fixed& f = rb.geom_fixed[k];
     SE3 g;
-    g.R << x, z.cross(x), z;
-    g.u = 0.5 * (a + b);
+    double half;
+    if (f.fixed) {
+      g = anchor_pose(rd, f.anchor) * f.rel;
+      half = f.half;
+      X_prev = -1.0;
+    } else {
+      const Vec3 a = gd.X_begin == X_prev ? p_prev : rod_pose(rb.model, rd, 0, gd.X_begin).u;
+      const Vec3 b = rod_pose(rb.model, rd, 0, gd.X_end).u;
+      X_prev = gd.X_end;
+      p_prev = b;
+      g = capsule_frame(a, b, rod_pose(rb.model, rd, 0, 0.5 * (gd.X_begin + gd.X_end)).R, half);
+    }
     const int id = rb.geom_id[k];
     set_pose(d->geom_xpos + 3 * id, d->geom_xmat + 9 * id, g);
     // the capsule spans its chord: its length follows bending and stretch (DESIGN.md section 6:
     // geom_size and geom_rbound are state-dependent for rod capsules)
-    const double half = 0.5 * (b - a).norm();
     s.m->geom_size[3 * id + 1] = half;
     s.m->geom_rbound[id] = half + s.m->geom_size[3 * id];
   }
   for (size_t k = 0; k < rb.site_id.size(); ++k) {
-    const RodSiteDecl& sdl = rb.decl.sites[k];
-    SE3 g = rod_pose(rb.model, rd, 0, sdl.X);
-    g.u += g.R * sdl.pos;
+    const RodBinding::Fixed& f = rb.site_fixed[k];
+    const SE3 g = f.fixed ? anchor_pose(rd, f.anchor) * f.rel : site_pose(rb.model, rd, rb.decl.sites[k]);
     const int id = rb.site_id[k];
     set_pose(d->site_xpos + 3 * id, d->site_xmat + 9 * id, g);
   }

@@ -35,6 +35,16 @@ struct RodBinding {
   int below_begin = 0, below_end = 0;  // MuJoCo bodies hanging below the last proxy: [begin, end)
   std::vector<int> geom_id;       // capsules (decl.geoms order)
   std::vector<int> site_id;       // sites (decl.sites order)
+  // Capsules and sites on rigid sections sit at a constant pose relative to the frame their
+  // section starts at (node `anchor`, -1: the rod's base): kept here, not recomputed each step.
+  struct Fixed {
+    bool fixed = false;
+    int anchor = -1;
+    SE3 rel;            // pose in the anchor frame
+    double half = 0.0;  // capsules: half-length of the chord
+  };
+  std::vector<Fixed> geom_fixed;  // per capsule
+  std::vector<Fixed> site_fixed;  // per site
 };
 
 // Rod capsules' geom_size and geom_rbound follow the state (their chords): a Scene steps one

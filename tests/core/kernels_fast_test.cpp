@@ -335,4 +335,111 @@ TEST(KernelsFast, CompositeSingleRods) {
   }
 }
 
+// ---- fixed subtrees (Node::fixed_subtree): the cached composites against node by node ----
+
+// A rod whose sections alternate soft and rigid, with a soft rod hanging from the middle of a
+// rigid section (the rigid nodes above the branch point are not fixed subtrees, those below are),
+// a rigid tip section carrying a fixed frame with a body, and a fully rigid second rod.
+Model rigid_sections_tree() {
+  Model m;
+  RodSpec r = rod_spec("kl", 1, 0, 0.6, 0.01);
+  r.name = "main";
+  SectionSpec soft = r.section, rigid = r.section, gvs = r.section;
+  rigid.dofs = *strain_mask_from_name("rigid");
+  rigid.rest_strain << 0.3, 0.8, -0.2, 1.0, 0.0, 0.0;
+  rigid.quadrature = 4;
+  gvs.order = 2;
+  r.overrides = {soft, rigid, gvs, rigid};
+  const int rm = m.add_rod(-1, SE3::Identity(), r);
+  const Section& s1 = m.sections[m.rods[rm].first_section + 1];
+  RodSpec br = rod_spec("sr", 2, 0, 0.2, 0.005);
+  br.name = "branch";
+  SE3 pb;
+  pb.R = exp_so3(Vec3(0.4, 0.0, 1.2));
+  m.add_rod(s1.first_node + 1, pb, br);
+  const int tip = m.rods[rm].tip_node;
+  m.add_body(tip, 0.05, Vec3(0.01, 0, 0.005), Vec3(2e-5, 1e-5, 1e-5).asDiagonal());
+  SE3 pf;
+  pf.R = exp_so3(Vec3(0.0, 0.7, 0.0));
+  pf.u = Vec3(0.02, 0.01, 0.0);
+  const int fr = m.add_frame(tip, pf);
+  m.add_body(fr, 0.02, Vec3(0.0, 0.01, 0.0), Vec3(1e-5, 2e-5, 3e-5).asDiagonal());
+  RodSpec stiff = rod_spec("rigid", 3, 0, 0.3, 0.004);
+  stiff.name = "stiff";
+  stiff.section.rest_strain << 0.0, 2.0, 0.0, 1.0, 0.0, 0.0;
+  SE3 ps;
+  ps.u = Vec3(0.0, 0.05, 0.0);
+  m.add_rod(-1, ps, stiff);
+  m.finalize();
+  return m;
+}
+
+TEST(KernelsFast, FixedSubtreesEqualNodeByNode) {
+  Model m = rigid_sections_tree();
+  std::mt19937 gen(11);
+  std::uniform_real_distribution<double> u(-1, 1);
+  for (Node& n : m.nodes) {  // a symmetric drag on every node
+    Mat6 A = Mat6::NullaryExpr([&](Eigen::Index, Eigen::Index) { return u(gen); });
+    n.drag = A * A.transpose() + Mat6::Identity();
+  }
+  m.update_fixed_composites();
+  // the reference: the same model with the subtrees visited node by node
+  Model ref = m;
+  int roots = 0, inside = 0;
+  for (size_t i = 0; i < m.nodes.size(); ++i) {
+    const Node& n = m.nodes[i];
+    if (!n.fixed_subtree) continue;
+    (n.parent >= 0 && m.nodes[n.parent].fixed_subtree ? inside : roots)++;
+    ref.nodes[i].fixed_subtree = false;
+  }
+  // roots: the rigid tip section and the rigid rod (rigid section 1 carries soft sections below
+  // it, so it is no fixed subtree); inside: 4 + 1 tip nodes and the frame, 3 x 3 rigid-rod nodes
+  EXPECT_EQ(roots, 2);
+  EXPECT_EQ(inside, 5 + 8);
+  const int branch_parent = m.rods[1].first_section >= 0 ? m.nodes[m.sections[m.rods[1].first_section].first_node].parent : -1;
+  EXPECT_FALSE(m.nodes[branch_parent].fixed_subtree);  // the branch hangs from a rigid node above it
+
+  for (unsigned seed : {1u, 2u}) {
+    Data d(m), dr(ref);
+    randomize(d, seed);
+    d.base_pose.R = exp_so3(Vec3(0.3, 0.2, -0.1));
+    d.base_pose.u = Vec3(0.5, -0.2, 1.0);
+    d.base_twist << 0.3, -0.2, 0.1, 0.05, 0.2, -0.1;
+    d.base_accel << -0.5, 0.1, 0.4, 1.0, -2.0, 0.5;
+    for (int i = 0; i < static_cast<int>(m.nodes.size()); i += 5) {  // loads, inside subtrees too
+      d.f_ext_body[i] << u(gen), u(gen), u(gen), u(gen), u(gen), u(gen);
+      d.f_ext_world[i + 2] << u(gen), u(gen), u(gen), u(gen), u(gen), u(gen);
+    }
+    dr.q = d.q;
+    dr.v = d.v;
+    dr.base_pose = d.base_pose;
+    dr.base_twist = d.base_twist;
+    dr.base_accel = d.base_accel;
+    dr.f_ext_body = d.f_ext_body;
+    dr.f_ext_world = d.f_ext_world;
+    for (Data* x : {&d, &dr}) {
+      fwd_position(x == &d ? m : ref, *x);
+      fwd_velocity(x == &d ? m : ref, *x);
+    }
+    crba(m, d);
+    crba(ref, dr);
+    expect_close({d.M, d.Ic_base, d.F_base}, {dr.M, dr.Ic_base, dr.F_base}, 1e-13, "crba");
+    CompositeOut gd{MatX(m.nv, m.nv), Mat6(), Mat6X(6, m.nv)}, rd = gd;
+    composite(m, d, &Node::drag, gd.M, gd.base, gd.F_base);
+    composite(ref, dr, &Node::drag, rd.M, rd.base, rd.F_base);
+    expect_close(gd, rd, 1e-13, "drag composite");
+    VecX qacc(m.nv), tau(m.nv), tau_ref(m.nv);
+    for (int k = 0; k < m.nv; ++k) qacc(k) = u(gen);
+    rnea(m, d, qacc, true, true, tau);
+    rnea(ref, dr, qacc, true, true, tau_ref);
+    EXPECT_LT((tau - tau_ref).norm(), 1e-12 * tau_ref.norm());
+    EXPECT_LT((d.f_base - dr.f_base).norm(), 1e-12 * dr.f_base.norm());
+    // and without the loads (the subtrees' nodes are then skipped altogether)
+    rnea(m, d, qacc, true, false, tau);
+    rnea(ref, dr, qacc, true, false, tau_ref);
+    EXPECT_LT((tau - tau_ref).norm(), 1e-12 * tau_ref.norm());
+    EXPECT_LT((d.f_base - dr.f_base).norm(), 1e-12 * dr.f_base.norm());
+  }
+}
+
 }  // namespace

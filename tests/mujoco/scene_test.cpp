@@ -426,4 +426,49 @@ TEST(Scene, RigidRodOnWeldedBodyBehavesLikeNativeBody) {
                            "<equality><weld body1=\"hub\"/></equality>");
 }
 
+// Capsules and sites on rigid sections keep a pose cached relative to their section's start
+// frame: at a bent, moving state they sit where the rod puts them (chord of the centreline,
+// capsule axis along the chord; a site at its abscissa and cross-section offset).
+TEST(Scene, RigidSectionPlacementsFollowTheRod) {
+  const char* xml = R"(<mujoco><option gravity="0 0 -9.81"/><worldbody>
+    <body name="hub" pos="0 0 1"><freejoint/><geom type="sphere" size="0.02"/>
+      <cosserat name="arm" length="0.4" strain="kl" radius="0.01">
+        <section length="0.15"/>
+        <section length="0.1" strain="rigid" reststrain="6 0 9 1 0 0"/>
+        <section length="0.1"/>
+        <section length="0.05" strain="rigid"/>
+        <site name="on_rigid" at="0.2" pos="0 0.01 0.002"/>
+        <site name="on_tip" at="0.38" pos="0.003 0 0.01"/>
+      </cosserat>
+    </body></worldbody></mujoco>)";
+  auto s = load_scene_string(xml, kPath);
+  const RodBinding& rb = s->rods[0];
+  int fixed_geoms = 0, fixed_sites = 0;
+  for (const auto& f : rb.geom_fixed) fixed_geoms += f.fixed;
+  for (const auto& f : rb.site_fixed) fixed_sites += f.fixed;
+  EXPECT_GE(fixed_geoms, 2);  // the capsules of both rigid sections
+  EXPECT_EQ(fixed_sites, 2 + 1);  // the two user sites and "arm/tip"
+  SceneData sd(*s);
+  for (int i = 0; i < 7; ++i) sd.d->qpos[i] += 0.1 * std::sin(1.0 + i);
+  for (int k = 0; k < rb.model.nv; ++k) sd.d->qpos[rb.qpos0 + k] = 0.7 * std::cos(0.5 + 1.3 * k);
+  forward(*s, sd);
+  for (size_t k = 0; k < rb.geom_id.size(); ++k) {
+    const RodGeomDecl& gd = rb.decl.geoms[k];
+    const Vec3 a = rod_frame(*s, sd, 0, gd.X_begin).u, b = rod_frame(*s, sd, 0, gd.X_end).u;
+    const int id = rb.geom_id[k];
+    const Vec3 centre = Eigen::Map<const Vec3>(sd.d->geom_xpos + 3 * id);
+    const Vec3 z(sd.d->geom_xmat[9 * id + 2], sd.d->geom_xmat[9 * id + 5], sd.d->geom_xmat[9 * id + 8]);
+    EXPECT_LT((centre - 0.5 * (a + b)).norm(), 1e-12) << gd.name;
+    EXPECT_LT((z - (b - a).normalized()).norm(), 1e-12) << gd.name;
+    EXPECT_NEAR(s->m->geom_size[3 * id + 1], 0.5 * (b - a).norm(), 1e-12) << gd.name;
+  }
+  for (size_t k = 0; k < rb.site_id.size(); ++k) {
+    const RodSiteDecl& sdl = rb.decl.sites[k];
+    const SE3 g = rod_frame(*s, sd, 0, sdl.X);
+    const int id = rb.site_id[k];
+    EXPECT_LT((Eigen::Map<const Vec3>(sd.d->site_xpos + 3 * id) - (g.u + g.R * sdl.pos)).norm(), 1e-12) << sdl.name;
+    for (int e = 0; e < 9; ++e) EXPECT_NEAR(sd.d->site_xmat[9 * id + e], g.R(e / 3, e % 3), 1e-12) << sdl.name;
+  }
+}
+
 }  // namespace
