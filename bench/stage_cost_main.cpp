@@ -206,25 +206,22 @@ json breakdown(const mj::Scene& s, mj::SceneData& sd, Sim& sim, const Ctx& c, st
     rd.rhs.setZero();
     core["rnea"] += T([&] { cosserat::rnea(rm, rd, rd.rhs, false, true, rd.qfrc_bias); });
     core["passive"] += T([&] { cosserat::passive(rm, rd); });
-    Mat6X J(6, rm.max_ndof), Jd(6, rm.max_ndof);
-    core["glue: section_jacobian (cdof)"] += T([&] {
-      for (const Section& sec : rm.sections)
-        if (sec.ndof) section_jacobian(rm, rd, 0, sec.X0 + sec.length, J);
-    });
-    core["glue: section_jacobian + Jdot (cdof_dot)"] += T([&] {
-      for (const Section& sec : rm.sections)
-        if (sec.ndof) section_jacobian(rm, rd, 0, sec.X0 + sec.length, J, &Jd);
-    });
-    const auto& decl = s.rods[r].decl;
-    core["glue: rod_pose (capsules, 3 per capsule)"] += T([&] {
-      for (const auto& g : decl.geoms) {
+    // cdof reads the group Jacobians fwd_position computes; cdof_dot needs their derivative
+    core["glue: group_jacobian_dot (cdof_dot)"] += T([&] { cosserat::group_jacobian_dot(rm, rd); });
+    // capsules and sites on rigid sections are placed from a cached pose: only the others cost
+    const mj::RodBinding& rb = s.rods[r];
+    core["glue: rod_pose (capsules off rigid sections, 3 per capsule)"] += T([&] {
+      for (size_t k = 0; k < rb.decl.geoms.size(); ++k) {
+        if (rb.geom_fixed[k].fixed) continue;
+        const auto& g = rb.decl.geoms[k];
         (void)rod_pose(rm, rd, 0, g.X_begin);
         (void)rod_pose(rm, rd, 0, g.X_end);
         (void)rod_pose(rm, rd, 0, 0.5 * (g.X_begin + g.X_end));
       }
     });
-    core["glue: rod_pose (sites)"] += T([&] {
-      for (const auto& st2 : decl.sites) (void)rod_pose(rm, rd, 0, st2.X);
+    core["glue: rod_pose (sites off rigid sections)"] += T([&] {
+      for (size_t k = 0; k < rb.decl.sites.size(); ++k)
+        if (!rb.site_fixed[k].fixed) (void)rod_pose(rm, rd, 0, rb.decl.sites[k].X);
     });
   }
   // the plugin's fluid (resistive-force theory; scene_fluid.hpp): its damping matrix (position
@@ -259,16 +256,12 @@ json breakdown(const mj::Scene& s, mj::SceneData& sd, Sim& sim, const Ctx& c, st
     for (size_t r = 0; r < s.rods.size(); ++r) {
       const Model& rm = s.rods[r].model;
       Data& rd = sd.rod[r];
-      Mat6X J(6, rm.max_ndof), Jd(6, rm.max_ndof);
       ja["core fwd_position"] = ja.value("core fwd_position", 0L) + count([&] { cosserat::fwd_position(rm, rd); });
       ja["core crba"] = ja.value("core crba", 0L) + count([&] { cosserat::crba(rm, rd); });
       ja["core fwd_velocity"] = ja.value("core fwd_velocity", 0L) + count([&] { cosserat::fwd_velocity(rm, rd); });
       ja["core rnea"] = ja.value("core rnea", 0L) + count([&] { cosserat::rnea(rm, rd, rd.rhs, false, true, rd.qfrc_bias); });
-      ja["core section_jacobian + Jdot, all sections"] =
-          ja.value("core section_jacobian + Jdot, all sections", 0L) + count([&] {
-            for (const Section& sec : rm.sections)
-              if (sec.ndof) section_jacobian(rm, rd, 0, sec.X0 + sec.length, J, &Jd);
-          });
+      ja["core group_jacobian_dot"] =
+          ja.value("core group_jacobian_dot", 0L) + count([&] { cosserat::group_jacobian_dot(rm, rd); });
       ja["core rod_pose, per call"] = count([&] { (void)rod_pose(rm, rd, 0, 0.5 * rm.rods[0].length); });
     }
     mj::forward(s, sd);
@@ -281,16 +274,16 @@ json breakdown(const mj::Scene& s, mj::SceneData& sd, Sim& sim, const Ctx& c, st
   };
   const double mj_pos = sum(mjs, {"mj_kinematics", "mj_comPos", "mj_camlight", "mj_tendon", "mj_crb", "mj_factorM",
                                   "mj_collision", "mj_makeConstraint", "mj_transmission", "mj_projectConstraint"});
-  const double core_pos = sum(core, {"fwd_position", "crba", "glue: section_jacobian (cdof)",
-                                     "glue: rod_pose (capsules, 3 per capsule)", "glue: rod_pose (sites)"});
+  const double core_pos = sum(core, {"fwd_position", "crba", "glue: rod_pose (capsules off rigid sections, 3 per capsule)",
+                                     "glue: rod_pose (sites off rigid sections)"});
   const double mj_vel = sum(mjs, {"mj_comVel", "mj_passive", "mj_referenceConstraint", "mj_rne"});
-  const double core_vel = sum(core, {"fwd_velocity", "rnea", "passive", "glue: section_jacobian + Jdot (cdof_dot)"});
+  const double core_vel = sum(core, {"fwd_velocity", "rnea", "passive", "glue: group_jacobian_dot (cdof_dot)"});
   cat["kinematics"] = sum(mjs, {"mj_kinematics", "mj_comPos", "mj_camlight"}) +
-                      sum(core, {"fwd_position", "glue: section_jacobian (cdof)",
-                                 "glue: rod_pose (capsules, 3 per capsule)", "glue: rod_pose (sites)"});
+                      sum(core, {"fwd_position", "glue: rod_pose (capsules off rigid sections, 3 per capsule)",
+                                 "glue: rod_pose (sites off rigid sections)"});
   cat["mass matrix"] = sum(mjs, {"mj_crb", "mj_factorM"}) + sum(core, {"crba"});
   cat["bias (Coriolis, gravity)"] =
-      sum(mjs, {"mj_comVel", "mj_rne"}) + sum(core, {"fwd_velocity", "rnea", "glue: section_jacobian + Jdot (cdof_dot)"});
+      sum(mjs, {"mj_comVel", "mj_rne"}) + sum(core, {"fwd_velocity", "rnea", "glue: group_jacobian_dot (cdof_dot)"});
   cat["passive (elastic, damping, MuJoCo fluid)"] = sum(mjs, {"mj_passive"}) + sum(core, {"passive"});
   cat["tendons"] = sum(mjs, {"mj_tendon", "mj_transmission"});
   cat["contacts and constraints"] =

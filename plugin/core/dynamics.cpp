@@ -136,17 +136,17 @@ void composite(const Model& m, Data& d, Mat6 Node::*field, MatX& out_M, Mat6& ou
         for (int r = 0; r < nd; ++r) out_M(q0 + r, q0 + c) += Sa.col(r).dot(f);
       }
     }
-    for (int j = a0;; j = m.nodes[j].parent) {
-      const int b = m.nodes[j].parent;
-      coAd_cols(d.g_rel[j], F);  // force subspace to the parent frame
-      if (b < 0) {
-        out_F_base.middleCols(q0, nd) += F;
-        break;
-      }
+    // the walk above the group, one ancestor group at a time: for an ancestor b, the cross terms
+    // of b's group up to b are Jg_b^T F (F in b's frame), and F moves on by g_grp_b to the frame
+    // that group hangs from
+    coAd_cols(d.g_rel[a0], F);  // force subspace to the parent frame
+    for (int b = na.parent; b >= 0;) {
       const Node& nb = m.nodes[b];
-      if (nb.ndof == 0) continue;
-      add_cross(d.S[b], F, out_M, nb.dof0, q0);
+      if (nb.ndof > 0) add_cross(d.Jg[b], F, out_M, nb.dof0, q0);
+      coAd_cols(d.g_grp[b], F);
+      b = m.nodes[nb.group_first].parent;
     }
+    out_F_base.middleCols(q0, nd) += F;
     a0 = ak + 1;
   }
 }

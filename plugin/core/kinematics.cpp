@@ -43,6 +43,32 @@ void fwd_position(const Model& m, Data& d) {
     }
     d.g[i] = (n.parent < 0 ? d.base_pose : d.g[n.parent]) * d.g_rel[i];
     if (n.ndof > 0) d.S[i].noalias() = dexp(-d.Omega[i]) * d.G[i];
+    if (n.group_first != i) {  // continues its parent's group
+      const Mat6X& Jp = d.Jg[n.parent];
+      for (int k = 0; k < n.ndof; ++k) d.Jg[i].col(k) = Ad_inv_apply(d.g_rel[i], Jp.col(k)) + d.S[i].col(k);
+      d.g_grp[i] = d.g_grp[n.parent] * d.g_rel[i];
+    } else {
+      d.Jg[i] = d.S[i];
+      d.g_grp[i] = d.g_rel[i];
+    }
+  }
+}
+
+void group_jacobian_dot(const Model& m, Data& d) {
+  const int nn = static_cast<int>(m.nodes.size());
+  for (int i = 0; i < nn; ++i) {
+    const Node& n = m.nodes[i];
+    if (n.ndof == 0) continue;
+    if (n.group_first == i) {
+      d.Jgdot[i] = d.Sdot[i];
+      continue;
+    }
+    // d/dt (Ad^-1 Jg_p) = Ad^-1 Jgdot_p - ad_psi Ad^-1 Jg_p, psi = S v the step's own twist
+    const Vec6 psi = d.S[i] * d.v.segment(n.dof0, n.ndof);
+    const Mat6X &Jp = d.Jg[n.parent], &Jdp = d.Jgdot[n.parent];
+    for (int k = 0; k < n.ndof; ++k)
+      d.Jgdot[i].col(k) = Ad_inv_apply(d.g_rel[i], Jdp.col(k)) - ad_apply(psi, Ad_inv_apply(d.g_rel[i], Jp.col(k))) +
+                          d.Sdot[i].col(k);
   }
 }
 

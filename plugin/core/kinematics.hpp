@@ -6,11 +6,14 @@
 
 namespace cosserat {
 
-// From d.q: Omega, g_rel, g (world), G = dOmega/dq and the motion subspaces S = dexp(-Omega) G.
+// From d.q: Omega, g_rel, g (world), G = dOmega/dq, the motion subspaces S = dexp(-Omega) G and
+// the group Jacobians Jg with the poses g_grp (Data).
 void fwd_position(const Model& m, Data& d);
 // From d.v (after fwd_position): Omega_dot, body twists eta and the velocity-product
 // accelerations cbias (so that acc_i = Ad^-1 acc_parent + cbias_i + S_i qacc_i).
 void fwd_velocity(const Model& m, Data& d);
+// d.Jgdot, the time derivative of the group Jacobians. After fwd_velocity.
+void group_jacobian_dot(const Model& m, Data& d);
 
 // Body Jacobian of node i (6 x nv): eta_i = J v (with a fixed base). After fwd_position.
 void node_jacobian(const Model& m, const Data& d, int node, MatX& J);

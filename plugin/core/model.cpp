@@ -266,8 +266,14 @@ void Model::finalize() {
   for (int i = 0; i < nn; ++i) children[fill[nodes[i].parent + 1]++] = i;
   max_ndof = 0;
   for (const auto& n : nodes) max_ndof = std::max(max_ndof, n.ndof);
-  // fixed subtrees (children come after their parents: add_* appends them so)
-  for (int i = 0; i < nn; ++i) require(nodes[i].parent < i, "internal: a node precedes its parent");
+  // fixed subtrees (children come after their parents: add_* appends them so) and groups
+  for (int i = 0; i < nn; ++i) {
+    Node& n = nodes[i];
+    require(n.parent < i, "internal: a node precedes its parent");
+    const bool continues = n.ndof > 0 && n.parent >= 0 && nodes[n.parent].ndof == n.ndof &&
+                           nodes[n.parent].dof0 == n.dof0;
+    n.group_first = continues ? nodes[n.parent].group_first : i;
+  }
   for (int i = nn - 1; i >= 0; --i) {
     bool fixed = nodes[i].ndof == 0;
     for (int k = children_begin[i + 1]; k < children_begin[i + 2] && fixed; ++k) fixed = nodes[children[k]].fixed_subtree;
@@ -325,11 +331,16 @@ Data::Data(const Model& m) {
   G.resize(nn);
   S.resize(nn);
   Sdot.resize(nn);
+  Jg.resize(nn);
+  Jgdot.resize(nn);
   for (int i = 0; i < nn; ++i) {
     G[i] = Mat6X::Zero(6, m.nodes[i].ndof);
     S[i] = Mat6X::Zero(6, m.nodes[i].ndof);
     Sdot[i] = Mat6X::Zero(6, m.nodes[i].ndof);
+    Jg[i] = Mat6X::Zero(6, m.nodes[i].ndof);
+    Jgdot[i] = Mat6X::Zero(6, m.nodes[i].ndof);
   }
+  g_grp.assign(nn, SE3());
   eta.assign(nn, Vec6::Zero());
   cbias.assign(nn, Vec6::Zero());
   acc.assign(nn, Vec6::Zero());

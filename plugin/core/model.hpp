@@ -76,6 +76,10 @@ struct Node {
   // them (Model::update_fixed_composites: call it again after editing inertia or drag), and crba,
   // fluid_damping and rnea use them instead of visiting the subtree.
   bool fixed_subtree = false;
+  // First node of this node's group: a run of nodes sharing one dof block, each the parent of the
+  // next (the steps of one rod section). A node without dofs, or one that does not continue its
+  // parent's block, starts its own group. Set by finalize().
+  int group_first = -1;
   Mat6 inertia_sub = Mat6::Zero(), drag_sub = Mat6::Zero();
   double dX = 0.0;        // rod length this node stands for in quadratures (0 for non-rod nodes)
   bool free_joint = false;  // a 6-dof free joint (floating base): no static equilibrium
@@ -215,6 +219,12 @@ struct Data {
   std::vector<Mat6X> G;    // dOmega/dq_i (6 x ndof)
   std::vector<Mat6X> S;    // motion subspace dexp(-Omega) G (6 x ndof)
   std::vector<Mat6X> Sdot; // its time derivative (6 x ndof; fwd_velocity): cbias = ad_eta S v + Sdot v
+  // Group Jacobians (Node::group_first): Jg_i = twist of node i per unit velocity of its own dof
+  // block relative to the frame its group hangs from, in node i's frame (fwd_position: Jg_i =
+  // Ad^-1_{g_rel,i} Jg_parent + S_i within a group); its time derivative Jgdot (group_jacobian_dot);
+  // g_grp_i = pose of node i in that frame. At a section end, Jg is section_jacobian's J.
+  std::vector<Mat6X> Jg, Jgdot;
+  std::vector<SE3> g_grp;
   std::vector<Vec6> eta;   // body twist
   std::vector<Vec6> cbias; // velocity-product acceleration of the step: ad_eta S v + dS/dt v
   std::vector<Vec6> acc;   // body acceleration (scratch of rnea)

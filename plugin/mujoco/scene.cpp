@@ -348,8 +348,7 @@ void patch_cdof(const Scene& s, SceneData& sd, int r) {
   for (size_t i = 0; i < rb.proxy_body.size(); ++i) {
     const Section& sec = rb.model.sections[i];
     if (sec.ndof == 0) continue;
-    Mat6X& J = sd.scratch[r].J[i];
-    section_jacobian(rb.model, rd, 0, sec.X0 + sec.length, J);
+    const Mat6X& J = rd.Jg[sec.end_node];  // section_jacobian at the section end
     const mjtNum* c = d->subtree_com + 3 * s.m->body_rootid[rb.proxy_body[i]];
     const Mat6 A = Ad(com_frame(rd.g[sec.end_node], c));
     for (int k = 0; k < sec.ndof; ++k) {
@@ -364,12 +363,12 @@ void patch_cdof_dot(const Scene& s, SceneData& sd, int r) {
   mjData* d = sd.d;
   const RodBinding& rb = s.rods[r];
   cosserat::Data& rd = sd.rod[r];
+  cosserat::group_jacobian_dot(rb.model, rd);
   for (size_t i = 0; i < rb.proxy_body.size(); ++i) {
     const Section& sec = rb.model.sections[i];
     if (sec.ndof == 0) continue;
-    Mat6X& J = sd.scratch[r].J[i];
-    Mat6X& Jd = sd.scratch[r].Jd[i];
-    section_jacobian(rb.model, rd, 0, sec.X0 + sec.length, J, &Jd);
+    const Mat6X& J = rd.Jg[sec.end_node];  // section_jacobian and its Jdot at the section end
+    const Mat6X& Jd = rd.Jgdot[sec.end_node];
     const mjtNum* c = d->subtree_com + 3 * s.m->body_rootid[rb.proxy_body[i]];
     const Mat6 A = Ad(com_frame(rd.g[sec.end_node], c));
     const Mat6 ade = ad(rd.eta[sec.end_node]);
@@ -631,10 +630,6 @@ SceneData::SceneData(const Scene& s) {
     RodScratch& sc = scratch[r];
     for (int j = first_ancestor_dof(s.m, s.rods[r].base_body); j >= 0; j = s.m->dof_parentid[j]) sc.anc.push_back(j);
     sc.C.resize(6, static_cast<int>(sc.anc.size()));
-    for (const Section& sec : s.rods[r].model.sections) {
-      sc.J.emplace_back(6, sec.ndof);
-      sc.Jd.emplace_back(6, sec.ndof);
-    }
     sc.Kv.resize(s.rods[r].model.nv);
   }
 }

@@ -99,7 +99,6 @@ struct SceneData {
   struct RodScratch {
     std::vector<int> anc;  // MuJoCo dofs above the rod's base, nearest first
     Mat6X C;               // their base-frame columns (6 x anc.size())
-    std::vector<Mat6X> J, Jd;  // per section: its Jacobian and the derivative (sized once)
     VecX Kv;
   };
   std::vector<RodScratch> scratch;  // per rod

@@ -442,4 +442,39 @@ TEST(KernelsFast, FixedSubtreesEqualNodeByNode) {
   }
 }
 
+// Group Jacobians (Data::Jg, Jgdot, g_grp) against section_jacobian at every node (a group is the
+// steps of one section), and Jgdot against a central difference of Jg along the motion.
+TEST(KernelsFast, GroupJacobiansEqualSectionJacobians) {
+  Model m = mixed_tree();
+  Data d(m);
+  randomize(d, 21);
+  fwd_position(m, d);
+  fwd_velocity(m, d);
+  group_jacobian_dot(m, d);
+  Mat6X J, Jd;
+  int checked = 0;
+  for (size_t i = 0; i < m.nodes.size(); ++i) {
+    const Node& n = m.nodes[i];
+    if (n.rod < 0 || n.ndof == 0) continue;
+    SE3 gX;
+    section_jacobian(m, d, n.rod, n.X, J, &Jd, &gX, n.section);
+    EXPECT_LT((d.Jg[i] - J).norm(), 1e-13 * (1 + J.norm())) << i;
+    EXPECT_LT((d.Jgdot[i] - Jd).norm(), 1e-12 * (1 + Jd.norm())) << i;
+    EXPECT_LT((d.g_grp[i].u - gX.u).norm() + (d.g_grp[i].R - gX.R).norm(), 1e-13) << i;
+    ++checked;
+  }
+  EXPECT_GT(checked, 30);
+  const double eps = 1e-6;
+  Data dp(m), dm(m);
+  dp.q = d.q + eps * d.v;
+  dm.q = d.q - eps * d.v;
+  fwd_position(m, dp);
+  fwd_position(m, dm);
+  for (size_t i = 0; i < m.nodes.size(); ++i) {
+    if (m.nodes[i].ndof == 0) continue;
+    const Mat6X fd = (dp.Jg[i] - dm.Jg[i]) / (2 * eps);
+    EXPECT_LT((d.Jgdot[i] - fd).norm(), 1e-7 * (1 + fd.norm())) << i;
+  }
+}
+
 }  // namespace
