@@ -37,12 +37,17 @@ void fwd_position(const Model& m, Data& d) {
     if (n.ndof == 0) {  // constant (Model::finalize)
       d.Omega[i] = n.fixed_Omega;
       d.g_rel[i] = n.fixed_rel;
+    } else if (n.same_step >= 0) {  // the same step as an earlier node of its PCS section
+      d.Omega[i] = d.Omega[n.same_step];
+      d.g_rel[i] = d.g_rel[n.same_step];
+      d.G[i] = d.G[n.same_step];
+      d.S[i] = d.S[n.same_step];
     } else {
       d.Omega[i] = step_twist(n, d.q.segment(n.dof0, n.ndof), &d.G[i]);
       d.g_rel[i] = n.offset * exp_se3(d.Omega[i]);
+      d.S[i].noalias() = dexp(-d.Omega[i]) * d.G[i];
     }
     d.g[i] = (n.parent < 0 ? d.base_pose : d.g[n.parent]) * d.g_rel[i];
-    if (n.ndof > 0) d.S[i].noalias() = dexp(-d.Omega[i]) * d.G[i];
     if (n.group_first != i) {  // continues its parent's group
       const Mat6X& Jp = d.Jg[n.parent];
       for (int k = 0; k < n.ndof; ++k) d.Jg[i].col(k) = Ad_inv_apply(d.g_rel[i], Jp.col(k)) + d.S[i].col(k);
@@ -81,14 +86,18 @@ void fwd_velocity(const Model& m, Data& d) {
     Vec6 cb = Vec6::Zero();
     if (n.ndof > 0) {
       const auto vi = d.v.segment(n.dof0, n.ndof);
-      const Vec6 Omd = d.G[i] * vi;
       const Vec6 psi = d.S[i] * vi;
-      d.Omega_dot[i] = Omd;
       eta += psi;
       // dS/dt = ddexp(-Omega, -Omega_dot) G + dexp(-Omega) dG/dt, and dG/dt is the commutator's
       // c (ad_{xa_dot} Phi_b - ad_{xb_dot} Phi_a): so dS/dt v = ddexp Omega_dot + dexp 2c ad_{xa_dot} xb_dot
       Mat6X& Sd = d.Sdot[i];
-      Sd.noalias() = ddexp(-d.Omega[i], -Omd) * d.G[i];
+      if (n.same_step >= 0) {  // PCS: the same step, the same dofs, the same rates
+        d.Omega_dot[i] = d.Omega_dot[n.same_step];
+        Sd = d.Sdot[n.same_step];
+      } else {
+        d.Omega_dot[i].noalias() = d.G[i] * vi;
+        Sd.noalias() = ddexp(-d.Omega[i], -d.Omega_dot[i]) * d.G[i];
+      }
       if (n.commutator) {
         const Vec6 xad = n.Phi_a * vi, xbd = n.Phi_b * vi;
         const double c = kZanna * n.h * n.h;

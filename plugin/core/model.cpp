@@ -273,11 +273,25 @@ void Model::finalize() {
     const bool continues = n.ndof > 0 && n.parent >= 0 && nodes[n.parent].ndof == n.ndof &&
                            nodes[n.parent].dof0 == n.dof0;
     n.group_first = continues ? nodes[n.parent].group_first : i;
+    n.same_step = -1;
+    if (n.ndof > 0 && !n.commutator && n.section >= 0)  // PCS: the step is a function of h alone
+      for (int j = sections[n.section].first_node; j < i && n.same_step < 0; ++j) {
+        const Node& o = nodes[j];
+        if (o.ndof == n.ndof && o.dof0 == n.dof0 && !o.commutator && std::abs(o.h - n.h) <= 1e-14 * n.h &&
+            o.offset.R == n.offset.R && o.offset.u == n.offset.u && o.Phi_a == n.Phi_a && o.Phi_b == n.Phi_b &&
+            o.xibar_a == n.xibar_a && o.xibar_b == n.xibar_b)
+          n.same_step = j;
+      }
   }
   for (int i = nn - 1; i >= 0; --i) {
     bool fixed = nodes[i].ndof == 0;
     for (int k = children_begin[i + 1]; k < children_begin[i + 2] && fixed; ++k) fixed = nodes[children[k]].fixed_subtree;
     nodes[i].fixed_subtree = fixed;
+  }
+  for (const Rod& rod : rods) {  // rod_node_at bisects: a rod's nodes are contiguous, X increasing
+    const int a = sections[rod.first_section].first_node, b = sections[rod.first_section + rod.nsections - 1].end_node;
+    for (int i = a + 1; i <= b; ++i)
+      require(nodes[i].rod == nodes[a].rod && nodes[i].X > nodes[i - 1].X, "internal: rod nodes out of order");
   }
   finalized = true;
   update_fixed_composites();
@@ -306,12 +320,16 @@ int Model::rod_index(const std::string& name) const {
 }
 
 int Model::rod_node_at(int r, double X) const {
+  // a rod's nodes are contiguous with increasing X (add_rod appends them in order): bisection
   const Rod& rod = rods[r];
-  const Section& last = sections[rod.first_section + rod.nsections - 1];
-  for (int s = rod.first_section; s < rod.first_section + rod.nsections; ++s)
-    for (int i = sections[s].first_node; i <= sections[s].end_node; ++i)
-      if (nodes[i].X >= X) return i;
-  return last.end_node;
+  int lo = sections[rod.first_section].first_node, hi = sections[rod.first_section + rod.nsections - 1].end_node;
+  if (nodes[hi].X < X) return hi;
+  while (lo < hi) {  // the first node in [lo, hi] with X_node >= X
+    const int mid = lo + (hi - lo) / 2;
+    if (nodes[mid].X >= X) hi = mid;
+    else lo = mid + 1;
+  }
+  return lo;
 }
 
 Data::Data(const Model& m) {

@@ -80,6 +80,10 @@ struct Node {
   // next (the steps of one rod section). A node without dofs, or one that does not continue its
   // parent's block, starts its own group. Set by finalize().
   int group_first = -1;
+  // An earlier node of the same PCS section whose step is this one's (same length to 1e-14, same
+  // offset): fwd_position and fwd_velocity copy its step (Omega, g_rel, S, Sdot) instead of
+  // recomputing the exponential and its tangents. -1: none. Set by finalize().
+  int same_step = -1;
   Mat6 inertia_sub = Mat6::Zero(), drag_sub = Mat6::Zero();
   double dX = 0.0;        // rod length this node stands for in quadratures (0 for non-rod nodes)
   bool free_joint = false;  // a 6-dof free joint (floating base): no static equilibrium

@@ -477,4 +477,39 @@ TEST(KernelsFast, GroupJacobiansEqualSectionJacobians) {
   }
 }
 
+// PCS steps of equal length (the quadrature is symmetric) are computed once (Node::same_step):
+// the kinematics equal those of the same model computing every step.
+TEST(KernelsFast, RepeatedPcsStepsEqualRecomputedOnes) {
+  for (int quadrature : {2, 3, 4}) {
+    Model m;
+    RodSpec r = rod_spec("sr", 3, 0, 0.5, 0.01);
+    r.section.quadrature = quadrature;
+    r.section.rest_strain << 0.5, -1.0, 2.0, 1.0, 0.0, 0.0;
+    m.add_rod(-1, SE3::Identity(), r);
+    m.finalize();
+    Model ref = m;
+    int reused = 0;
+    for (Node& n : ref.nodes) {
+      reused += n.same_step >= 0;
+      n.same_step = -1;
+    }
+    // steps: quadrature + 1 per section, symmetric in pairs (the middle one alone when even)
+    EXPECT_EQ(reused, 3 * ((quadrature + 1) / 2)) << quadrature;
+    Data d(m), dr(ref);
+    randomize(d, 5 + quadrature);
+    dr.q = d.q;
+    dr.v = d.v;
+    fwd_position(m, d);
+    fwd_velocity(m, d);
+    fwd_position(ref, dr);
+    fwd_velocity(ref, dr);
+    for (size_t i = 0; i < m.nodes.size(); ++i) {
+      EXPECT_LT((d.g[i].u - dr.g[i].u).norm() + (d.g[i].R - dr.g[i].R).norm(), 1e-14) << i;
+      EXPECT_LT((d.S[i] - dr.S[i]).norm(), 1e-14 * dr.S[i].norm()) << i;
+      EXPECT_LT((d.Sdot[i] - dr.Sdot[i]).norm(), 1e-14 * (1 + dr.Sdot[i].norm())) << i;
+      EXPECT_LT((d.cbias[i] - dr.cbias[i]).norm(), 1e-14 * (1 + dr.cbias[i].norm())) << i;
+    }
+  }
+}
+
 }  // namespace
