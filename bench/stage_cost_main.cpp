@@ -210,13 +210,17 @@ json breakdown(const mj::Scene& s, mj::SceneData& sd, Sim& sim, const Ctx& c, st
     core["glue: group_jacobian_dot (cdof_dot)"] += T([&] { cosserat::group_jacobian_dot(rm, rd); });
     // capsules and sites on rigid sections are placed from a cached pose: only the others cost
     const mj::RodBinding& rb = s.rods[r];
-    core["glue: rod_pose (capsules off rigid sections, 3 per capsule)"] += T([&] {
+    core["glue: rod_pose (capsules off rigid sections)"] += T([&] {
+      double X_prev = -1.0;  // as the coupling does: a capsule starts where the previous one ended
       for (size_t k = 0; k < rb.decl.geoms.size(); ++k) {
-        if (rb.geom_fixed[k].fixed) continue;
         const auto& g = rb.decl.geoms[k];
-        (void)rod_pose(rm, rd, 0, g.X_begin);
+        if (rb.geom_fixed[k].fixed) {
+          X_prev = -1.0;
+          continue;
+        }
+        if (g.X_begin != X_prev) (void)rod_pose(rm, rd, 0, g.X_begin);
         (void)rod_pose(rm, rd, 0, g.X_end);
-        (void)rod_pose(rm, rd, 0, 0.5 * (g.X_begin + g.X_end));
+        X_prev = g.X_end;
       }
     });
     core["glue: rod_pose (sites off rigid sections)"] += T([&] {
@@ -274,12 +278,12 @@ json breakdown(const mj::Scene& s, mj::SceneData& sd, Sim& sim, const Ctx& c, st
   };
   const double mj_pos = sum(mjs, {"mj_kinematics", "mj_comPos", "mj_camlight", "mj_tendon", "mj_crb", "mj_factorM",
                                   "mj_collision", "mj_makeConstraint", "mj_transmission", "mj_projectConstraint"});
-  const double core_pos = sum(core, {"fwd_position", "crba", "glue: rod_pose (capsules off rigid sections, 3 per capsule)",
+  const double core_pos = sum(core, {"fwd_position", "crba", "glue: rod_pose (capsules off rigid sections)",
                                      "glue: rod_pose (sites off rigid sections)"});
   const double mj_vel = sum(mjs, {"mj_comVel", "mj_passive", "mj_referenceConstraint", "mj_rne"});
   const double core_vel = sum(core, {"fwd_velocity", "rnea", "passive", "glue: group_jacobian_dot (cdof_dot)"});
   cat["kinematics"] = sum(mjs, {"mj_kinematics", "mj_comPos", "mj_camlight"}) +
-                      sum(core, {"fwd_position", "glue: rod_pose (capsules off rigid sections, 3 per capsule)",
+                      sum(core, {"fwd_position", "glue: rod_pose (capsules off rigid sections)",
                                  "glue: rod_pose (sites off rigid sections)"});
   cat["mass matrix"] = sum(mjs, {"mj_crb", "mj_factorM"}) + sum(core, {"crba"});
   cat["bias (Coriolis, gravity)"] =

@@ -77,7 +77,8 @@ bool is_descendant(const mjModel* m, int b, int ancestor) {
 }
 
 // Pose of a capsule along the chord a-b of its stretch of centreline, its local x from the
-// cross-section frame Rm (MuJoCo capsules lie along local z); `half` gets the chord's half-length.
+// cross-section frame Rm at its end (MuJoCo capsules lie along local z; the roll about the axis
+// only shows in rendering); `half` gets the chord's half-length.
 SE3 capsule_frame(const Vec3& a, const Vec3& b, const Mat3& Rm, double& half) {
   Vec3 z = b - a;
   z = z.norm() > 1e-300 ? Vec3(z.normalized()) : Vec3(Rm.col(0));
@@ -91,8 +92,8 @@ SE3 capsule_frame(const Vec3& a, const Vec3& b, const Mat3& Rm, double& half) {
 }
 
 SE3 capsule_pose(const cosserat::Model& m, const cosserat::Data& d, const RodGeomDecl& gd, double& half) {
-  return capsule_frame(rod_pose(m, d, 0, gd.X_begin).u, rod_pose(m, d, 0, gd.X_end).u,
-                       rod_pose(m, d, 0, 0.5 * (gd.X_begin + gd.X_end)).R, half);
+  const SE3 b = rod_pose(m, d, 0, gd.X_end);
+  return capsule_frame(rod_pose(m, d, 0, gd.X_begin).u, b.u, b.R, half);
 }
 
 SE3 site_pose(const cosserat::Model& m, const cosserat::Data& d, const RodSiteDecl& sd) {
@@ -315,10 +316,10 @@ void patch_rod_kinematics(const Scene& s, SceneData& sd, int r) {
       X_prev = -1.0;
     } else {
       const Vec3 a = gd.X_begin == X_prev ? p_prev : rod_pose(rb.model, rd, 0, gd.X_begin).u;
-      const Vec3 b = rod_pose(rb.model, rd, 0, gd.X_end).u;
+      const SE3 b = rod_pose(rb.model, rd, 0, gd.X_end);
       X_prev = gd.X_end;
-      p_prev = b;
-      g = capsule_frame(a, b, rod_pose(rb.model, rd, 0, 0.5 * (gd.X_begin + gd.X_end)).R, half);
+      p_prev = b.u;
+      g = capsule_frame(a, b.u, b.R, half);
     }
     const int id = rb.geom_id[k];
     set_pose(d->geom_xpos + 3 * id, d->geom_xmat + 9 * id, g);
