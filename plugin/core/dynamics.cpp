@@ -49,6 +49,26 @@ void add_congruence_Ad_inv(const SE3& g, const Mat6& A, Mat6& out) {
   out.bottomRightCorner<3, 3>() += A22;
 }
 
+// The same for a rigid-body spatial inertia A = [[I_o, h~], [-h~, m 1]] (h = m c, I_o about the
+// frame origin): X^T A X is the inertia in the parent frame, [[I_o', h'~], [-h'~, m 1]] with
+// h' = R h + m u and I_o' = R I_o R^T + (2 (Rh).u + m u.u) 1 - ((Rh) u^T + u (Rh)^T + m u u^T)
+// (the parallel-axis shift from the origin to u, without dividing by m). About a quarter of the
+// general congruence's arithmetic.
+void add_congruence_rigid(const SE3& g, const Mat6& A, Mat6& out) {
+  const Mat3& R = g.R;
+  const Vec3& u = g.u;
+  const double m = A(3, 3);
+  const Vec3 hp = R * unskew(A.topRightCorner<3, 3>());
+  const Mat3 RI = R * A.topLeftCorner<3, 3>().selfadjointView<Eigen::Upper>() * R.transpose();
+  const Mat3 shift = (2.0 * hp.dot(u) + m * u.squaredNorm()) * Mat3::Identity() -
+                     (hp * u.transpose() + u * hp.transpose() + m * u * u.transpose());
+  const Mat3 H = skew(hp + m * u);
+  out.topLeftCorner<3, 3>() += RI + shift;
+  out.topRightCorner<3, 3>() += H;
+  out.bottomLeftCorner<3, 3>() -= H;
+  out.bottomRightCorner<3, 3>().diagonal().array() += m;
+}
+
 // Each column of the 6 x n force subspace F to the parent frame of g: F <- Ad*_g F (in place).
 template <class Cols>
 inline void coAd_cols(const SE3& g, Cols& F) {
@@ -86,6 +106,8 @@ void composite(const Model& m, Data& d, Mat6 Node::*field, MatX& out_M, Mat6& ou
   // a fixed subtree's composite is constant (Model::update_fixed_composites); only the inertia and
   // the drag have one
   Mat6 Node::*fixed = field == &Node::inertia ? &Node::inertia_sub : field == &Node::drag ? &Node::drag_sub : nullptr;
+  // inertias are rigid-body spatial inertias (Model::finalize checks): the cheaper congruence
+  auto congruence = field == &Node::inertia ? add_congruence_rigid : add_congruence_Ad_inv;
   // composite matrix in each node frame: Ic_i = A_i + sum_c Ad*_{g_ic} Ic_c Ad^-1_{g_ic}
   // (the nodes inside a fixed subtree are not visited: their Ic is left as it was)
   for (int i = nn - 1; i >= 0; --i) {
@@ -95,11 +117,11 @@ void composite(const Model& m, Data& d, Mat6 Node::*field, MatX& out_M, Mat6& ou
       continue;
     }
     Mat6 I = n.*field;
-    for (int c : children_of(m, i)) add_congruence_Ad_inv(d.g_rel[c], d.Ic[c], I);
+    for (int c : children_of(m, i)) congruence(d.g_rel[c], d.Ic[c], I);
     d.Ic[i] = I;
   }
   out_base.setZero();
-  for (int c : children_of(m, -1)) add_congruence_Ad_inv(d.g_rel[c], d.Ic[c], out_base);
+  for (int c : children_of(m, -1)) congruence(d.g_rel[c], d.Ic[c], out_base);
   out_M.setZero();
   out_F_base.setZero();
   // M = sum_a [S_a^T Ic_a S_a + sum_{b ancestor of a} (S_b^T F_ab + F_ab^T S_b)], F_ab = Ad*_{g_ba} Ic_a S_a.

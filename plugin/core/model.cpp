@@ -288,6 +288,15 @@ void Model::finalize() {
     for (int k = children_begin[i + 1]; k < children_begin[i + 2] && fixed; ++k) fixed = nodes[children[k]].fixed_subtree;
     nodes[i].fixed_subtree = fixed;
   }
+  for (const Node& n : nodes) {  // crba's congruence relies on the rigid-body form
+    const Mat6& I = n.inertia;
+    const double scale = 1e-12 * (1.0 + I.norm());
+    const Mat3 H = I.topRightCorner<3, 3>();
+    require((I.bottomRightCorner<3, 3>() - I(3, 3) * Mat3::Identity()).norm() <= scale &&
+                (H + H.transpose()).norm() <= scale && (I.bottomLeftCorner<3, 3>() + H).norm() <= scale &&
+                (I.topLeftCorner<3, 3>() - I.topLeftCorner<3, 3>().transpose()).norm() <= scale,
+            "internal: a node inertia is not a rigid-body spatial inertia");
+  }
   for (const Rod& rod : rods) {  // rod_node_at bisects: a rod's nodes are contiguous, X increasing
     const int a = sections[rod.first_section].first_node, b = sections[rod.first_section + rod.nsections - 1].end_node;
     for (int i = a + 1; i <= b; ++i)
