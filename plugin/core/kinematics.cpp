@@ -276,9 +276,16 @@ int section_jacobian(const Model& m, const Data& d, int r, double X, Mat6X& J, M
     for (int k = 0; k < nd; ++k)
       Jdot->col(k) = Ad_inv_apply(grel, Jdot->col(k)) - ad_apply(psi, AJ.col(k)) + Sd.col(k);
   };
-  // whole steps: the node's own pose, S and dS/dt from fwd_position and fwd_velocity
+  // whole steps: the node's own pose, S and dS/dt from fwd_position and fwd_velocity; without
+  // Jdot the group Jacobian of the last whole step holds them all already (a section's nodes are
+  // one group, Data::Jg)
   const int last = ps.full ? ps.node + 1 : ps.node;
-  for (int i = sec.first_node; i < last; ++i) advance(d.g_rel[i], d.S[i], d.Sdot[i]);
+  if (!Jdot && nd > 0 && last > sec.first_node) {
+    J = d.Jg[last - 1];
+    g = d.g_grp[last - 1];
+  } else {
+    for (int i = sec.first_node; i < last; ++i) advance(d.g_rel[i], d.S[i], d.Sdot[i]);
+  }
   if (!ps.full) {  // the last, partial step
     const Mat6 Dm = dexp(-ps.Om);
     if (S.cols() < nd) S.resize(6, nd);

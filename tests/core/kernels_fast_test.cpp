@@ -464,6 +464,20 @@ TEST(KernelsFast, GroupJacobiansEqualSectionJacobians) {
     ++checked;
   }
   EXPECT_GT(checked, 30);
+  // between nodes: section_jacobian without Jdot starts from the group Jacobian of the previous
+  // node, with Jdot it walks the section's steps: the same J and pose
+  for (const Section& sec : m.sections) {
+    for (double f : {0.0, 0.13, 0.5, 0.77, 1.0}) {
+      const double X = sec.X0 + f * sec.length;
+      const int si = static_cast<int>(&sec - m.sections.data());
+      Mat6X J1, J2, Jd2;
+      SE3 g1, g2;
+      section_jacobian(m, d, sec.rod, X, J1, nullptr, &g1, si);
+      section_jacobian(m, d, sec.rod, X, J2, &Jd2, &g2, si);
+      EXPECT_LT((J1 - J2).norm(), 1e-13 * (1 + J2.norm())) << si << " " << f;
+      EXPECT_LT((g1.u - g2.u).norm() + (g1.R - g2.R).norm(), 1e-13) << si << " " << f;
+    }
+  }
   const double eps = 1e-6;
   Data dp(m), dm(m);
   dp.q = d.q + eps * d.v;
