@@ -189,6 +189,7 @@ struct SimOptions {
   std::optional<Integrator> integrator;
   std::optional<int> newton;
   double newton_tol = 1e-6;
+  int newton_memory = 3;
   std::optional<double> rho;
 
   void add_to(CommandLine& c) {
@@ -204,6 +205,13 @@ struct SimOptions {
                                         "tolerance of the Newton corrections: h |delta a| <= TOL (|v| + h |a|), "
                                         "max norms over the dofs (default 1e-6)",
                                         newton_tol));
+    c.options.push_back({"--newton-memory", "M",
+                         "Anderson acceleration of the Newton corrections from the last M corrections, 0 <= M <= 4 "
+                         "(default 3; 0: plain simplified Newton with the step's frozen matrix)",
+                         [this](const std::string& v) {
+                           newton_memory = parse_int("--newton-memory", v, 0);
+                           if (newton_memory > 4) fail("--newton-memory: " + v + " is more than 4");
+                         }});
     c.options.push_back({"--rho", "R",
                          "genalpha: spectral radius at infinite frequency, 0 <= R <= 1 (default 0.8; 1: no damping of "
                          "stiff modes, the trapezoidal rule; 0: the most damping)",
@@ -251,6 +259,7 @@ class Simulation {
     integrator_ = o.integrator.value_or(scene_->integrator);
     if (o.newton) scene_->newton_iterations = *o.newton;
     scene_->newton_tol = o.newton_tol;
+    scene_->newton_memory = o.newton_memory;
     if (o.rho) scene_->rho_inf = *o.rho;
     data_ = std::make_unique<mj::SceneData>(*scene_);
     state.apply(*scene_, *data_);

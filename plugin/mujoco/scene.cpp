@@ -23,6 +23,7 @@
 namespace cosserat::mj {
 
 namespace {
+constexpr int kMaxNewtonMemory = 4;  // Scene::newton_memory is clamped to this
 
 using Vec3m = Eigen::Map<Vec3>;
 using Mat3r = Eigen::Matrix<double, 3, 3, Eigen::RowMajor>;  // MuJoCo's xmat layout
@@ -621,6 +622,10 @@ SceneData::SceneData(const Scene& s) {
     v->assign(nv, 0);
   newton.q0.assign(nq, 0);
   newton.q_end.assign(nq, 0);
+  newton.x_prev.assign(nv, 0);
+  newton.F_prev.assign(nv, 0);
+  newton.dX.assign(static_cast<size_t>(nv) * kMaxNewtonMemory, 0);
+  newton.dF.assign(static_cast<size_t>(nv) * kMaxNewtonMemory, 0);
   newton.act0.assign(na, 0);
   newton.act_dot0.assign(na, 0);
   fluid_qD.assign(s.fluid.active ? s.m->nM : 0, 0);
@@ -1018,6 +1023,82 @@ void set_end_state(const Scene& s, SceneData& sd, const Scheme& sc) {
   advance(s, sd, w.y.data());
 }
 
+// Anderson acceleration (type II) of the fixed-point iteration x <- x + F(x), x = w.A and
+// F = w.delta the plain correction at x: with the last differences dX, dF of iterates and
+// corrections, gamma = argmin |F - dF gamma| and the step becomes F - (dX + dF) gamma (replacing
+// w.delta). The history restarts when a correction grows (the extrapolation is then not trusted).
+// k: the iteration (0: no history yet); `stored`: columns in use, updated.
+void anderson_update(SceneData& sd, int nv, int memory, int k, int& stored) {
+  SceneData::NewtonScratch& w = sd.newton;
+  const mjtNum* x = w.A.data();
+  mjtNum* F = w.delta.data();
+  if (k == 0) {
+    stored = 0;
+  } else {
+    double fn = 0.0, fp = 0.0;
+    for (int i = 0; i < nv; ++i) {
+      fn += F[i] * F[i];
+      fp += w.F_prev[i] * w.F_prev[i];
+    }
+    if (fn > fp) {
+      stored = 0;
+    } else {  // shift the ring (oldest column out) and append the newest differences
+      const int keep = std::min(stored, memory - 1);
+      for (int c = 0; c < keep; ++c) {
+        std::copy(&w.dX[(stored - keep + c) * nv], &w.dX[(stored - keep + c + 1) * nv], &w.dX[c * nv]);
+        std::copy(&w.dF[(stored - keep + c) * nv], &w.dF[(stored - keep + c + 1) * nv], &w.dF[c * nv]);
+      }
+      for (int i = 0; i < nv; ++i) {
+        w.dX[keep * nv + i] = x[i] - w.x_prev[i];
+        w.dF[keep * nv + i] = F[i] - w.F_prev[i];
+      }
+      stored = keep + 1;
+    }
+  }
+  std::copy(x, x + nv, w.x_prev.begin());
+  std::copy(F, F + nv, w.F_prev.begin());
+  if (stored == 0) return;
+  // normal equations (dF^T dF + eps I) gamma = dF^T F, at most kMaxNewtonMemory unknowns
+  double G[kMaxNewtonMemory][kMaxNewtonMemory], b[kMaxNewtonMemory], gamma[kMaxNewtonMemory];
+  double trace = 0.0;
+  for (int a = 0; a < stored; ++a) {
+    b[a] = 0.0;
+    for (int i = 0; i < nv; ++i) b[a] += w.dF[a * nv + i] * F[i];
+    for (int c = 0; c <= a; ++c) {
+      double g = 0.0;
+      for (int i = 0; i < nv; ++i) g += w.dF[a * nv + i] * w.dF[c * nv + i];
+      G[a][c] = G[c][a] = g;
+    }
+    trace += G[a][a];
+  }
+  if (!(trace > 0.0)) return;
+  for (int a = 0; a < stored; ++a) G[a][a] += 1e-12 * trace;
+  // Cholesky in place (lower), then the two triangular solves
+  for (int a = 0; a < stored; ++a) {
+    for (int c = 0; c < a; ++c) {
+      double t = G[a][c];
+      for (int e = 0; e < c; ++e) t -= G[a][e] * G[c][e];
+      G[a][c] = t / G[c][c];
+    }
+    double t = G[a][a];
+    for (int e = 0; e < a; ++e) t -= G[a][e] * G[a][e];
+    if (!(t > 0.0)) return;  // numerically dependent history: plain correction
+    G[a][a] = std::sqrt(t);
+  }
+  for (int a = 0; a < stored; ++a) {
+    double t = b[a];
+    for (int e = 0; e < a; ++e) t -= G[a][e] * gamma[e];
+    gamma[a] = t / G[a][a];
+  }
+  for (int a = stored - 1; a >= 0; --a) {
+    double t = gamma[a];
+    for (int e = a + 1; e < stored; ++e) t -= G[e][a] * gamma[e];
+    gamma[a] = t / G[a][a];
+  }
+  for (int a = 0; a < stored; ++a)
+    for (int i = 0; i < nv; ++i) F[i] -= gamma[a] * (w.dX[a * nv + i] + w.dF[a * nv + i]);
+}
+
 // One step of the scheme by simplified Newton iterations: the first iterate is the linearised
 // step, each correction solves A_N delta = M r with the step's matrix
 //   A_N = M + c (cv1 h D + cq1 h^2 K),  c = (1 - af) / (1 - am),
@@ -1054,6 +1135,8 @@ bool newton_step(const Scene& s, SceneData& sd, const Scheme& sc, int iterations
   if (!be) set_end_state(s, sd, sc);
   bool converged = false;
   double first = 0.0;
+  const int memory = std::clamp(s.newton_memory, 0, kMaxNewtonMemory);
+  int stored = 0;  // Anderson history columns in use
   for (int k = 0; k < iterations; ++k) {
     forward(s, sd);  // at (q+, v+)
     ++sd.newton_stats.iterations;
@@ -1061,18 +1144,21 @@ bool newton_step(const Scene& s, SceneData& sd, const Scheme& sc, int iterations
       w.r[i] = ((1.0 - sc.af) * d->qacc[i] + sc.af * w.f0[i] - sc.am * w.A0[i]) / (1.0 - sc.am) - w.A[i];
     mj_mulM(m, d, w.y.data(), w.r.data());
     solve_implicit(s, sd, w.delta.data(), w.y.data());
+    // the plain correction's size decides convergence; the state is then the corrected iterate
     double dmax = 0.0, vmax = 0.0, amax = 0.0;
     for (int i = 0; i < nv; ++i) {
-      w.A[i] += w.delta[i];
       dmax = std::max(dmax, std::abs(w.delta[i]));
-      const double av = sc.cv0 * w.A0[i] + sc.cv1 * w.A[i];
+      const double av = sc.cv0 * w.A0[i] + sc.cv1 * (w.A[i] + w.delta[i]);
       amax = std::max(amax, std::abs(av));
       vmax = std::max(vmax, std::abs(w.v0[i] + h * av));
     }
-    set_end_state(s, sd, sc);
     const double norm = h * sc.cv1 * dmax;
+    const bool done = !std::isfinite(norm) || norm <= s.newton_tol * (vmax + h * amax) + 1e-12;
+    if (memory > 0 && !done) anderson_update(sd, nv, memory, k, stored);
+    for (int i = 0; i < nv; ++i) w.A[i] += w.delta[i];  // delta: the (accelerated) correction
+    set_end_state(s, sd, sc);
     if (!std::isfinite(norm)) break;
-    if (norm <= s.newton_tol * (vmax + h * amax) + 1e-12) {
+    if (done) {
       converged = true;
       break;
     }

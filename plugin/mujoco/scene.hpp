@@ -75,6 +75,11 @@ struct Scene {
   // as 1). See step().
   int newton_iterations = -1;
   double newton_tol = 1e-6;
+  // Anderson acceleration of the Newton corrections: the last `newton_memory` (at most 4)
+  // corrections and their changes extrapolate the next iterate (a multisecant update of the frozen
+  // matrix, which misses the configuration dependence of the mass matrix and the geometric
+  // stiffness). 0: plain simplified Newton.
+  int newton_memory = 3;
   double rho_inf = 0.8;  // generalized alpha: spectral radius at infinite frequency, in [0, 1]
   int newton_for(Integrator method) const {
     if (newton_iterations >= 0) return newton_iterations;
@@ -112,6 +117,9 @@ struct SceneData {
     bool carry_valid = false;
     std::vector<mjtNum> q_end, v_end;
     double t_end = 0.0;
+    // Anderson acceleration: the previous iterate and correction, and the last differences of
+    // iterates and corrections (columns of nv, ring buffers of Scene::newton_memory columns)
+    std::vector<mjtNum> x_prev, F_prev, dX, dF;
   } newton;
   struct NewtonStats {  // totals since construction (Scene::newton_iterations > 0)
     long iterations = 0;   // corrections (each one forward evaluation)

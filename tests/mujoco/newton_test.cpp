@@ -212,4 +212,36 @@ TEST(Newton, UnconvergedStepsSplit) {
   EXPECT_LT(max_abs_diff(split, full), 1e-2 * scale);
 }
 
+// Anderson acceleration (Scene::newton_memory) extrapolates the corrections of the frozen-matrix
+// Newton iteration: on the undamped cantilever at 5 ms (E = 1e7, L/r = 100) over 20 s it needs
+// about a sixth fewer corrections for the same tolerance (the first seconds converge in 3-4
+// corrections either way: it gains where the steps are hard), and with a tight tolerance both
+// reach the same solution.
+TEST(Newton, AndersonAccelerationCutsCorrections) {
+  struct Out {
+    std::vector<double> q;
+    long iterations;
+  };
+  auto run = [](int memory, double tol, int steps) {
+    auto s = load_scene_string(R"(<mujoco><option timestep="0.005" gravity="0 0 -9.81"/><worldbody>
+      <cosserat name="rod" pos="0 0 1" length="0.5" sections="4" strain="kl" radius="0.005" density="1000"
+                young="1e7" poisson="0.5" viscosity="0"/></worldbody></mujoco>)",
+                               kPath);
+    s->newton_memory = memory;
+    s->newton_tol = tol;
+    s->newton_iterations = 50;
+    SceneData sd(*s);
+    for (int k = 0; k < steps; ++k) EXPECT_EQ(step(*s, sd, Integrator::Trapezoidal), Status::Ok);
+    EXPECT_EQ(sd.newton_stats.splits, 0);
+    return Out{qpos(sd, s->m->nq), sd.newton_stats.iterations};
+  };
+  const Out plain = run(0, 1e-6, 4000), accelerated = run(3, 1e-6, 4000);
+  std::printf("corrections over 4000 steps: plain %ld, Anderson(3) %ld\n", plain.iterations, accelerated.iterations);
+  EXPECT_LT(accelerated.iterations, 0.9 * plain.iterations);
+  const Out a = run(0, 1e-11, 100), b = run(3, 1e-11, 100);
+  double scale = 0.0;
+  for (double x : a.q) scale = std::max(scale, std::abs(x));
+  EXPECT_LT(max_abs_diff(a.q, b.q), 1e-8 * scale);
+}
+
 }  // namespace
