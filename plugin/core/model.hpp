@@ -76,6 +76,7 @@ struct Node {
   // them (Model::update_fixed_composites: call it again after editing inertia or drag), and crba,
   // fluid_damping and rnea use them instead of visiting the subtree.
   bool fixed_subtree = false;
+  Mat6 inertia_sub = Mat6::Zero(), drag_sub = Mat6::Zero();  // those composites, in this frame
   // First node of this node's group: a run of nodes sharing one dof block, each the parent of the
   // next (the steps of one rod section). A node without dofs, or one that does not continue its
   // parent's block, starts its own group. Set by finalize().
@@ -84,7 +85,6 @@ struct Node {
   // offset): fwd_position and fwd_velocity copy its step (Omega, g_rel, S, Sdot) instead of
   // recomputing the exponential and its tangents. -1: none. Set by finalize().
   int same_step = -1;
-  Mat6 inertia_sub = Mat6::Zero(), drag_sub = Mat6::Zero();
   double dX = 0.0;        // rod length this node stands for in quadratures (0 for non-rod nodes)
   bool free_joint = false;  // a 6-dof free joint (floating base): no static equilibrium
   int rod = -1, section = -1;
