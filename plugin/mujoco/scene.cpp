@@ -391,9 +391,10 @@ int point_correction(const Scene& s, const SceneData& sd, int r, int si, double 
   const RodBinding& rb = s.rods[r];
   const cosserat::Data& rd = sd.rod[r];
   thread_local Mat6X J;  // scratch: no heap memory once sized
-  section_jacobian(rb.model, rd, 0, X, J, nullptr, nullptr, si);
+  SE3 g_start_X;
+  section_jacobian(rb.model, rd, 0, X, J, nullptr, &g_start_X, si);
   const Section& sec = rb.model.sections[si];
-  const SE3 gX = rod_pose(rb.model, rd, 0, X);
+  const SE3 gX = anchor_pose(rd, sec.start_node) * g_start_X;  // the section starts at its start node
   const mjtNum* c = d->subtree_com + 3 * s.m->body_rootid[rb.proxy_body[si]];
   const Vec3 pc = p - Vec3(c[0], c[1], c[2]), r_w = p - gX.u;
   dJ.resize(6, sec.ndof);
