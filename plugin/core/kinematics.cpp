@@ -68,11 +68,12 @@ void group_jacobian_dot(const Model& m, Data& d) {
       d.Jgdot[i] = d.Sdot[i];
       continue;
     }
-    // d/dt (Ad^-1 Jg_p) = Ad^-1 Jgdot_p - ad_psi Ad^-1 Jg_p, psi = S v the step's own twist
+    // d/dt (Ad^-1 Jg_p) = Ad^-1 Jgdot_p - ad_psi Ad^-1 Jg_p, psi = S v the step's own twist, and
+    // Ad^-1 Jg_p = Jg_i - S_i (fwd_position)
     const Vec6 psi = d.S[i] * d.v.segment(n.dof0, n.ndof);
-    const Mat6X &Jp = d.Jg[n.parent], &Jdp = d.Jgdot[n.parent];
+    const Mat6X& Jdp = d.Jgdot[n.parent];
     for (int k = 0; k < n.ndof; ++k)
-      d.Jgdot[i].col(k) = Ad_inv_apply(d.g_rel[i], Jdp.col(k)) - ad_apply(psi, Ad_inv_apply(d.g_rel[i], Jp.col(k))) +
+      d.Jgdot[i].col(k) = Ad_inv_apply(d.g_rel[i], Jdp.col(k)) - ad_apply(psi, d.Jg[i].col(k) - d.S[i].col(k)) +
                           d.Sdot[i].col(k);
   }
 }
