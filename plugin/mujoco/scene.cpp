@@ -16,6 +16,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <limits>
 
 #include "dynamics.hpp"
 #include "kinematics.hpp"
@@ -1033,71 +1034,42 @@ void anderson_update(SceneData& sd, int nv, int memory, int k, int& stored) {
   SceneData::NewtonScratch& w = sd.newton;
   const mjtNum* x = w.A.data();
   mjtNum* F = w.delta.data();
+  mjtNum* dX = w.dX.data();
+  mjtNum* dF = w.dF.data();
   if (k == 0) {
     stored = 0;
-  } else {
-    double fn = 0.0, fp = 0.0;
-    for (int i = 0; i < nv; ++i) {
-      fn += F[i] * F[i];
-      fp += w.F_prev[i] * w.F_prev[i];
+  } else if (mju_dot(F, F, nv) > mju_dot(w.F_prev.data(), w.F_prev.data(), nv)) {
+    stored = 0;
+  } else {  // shift the ring (oldest column out) and append the newest differences
+    const int keep = std::min(stored, memory - 1);
+    if (stored > keep) {  // std::copy: the target range starts before the source (they overlap)
+      std::copy(dX + (stored - keep) * nv, dX + stored * nv, dX);
+      std::copy(dF + (stored - keep) * nv, dF + stored * nv, dF);
     }
-    if (fn > fp) {
-      stored = 0;
-    } else {  // shift the ring (oldest column out) and append the newest differences
-      const int keep = std::min(stored, memory - 1);
-      for (int c = 0; c < keep; ++c) {
-        std::copy(&w.dX[(stored - keep + c) * nv], &w.dX[(stored - keep + c + 1) * nv], &w.dX[c * nv]);
-        std::copy(&w.dF[(stored - keep + c) * nv], &w.dF[(stored - keep + c + 1) * nv], &w.dF[c * nv]);
-      }
-      for (int i = 0; i < nv; ++i) {
-        w.dX[keep * nv + i] = x[i] - w.x_prev[i];
-        w.dF[keep * nv + i] = F[i] - w.F_prev[i];
-      }
-      stored = keep + 1;
-    }
+    mju_sub(dX + keep * nv, x, w.x_prev.data(), nv);
+    mju_sub(dF + keep * nv, F, w.F_prev.data(), nv);
+    stored = keep + 1;
   }
   std::copy(x, x + nv, w.x_prev.begin());
   std::copy(F, F + nv, w.F_prev.begin());
   if (stored == 0) return;
   // normal equations (dF^T dF + eps I) gamma = dF^T F, at most kMaxNewtonMemory unknowns
-  double G[kMaxNewtonMemory][kMaxNewtonMemory], b[kMaxNewtonMemory], gamma[kMaxNewtonMemory];
+  mjtNum G[kMaxNewtonMemory * kMaxNewtonMemory], b[kMaxNewtonMemory], gamma[kMaxNewtonMemory];
   double trace = 0.0;
-  for (int a = 0; a < stored; ++a) {
-    b[a] = 0.0;
-    for (int i = 0; i < nv; ++i) b[a] += w.dF[a * nv + i] * F[i];
-    for (int c = 0; c <= a; ++c) {
-      double g = 0.0;
-      for (int i = 0; i < nv; ++i) g += w.dF[a * nv + i] * w.dF[c * nv + i];
-      G[a][c] = G[c][a] = g;
-    }
-    trace += G[a][a];
+  for (int r = 0; r < stored; ++r) {
+    b[r] = mju_dot(dF + r * nv, F, nv);
+    for (int c = 0; c <= r; ++c) G[r * stored + c] = G[c * stored + r] = mju_dot(dF + r * nv, dF + c * nv, nv);
+    trace += G[r * stored + r];
   }
   if (!(trace > 0.0)) return;
-  for (int a = 0; a < stored; ++a) G[a][a] += 1e-12 * trace;
-  // Cholesky in place (lower), then the two triangular solves
-  for (int a = 0; a < stored; ++a) {
-    for (int c = 0; c < a; ++c) {
-      double t = G[a][c];
-      for (int e = 0; e < c; ++e) t -= G[a][e] * G[c][e];
-      G[a][c] = t / G[c][c];
-    }
-    double t = G[a][a];
-    for (int e = 0; e < a; ++e) t -= G[a][e] * G[a][e];
-    if (!(t > 0.0)) return;  // numerically dependent history: plain correction
-    G[a][a] = std::sqrt(t);
+  for (int r = 0; r < stored; ++r) G[r * stored + r] += 1e-12 * trace;
+  // a numerically dependent history (a pivot not above 0): the plain correction
+  if (mju_cholFactor(G, stored, std::numeric_limits<mjtNum>::min()) < stored) return;
+  mju_cholSolve(gamma, G, b, stored);
+  for (int r = 0; r < stored; ++r) {
+    mju_addToScl(F, dX + r * nv, -gamma[r], nv);
+    mju_addToScl(F, dF + r * nv, -gamma[r], nv);
   }
-  for (int a = 0; a < stored; ++a) {
-    double t = b[a];
-    for (int e = 0; e < a; ++e) t -= G[a][e] * gamma[e];
-    gamma[a] = t / G[a][a];
-  }
-  for (int a = stored - 1; a >= 0; --a) {
-    double t = gamma[a];
-    for (int e = a + 1; e < stored; ++e) t -= G[e][a] * gamma[e];
-    gamma[a] = t / G[a][a];
-  }
-  for (int a = 0; a < stored; ++a)
-    for (int i = 0; i < nv; ++i) F[i] -= gamma[a] * (w.dX[a * nv + i] + w.dF[a * nv + i]);
 }
 
 // One step of the scheme by simplified Newton iterations: the first iterate is the linearised
