@@ -17,6 +17,12 @@ ChildRange children_of(const Model& m, int p) {
   return {m.children.data() + m.children_begin[p + 1], m.children.data() + m.children_begin[p + 2]};
 }
 
+// A node below the root of a fixed subtree (Node::fixed_subtree): it moves rigidly with that root,
+// whose cached composites stand for it.
+bool inside_fixed_subtree(const Model& m, const Node& n) {
+  return n.fixed_subtree && n.parent >= 0 && m.nodes[n.parent].fixed_subtree;
+}
+
 // M U with U = u~ (row by row: (M U)_i = (m_i x u)^T, m_i the i-th row of M).
 inline Mat3 mul_skew(const Mat3& M, const Vec3& u) {
   Mat3 r;
@@ -113,7 +119,7 @@ void composite(const Model& m, Data& d, Mat6 Node::*field, MatX& out_M, Mat6& ou
   for (int i = nn - 1; i >= 0; --i) {
     const Node& n = m.nodes[i];
     if (fixed && n.fixed_subtree) {
-      if (n.parent < 0 || !m.nodes[n.parent].fixed_subtree) d.Ic[i] = n.*fixed;
+      if (!inside_fixed_subtree(m, n)) d.Ic[i] = n.*fixed;
       continue;
     }
     Mat6 I = n.*field;
@@ -184,7 +190,7 @@ void rnea(const Model& m, Data& d, const Eigen::Ref<const VecX>& qacc, bool grav
   for (int i = 0; i < nn; ++i) {
     const Node& n = m.nodes[i];
     Vec6 f = Vec6::Zero();
-    if (n.fixed_subtree && n.parent >= 0 && m.nodes[n.parent].fixed_subtree) {
+    if (inside_fixed_subtree(m, n)) {
       // inside a fixed subtree: its root carries the subtree's inertia; only loads remain here
     } else {
       Vec6 a = Ad_inv_apply(d.g_rel[i], n.parent < 0 ? a0 : d.acc[n.parent]) + d.cbias[i];
