@@ -2,12 +2,14 @@
 //
 // The step is MuJoCo's own pipeline, stage by stage, with the rod patches in between:
 //   position: kinematics | patch poses | comPos | patch cdof | camlight | tendon | patch ten_J |
-//             crb | patch qM | fluid damping | factorM | collision | makeConstraint |
-//             patch contact rows | transmission | projectConstraint
+//             crb | patch qM | fluid damping | collision | makeConstraint |
+//             patch contact rows | transmission | factorM | projectConstraint
 //   velocity: ten/actuator velocity | comVel | patch cdof_dot | passive | referenceConstraint |
 //             rne | patch bias (+ rod elastic and damping forces) | fluid forces
 //   then actuation, acceleration, constraint, and an integrator of ours (the fluid's damping
-//   implicit in euler and implicit: scene_fluid.hpp).
+//   implicit in euler and implicit: scene_fluid.hpp). The implicit steps need only the forces:
+//   without constraint rows and acceleration sensors they skip factorM, the acceleration and the
+//   constraint stages (Need::Forces), one factorisation of M per evaluation less.
 // Rod inertia enters as an articulated subtree on the rod's parent body: the core provides the
 // rod block of M, the base-frame force subspace F_base and the composite inertia Ic_base, which
 // are projected on the parent's dofs through the parent's Jacobian (from MuJoCo's cdof).
@@ -646,7 +648,30 @@ SceneData::~SceneData() {
   if (d) mj_deleteData(d);
 }
 
-void fwd_position(const Scene& s, SceneData& sd) {
+namespace {
+// Sensors MuJoCo evaluates at the acceleration stage (they read qacc or cacc).
+bool has_acceleration_sensors(const mjModel* m) {
+  if (m->opt.disableflags & mjDSBL_SENSOR) return false;
+  for (int i = 0; i < m->nsensor; ++i)
+    if (m->sensor_needstage[i] == mjSTAGE_ACC) return true;
+  return false;
+}
+
+// MuJoCo 2.2.2's mj_fwdAcceleration without its solve for qacc_smooth: qfrc_smooth = passive -
+// bias + applied + actuator forces and the bodies' xfrc_applied (mj_xfrcAccumulate, not exported,
+// applies them at the bodies' centres of mass with mj_applyFT).
+void smooth_forces(const mjModel* m, mjData* d) {
+  const int nv = m->nv;
+  mju_sub(d->qfrc_smooth, d->qfrc_passive, d->qfrc_bias, nv);
+  mju_addTo(d->qfrc_smooth, d->qfrc_applied, nv);
+  mju_addTo(d->qfrc_smooth, d->qfrc_actuator, nv);
+  for (int b = 1; b < m->nbody; ++b)
+    if (!mju_isZero(d->xfrc_applied + 6 * b, 6))
+      mj_applyFT(m, d, d->xfrc_applied + 6 * b, d->xfrc_applied + 6 * b + 3, d->xipos + 3 * b, b, d->qfrc_smooth);
+}
+}  // namespace
+
+void fwd_position(const Scene& s, SceneData& sd, Need need) {
   const mjModel* m = s.m;
   mjData* d = sd.d;
   mj_kinematics(m, d);
@@ -659,11 +684,15 @@ void fwd_position(const Scene& s, SceneData& sd) {
   mj_crb(m, d);
   for (size_t r = 0; r < s.rods.size(); ++r) patch_qM(s, sd, static_cast<int>(r));
   fluid_damping(s, sd);  // fluid hook: damping matrix (scene_fluid.hpp); no-op without the fluid
-  mj_factorM(m, d);
+  // (MuJoCo factorises M before the collisions; nothing up to the constraint projection reads
+  // the factor, so it waits until the constraint rows tell whether it is needed)
   mj_collision(m, d);
   mj_makeConstraint(m, d);
   if (d->ncon && !s.rods.empty()) patch_contacts(s, sd);
   mj_transmission(m, d);
+  sd.forces_only = need == Need::Forces && d->nefc == 0 && !has_acceleration_sensors(m);
+  if (sd.forces_only) return;
+  mj_factorM(m, d);
   mj_projectConstraint(m, d);
 }
 
@@ -684,14 +713,20 @@ void fwd_velocity(const Scene& s, SceneData& sd) {
   fluid_forces(s, sd);  // fluid hook: qfrc_passive -= D qvel; no-op without the fluid
 }
 
-void forward(const Scene& s, SceneData& sd) {
+void forward(const Scene& s, SceneData& sd, Need need) {
   const mjModel* m = s.m;
   mjData* d = sd.d;
-  fwd_position(s, sd);
+  fwd_position(s, sd, need);
   mj_sensorPos(m, d);
   fwd_velocity(s, sd);
   mj_sensorVel(m, d);
   mj_fwdActuation(m, d);
+  if (sd.forces_only) {  // no constraints, no acceleration sensors: the forces are all the step needs
+    smooth_forces(m, d);
+    mju_zero(d->qfrc_constraint, m->nv);
+    d->solver_iter = 0;
+    return;
+  }
   mj_fwdAcceleration(m, d);
   mj_fwdConstraint(m, d);
   mj_sensorAcc(m, d);
@@ -961,8 +996,12 @@ void implicit_step(const Scene& s, SceneData& sd, bool rods = true, double theta
   mjData* d = sd.d;
   const int nv = m->nv;
   const double th = theta * m->opt.timestep;
-  // rhs = M qacc - theta h K v
-  mj_mulM(m, d, sd.qacc_tmp.data(), d->qacc);
+  // rhs = M qacc - theta h K v (M qacc = qfrc_smooth when forward skipped the accelerations: there
+  // are no constraint forces then)
+  if (sd.forces_only)
+    mju_copy(sd.qacc_tmp.data(), d->qfrc_smooth, nv);
+  else
+    mj_mulM(m, d, sd.qacc_tmp.data(), d->qacc);
   if (rods)
     for (size_t r = 0; r < s.rods.size(); ++r) {
       const RodBinding& rb = s.rods[r];
@@ -1084,7 +1123,10 @@ bool newton_step(const Scene& s, SceneData& sd, const Scheme& sc, int iterations
   const int nq = m->nq, nv = m->nv, na = m->na;
   const double h = m->opt.timestep;
   SceneData::NewtonScratch& w = sd.newton;
-  forward(s, sd);
+  // backward Euler needs no acceleration at the start (only the other schemes' f(q, v) terms do).
+  // (cq1 = 1 alone does not tell: the generalized alpha with rho = 0 has it too.)
+  const bool be = sc.cq0 == 0.0 && sc.cq1 == 1.0 && sc.cv0 == 0.0 && sc.cv1 == 1.0 && sc.am == 0.0 && sc.af == 0.0;
+  forward(s, sd, be ? Need::Forces : Need::Acceleration);
   // the carried A0 is valid if the state is the one the previous step ended with
   const bool carried = sc.carry && w.carry_valid && w.t_end == d->time &&
                        std::equal(w.q_end.begin(), w.q_end.end(), d->qpos) &&
@@ -1093,12 +1135,14 @@ bool newton_step(const Scene& s, SceneData& sd, const Scheme& sc, int iterations
   std::copy(d->qvel, d->qvel + nv, w.v0.begin());
   std::copy(d->act, d->act + na, w.act0.begin());
   std::copy(d->act_dot, d->act_dot + na, w.act_dot0.begin());
-  std::copy(d->qacc, d->qacc + nv, w.f0.begin());
+  if (sd.forces_only)  // backward Euler without constraints: f(q, v) is not needed (af = am = 0)
+    std::fill(w.f0.begin(), w.f0.end(), 0.0);
+  else
+    std::copy(d->qacc, d->qacc + nv, w.f0.begin());
   if (!carried) std::copy(w.f0.begin(), w.f0.end(), w.A0.begin());
   w.t0 = d->time;
   // first iterate: the linearised step (backward Euler, or the trapezoidal rule whose average
   // acceleration a gives A = 2 a - f(q, v))
-  const bool be = sc.cq1 == 1.0;
   implicit_step(s, sd, true, be ? 1.0 : 0.5);
   for (int i = 0; i < nv; ++i) w.A[i] = be ? d->qacc[i] : 2.0 * d->qacc[i] - w.f0[i];
   const double c = (1.0 - sc.af) / (1.0 - sc.am);
@@ -1111,11 +1155,18 @@ bool newton_step(const Scene& s, SceneData& sd, const Scheme& sc, int iterations
   const int memory = std::clamp(s.newton_memory, 0, kMaxNewtonMemory);
   int stored = 0;  // Anderson history columns in use
   for (int k = 0; k < iterations; ++k) {
-    forward(s, sd);  // at (q+, v+)
+    forward(s, sd, Need::Forces);  // at (q+, v+)
     ++sd.newton_stats.iterations;
-    for (int i = 0; i < nv; ++i)
-      w.r[i] = ((1.0 - sc.af) * d->qacc[i] + sc.af * w.f0[i] - sc.am * w.A0[i]) / (1.0 - sc.am) - w.A[i];
-    mj_mulM(m, d, w.y.data(), w.r.data());
+    // y = M r, M at (q+, v+)
+    if (sd.forces_only) {  // M f(q+, v+) = qfrc_smooth (no constraints): M r = M z + c_f qfrc_smooth
+      for (int i = 0; i < nv; ++i) w.r[i] = (sc.af * w.f0[i] - sc.am * w.A0[i]) / (1.0 - sc.am) - w.A[i];
+      mj_mulM(m, d, w.y.data(), w.r.data());
+      mju_addToScl(w.y.data(), d->qfrc_smooth, (1.0 - sc.af) / (1.0 - sc.am), nv);
+    } else {
+      for (int i = 0; i < nv; ++i)
+        w.r[i] = ((1.0 - sc.af) * d->qacc[i] + sc.af * w.f0[i] - sc.am * w.A0[i]) / (1.0 - sc.am) - w.A[i];
+      mj_mulM(m, d, w.y.data(), w.r.data());
+    }
     solve_implicit(s, sd, w.delta.data(), w.y.data());
     // the plain correction's size decides convergence; the state is then the corrected iterate
     double dmax = 0.0, vmax = 0.0, amax = 0.0;
@@ -1232,18 +1283,20 @@ Status step(const Scene& s, SceneData& sd, Integrator method) {
   const double t = d->time;
   switch (method) {
     case Integrator::Euler:
-      forward(s, sd);
-      if (s.fluid.active)
+      if (s.fluid.active) {
+        forward(s, sd, Need::Forces);
         implicit_step(s, sd, false);  // fluid hook: MuJoCo's Euler plus the fluid's implicit damping
-      else
+      } else {
+        forward(s, sd);
         mj_Euler(m, d);
+      }
       break;
     case Integrator::Implicit:
       if (const int n = s.newton_for(method); n > 0) {
         newton_step_split(s, sd, backward_euler(), n);
         break;
       }
-      forward(s, sd);
+      forward(s, sd, Need::Forces);
       implicit_step(s, sd);
       break;
     case Integrator::RK4: rk4_step(s, sd); break;
@@ -1252,7 +1305,7 @@ Status step(const Scene& s, SceneData& sd, Integrator method) {
         newton_step_split(s, sd, trapezoidal_rule(), n);
         break;
       }
-      forward(s, sd);
+      forward(s, sd, Need::Forces);
       implicit_step(s, sd, true, 0.5);
       break;
     case Integrator::GeneralizedAlpha:

@@ -98,6 +98,9 @@ struct SceneData {
   std::vector<cosserat::Data> rod;  // per rod
   Status status = Status::Ok;
   std::string warning;              // last divergence message
+  // the last forward skipped M's factorisation and the accelerations (Need::Forces without
+  // constraints): d->qfrc_smooth holds the forces, d->qacc, d->qacc_smooth and d->qLD are stale
+  bool forces_only = false;
   // scratch (sized once)
   std::vector<mjtNum> tmp_nv, qacc_tmp, qpos_save, qvel_save, qM_save, qLD_save, qLDiagInv_save, qLDiagSqrtInv_save;
   std::vector<mjtNum> rk_q0, rk_v0, rk_a0, rk_kq, rk_kv, rk_ka, rk_dx;  // RK4 stages
@@ -135,9 +138,18 @@ struct SceneData {
 std::unique_ptr<Scene> load_scene(const std::string& path);
 std::unique_ptr<Scene> load_scene_string(const std::string& xml, const std::string& path);
 
+// What a forward evaluation must leave in mjData.
+//   Acceleration: everything MuJoCo's mj_forward computes, d->qacc = M^-1 (forces) included.
+//   Forces: the implicit steps need the forces only (their right-hand side is M qacc = qfrc_smooth
+//     + qfrc_constraint). When the scene then has no constraint rows (nefc = 0) and no sensor of the
+//     acceleration stage, the factorisation of M and the solves for qacc_smooth and qacc are
+//     skipped: d->qLD, d->qacc_smooth and d->qacc are not computed (SceneData::forces_only).
+//     With constraints the constraint solver needs M's factor and nothing is skipped.
+enum class Need { Acceleration, Forces };
+
 // Staged MuJoCo pipeline with the rod patches: position, velocity, actuation, acceleration,
-// constraint solve. Leaves d->qacc as MuJoCo's forward would.
-void forward(const Scene& s, SceneData& sd);
+// constraint solve. With Need::Acceleration it leaves d->qacc as MuJoCo's forward would.
+void forward(const Scene& s, SceneData& sd, Need need = Need::Acceleration);
 // One time step with s.integrator (or `method`). Returns Diverged (and restores the state) when
 // the state goes non-finite. Euler and Implicit treat the fluid's damping implicitly (as joint
 // damping); with the plugin's fluid inactive, Euler is MuJoCo's mj_Euler. Implicit also treats
@@ -175,7 +187,7 @@ Vec6 rod_strain(const Scene& s, const SceneData& sd, int rod, double X);
 void recompute_invweight0(Scene& s);
 
 // Lower-level stages (exposed for tests and for the static solver).
-void fwd_position(const Scene& s, SceneData& sd);
+void fwd_position(const Scene& s, SceneData& sd, Need need = Need::Acceleration);
 void fwd_velocity(const Scene& s, SceneData& sd);
 
 }  // namespace cosserat::mj

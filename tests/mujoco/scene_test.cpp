@@ -472,3 +472,105 @@ TEST(Scene, RigidSectionPlacementsFollowTheRod) {
 }
 
 }  // namespace
+
+namespace {
+
+// --- the implicit steps without the accelerations (Need::Forces, SceneData::forces_only) ---
+
+// A rod on a motorised hinge, with viscosity, a tip weight pushed by xfrc_applied and no contact;
+// `accelerometer` adds a sensor of the acceleration stage, which makes forward compute them.
+std::string forces_only_xml(bool accelerometer) {
+  return std::string(R"(<mujoco>
+  <option timestep="0.002" gravity="0 0 -9.81"/>
+  <worldbody>
+    <body name="hub" pos="0 0 1">
+      <joint name="h" type="hinge" axis="0 1 0.2" damping="0.01"/>
+      <geom type="sphere" size="0.03" mass="0.1" contype="0" conaffinity="0"/>
+      <cosserat name="rod" length="0.4" sections="3" strain="kl" radius="0.01" density="1000"
+                young="1e6" poisson="0.5" viscosity="5" contype="0" conaffinity="0">
+        <site name="mid" at="0.2"/>
+        <body name="weight" pos="0.02 0 0"><geom type="sphere" size="0.02" mass="0.05" contype="0" conaffinity="0"/></body>
+      </cosserat>
+    </body>
+  </worldbody>
+  <actuator><velocity joint="h" kv="0.5"/></actuator>)") +
+         (accelerometer ? "<sensor><accelerometer site=\"mid\"/></sensor>" : "") + "</mujoco>";
+}
+
+void push_weight(const Scene& s, SceneData& sd) {
+  const int b = mj_name2id(s.m, mjOBJ_BODY, "weight");
+  const double w[6] = {0.1, -0.2, 0.05, 0.003, 0.01, -0.002};
+  std::copy(w, w + 6, sd.d->xfrc_applied + 6 * b);
+  sd.d->ctrl[0] = 2.0;
+}
+
+// forward(Need::Forces) skips the accelerations only where nothing needs them, and its
+// qfrc_smooth (computed without MuJoCo's mj_fwdAcceleration) is MuJoCo's.
+TEST(Scene, ForcesOnlyForwardGivesMujocosSmoothForces) {
+  auto s = load_scene_string(forces_only_xml(false), kPath);
+  SceneData sd(*s);
+  const int nv = s->m->nv;
+  for (int i = 0; i < nv; ++i) sd.d->qvel[i] = 0.3 * std::sin(1.7 * i + 0.2);
+  sd.d->qpos[0] = 0.4;
+  push_weight(*s, sd);
+  forward(*s, sd, Need::Forces);
+  ASSERT_TRUE(sd.forces_only) << "no constraint, no acceleration sensor: the accelerations are not needed";
+  const std::vector<double> f(sd.d->qfrc_smooth, sd.d->qfrc_smooth + nv);
+  forward(*s, sd);
+  EXPECT_FALSE(sd.forces_only);
+  double scale = 0.0, err = 0.0;
+  for (int i = 0; i < nv; ++i) {
+    scale = std::max(scale, std::abs(sd.d->qfrc_smooth[i]));
+    err = std::max(err, std::abs(sd.d->qfrc_smooth[i] - f[i]));
+  }
+  EXPECT_GT(scale, 0.0);
+  EXPECT_LE(err, 1e-14 * scale);
+
+  // an acceleration-stage sensor needs qacc: nothing is skipped
+  auto sa = load_scene_string(forces_only_xml(true), kPath);
+  SceneData sda(*sa);
+  forward(*sa, sda, Need::Forces);
+  EXPECT_FALSE(sda.forces_only);
+}
+
+// Steps that skip the accelerations equal those that compute them (the scene with the sensor),
+// for every scheme that solves with the implicit matrix: the linearised implicit and trapezoidal
+// steps and the Newton iterations of backward Euler, the trapezoidal rule and the generalized alpha.
+TEST(Scene, StepsWithoutAccelerationsEqualTheFullPipeline) {
+  struct Case {
+    Integrator it;
+    int newton;
+    double rho;
+  };
+  for (const Case c : {Case{Integrator::Implicit, 0, 0.8}, Case{Integrator::Trapezoidal, 0, 0.8},
+                       Case{Integrator::Implicit, 10, 0.8}, Case{Integrator::Trapezoidal, 10, 0.8},
+                       Case{Integrator::GeneralizedAlpha, 10, 0.8}, Case{Integrator::GeneralizedAlpha, 10, 0.0}}) {
+    std::vector<double> q[2];
+    bool skipped[2] = {false, false};
+    for (int with_sensor = 0; with_sensor < 2; ++with_sensor) {
+      auto s = load_scene_string(forces_only_xml(with_sensor), kPath);
+      s->newton_iterations = c.newton;
+      s->rho_inf = c.rho;
+      SceneData sd(*s);
+      push_weight(*s, sd);
+      for (int k = 0; k < 200; ++k) {
+        ASSERT_EQ(step(*s, sd, c.it), Status::Ok);
+        skipped[with_sensor] = skipped[with_sensor] || sd.forces_only;
+      }
+      q[with_sensor].assign(sd.d->qpos, sd.d->qpos + s->m->nq);
+    }
+    SCOPED_TRACE("integrator " + std::to_string(static_cast<int>(c.it)) + ", newton " + std::to_string(c.newton) +
+                 ", rho " + std::to_string(c.rho));
+    EXPECT_TRUE(skipped[0]);
+    EXPECT_FALSE(skipped[1]);
+    double moved = 0.0, diff = 0.0;
+    for (size_t i = 0; i < q[0].size(); ++i) {
+      moved = std::max(moved, std::abs(q[1][i]));
+      diff = std::max(diff, std::abs(q[0][i] - q[1][i]));
+    }
+    EXPECT_GT(moved, 0.1);
+    EXPECT_LE(diff, 1e-9) << "skipping the accelerations changed the trajectory";
+  }
+}
+
+}  // namespace
