@@ -337,18 +337,23 @@ int cmd_run(int argc, char** argv) {
   SimOptions sim;
   StateOptions state;
   std::string csv, json_path;
-  int every = 1;
+  int every = 0;  // 0: the default, set once the run's length is known
   CommandLine cl{"run", "simulate a model from its initial state", {"MODEL.xml"}, {}, ""};
   sim.add_to(cl);
   state.add_to(cl);
   cl.options.push_back(text_option("--csv", "F", "write time,energy,<name>.x,<name>.y,<name>.z,... (sites, then bodies)", csv));
-  cl.options.push_back(int_option("--every", "N", "CSV rows every N steps (steps 0, N, 2N, ...; default 1)", every, 1));
+  cl.options.push_back(int_option("--every", "N",
+                                  "CSV rows and energy samples every N steps (steps 0, N, 2N, ... and the last; default: "
+                                  "1 with --csv, otherwise about 1000 samples per run). Each sample costs about one "
+                                  "step (a forward evaluation and the energy)",
+                                  every, 1));
   cl.options.push_back(text_option("--json", "F", "write a JSON report ('-': stdout)", json_path));
   cl.details = "Exit status 1 when the simulation diverges (the outputs cover the run up to there).\n";
   const auto pos = cl.parse(argc, argv);
   if (!pos) return 0;
 
   Simulation s(pos->front(), sim, state);
+  if (every == 0) every = csv.empty() ? static_cast<int>(std::max(1L, s.steps() / 1000)) : 1;
   const Outputs& out = s.outputs();
   std::ofstream f;
   if (!csv.empty()) {
