@@ -22,6 +22,7 @@
 
 #include "dynamics.hpp"
 #include "kinematics.hpp"
+#include "tree_ldl.hpp"
 
 namespace cosserat::mj {
 
@@ -610,9 +611,6 @@ SceneData::SceneData(const Scene& s) {
   qpos_save.assign(nq, 0);
   qvel_save.assign(nv, 0);
   qM_save.assign(s.m->nM, 0);
-  qLD_save.assign(s.m->nM, 0);
-  qLDiagInv_save.assign(nv, 0);
-  qLDiagSqrtInv_save.assign(nv, 0);
   rk_q0.assign(nq, 0);
   rk_v0.assign(nv, 0);
   rk_a0.assign(na, 0);
@@ -913,17 +911,14 @@ double actuator_force_velocity_derivative(const mjModel* m, const mjData* d, int
 // slide joints (velocity servos such as a flagellar motor are stiff dampers) and when `rods`;
 // actuators on other transmissions (tendons, sites, ball and free joints) stay explicit.
 // Assembled in MuJoCo's sparse qM (K and D live inside each section's dof chain, D_f in the
-// kinematic tree's pattern), after forward, and factorised with MuJoCo's own factorisation; the
-// factor is kept in sd.A_LD / sd.A_LDiagInv, and qM with its factor is restored (copies).
+// kinematic tree's pattern), after forward, and factorised as MuJoCo does (factor_ldl) into
+// sd.A_LD / sd.A_LDiagInv; qM is restored (a copy), MuJoCo's own factor is not touched.
 void factor_implicit(const Scene& s, SceneData& sd, bool rods, double cD, double cK) {
   const mjModel* m = s.m;
   mjData* d = sd.d;
   const double h = m->opt.timestep, hD = cD * h, hK = cK * h * h;
   const int nv = m->nv;
   std::copy(d->qM, d->qM + m->nM, sd.qM_save.begin());
-  std::copy(d->qLD, d->qLD + m->nM, sd.qLD_save.begin());
-  std::copy(d->qLDiagInv, d->qLDiagInv + nv, sd.qLDiagInv_save.begin());
-  std::copy(d->qLDiagSqrtInv, d->qLDiagSqrtInv + nv, sd.qLDiagSqrtInv_save.begin());
   for (int i = 0; i < nv; ++i) d->qM[m->dof_Madr[i]] += hD * m->dof_damping[i];
   if (rods && !(m->opt.disableflags & mjDSBL_ACTUATION))
     for (int a = 0; a < m->nu; ++a) {
@@ -946,24 +941,13 @@ void factor_implicit(const Scene& s, SceneData& sd, bool rods, double cD, double
           if (a != 0.0) d->qM[m->dof_Madr[rb.dof0 + i] + (i - j)] += a;
         }
   add_fluid_damping(s, sd, hD);  // fluid hook: + cD h D_f (no-op without the fluid)
-  mj_factorM(m, d);
-  std::copy(d->qLD, d->qLD + m->nM, sd.A_LD.begin());
-  std::copy(d->qLDiagInv, d->qLDiagInv + nv, sd.A_LDiagInv.begin());
+  factor_ldl(m, d, d->qM, sd.A_LD.data(), sd.A_LDiagInv.data());
   std::copy(sd.qM_save.begin(), sd.qM_save.end(), d->qM);
-  std::copy(sd.qLD_save.begin(), sd.qLD_save.end(), d->qLD);
-  std::copy(sd.qLDiagInv_save.begin(), sd.qLDiagInv_save.end(), d->qLDiagInv);
-  std::copy(sd.qLDiagSqrtInv_save.begin(), sd.qLDiagSqrtInv_save.end(), d->qLDiagSqrtInv);
 }
 
-// x = A^-1 y with the factor of factor_implicit (swapped into mjData for mj_solveM, MuJoCo's only
-// public LDL^T solve, then swapped back).
+// x = A^-1 y with the factor of factor_implicit.
 void solve_implicit(const Scene& s, SceneData& sd, mjtNum* x, const mjtNum* y) {
-  mjData* d = sd.d;
-  std::swap_ranges(sd.A_LD.begin(), sd.A_LD.end(), d->qLD);
-  std::swap_ranges(sd.A_LDiagInv.begin(), sd.A_LDiagInv.end(), d->qLDiagInv);
-  mj_solveM(s.m, d, x, y, 1);
-  std::swap_ranges(sd.A_LD.begin(), sd.A_LD.end(), d->qLD);
-  std::swap_ranges(sd.A_LDiagInv.begin(), sd.A_LDiagInv.end(), d->qLDiagInv);
+  solve_ldl(s.m, sd.A_LD.data(), sd.A_LDiagInv.data(), x, y);
 }
 
 // The state update q+ = q + h (v + h aq), v+ = v + h av, act+ = act + h act_dot, time + h, with aq
