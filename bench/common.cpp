@@ -60,10 +60,18 @@ json machine_info() {
   j["compiler"] = std::string("gcc ") + __VERSION__;
 #endif
 #ifdef NDEBUG
-  j["build"] = "release (NDEBUG)";
+  std::string build = "release (NDEBUG)";
 #else
-  j["build"] = "debug (assertions on)";
+  std::string build = "debug (assertions on)";
 #endif
+  // the instruction set our code was compiled for (COSSERAT_NATIVE); MuJoCo is the distribution's
+  // library, compiled for the baseline of its architecture
+#if defined(__AVX2__) && defined(__FMA__)
+  build += ", our code with AVX2 and FMA (x86-64-v3), MuJoCo as packaged";
+#else
+  build += ", our code for the baseline instruction set, MuJoCo as packaged";
+#endif
+  j["build"] = build;
   j["mujoco"] = mj_versionString();
   j["eigen"] = std::to_string(EIGEN_WORLD_VERSION) + "." + std::to_string(EIGEN_MAJOR_VERSION) + "." +
                std::to_string(EIGEN_MINOR_VERSION);

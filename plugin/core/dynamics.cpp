@@ -248,7 +248,8 @@ double cable_integral(const Model& m, const Data& d, int c, double s, Eigen::Ref
     if (out && tn > 0) {
       const Vec3 t = tv / tn;
       Vec6 Fa;  // DESIGN.md section 5: F_a = [d~ t; t] per unit tension
-      Fa << dX.cross(t), t;
+      Fa.head<3>() = dX.cross(t);
+      Fa.tail<3>() = t;
       for (int col = 0; col < sec.B.cols(); ++col) {
         const double bf = sec.B.col(col).dot(Fa);
         for (int k = 0; k < nb; ++k) (*out)(sec.dof0 + col * nb + k) += s * pt.w * bf * P[k];
@@ -272,7 +273,8 @@ void add_rod_point_wrench(const Model& m, const Data& d, int rod, double X, cons
   rod_jacobian(m, d, rod, X, J);
   const Mat3 Rt = rod_pose(m, d, rod, X).R.transpose();
   Vec6 F;
-  F << Rt * moment, Rt * force;
+  F.head<3>() = Rt * moment;
+  F.tail<3>() = Rt * force;
   tau.noalias() += J.transpose() * F;
 }
 

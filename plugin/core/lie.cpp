@@ -212,7 +212,8 @@ Mat4 hat(const Vec6& xi) {
 
 Vec6 vee(const Mat4& X) {
   Vec6 v;
-  v << unskew(X.topLeftCorner<3, 3>()), X.topRightCorner<3, 1>();
+  v.head<3>() = unskew(X.topLeftCorner<3, 3>());
+  v.tail<3>() = X.topRightCorner<3, 1>();
   return v;
 }
 
@@ -267,7 +268,8 @@ Vec6 log_se3(const SE3& g) {
   const Mat3 K = skew(k);
   const Mat3 V = Mat3::Identity() + lc::a2(tk) * K + lc::a3(tk) * K * K;
   Vec6 out;
-  out << k, V.partialPivLu().solve(g.u);
+  out.head<3>() = k;
+  out.tail<3>() = V.partialPivLu().solve(g.u);
   return out;
 }
 

@@ -408,7 +408,8 @@ int point_correction(const Scene& s, const SceneData& sd, int r, int si, double 
     const mjtNum* cd = d->cdof + 6 * (rb.dof0 + sec.dof0 + k);
     const Vec3 wm(cd[0], cd[1], cd[2]);
     const Vec3 vm = Vec3(cd[3], cd[4], cd[5]) + wm.cross(pc);  // MuJoCo's: rigid with the proxy
-    dJ.col(k) << v - vm, w - wm;
+    dJ.col(k).head<3>() = v - vm;
+    dJ.col(k).tail<3>() = w - wm;
   }
   return rb.dof0 + sec.dof0;
 }
