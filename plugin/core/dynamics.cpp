@@ -65,7 +65,10 @@ void add_congruence_rigid(const SE3& g, const Mat6& A, Mat6& out) {
   const Vec3& u = g.u;
   const double m = A(3, 3);
   const Vec3 hp = R * unskew(A.topRightCorner<3, 3>());
-  const Mat3 RI = R * A.topLeftCorner<3, 3>().selfadjointView<Eigen::Upper>() * R.transpose();
+  // (the symmetric block made dense first: a product with a selfadjointView takes Eigen's general
+  // GEMM kernel, a hundred times the cost of the fixed-size 3 x 3 product)
+  const Mat3 I = A.topLeftCorner<3, 3>().selfadjointView<Eigen::Upper>();
+  const Mat3 RI = R * I * R.transpose();
   const Mat3 shift = (2.0 * hp.dot(u) + m * u.squaredNorm()) * Mat3::Identity() -
                      (hp * u.transpose() + u * hp.transpose() + m * u * u.transpose());
   const Mat3 H = skew(hp + m * u);
