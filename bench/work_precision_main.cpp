@@ -224,8 +224,8 @@ Problem cantilever(const Options& o) {
   p.scale = 0.5;
   p.sites = {"rod/tip", "mid"};
   // both sides start at the same large steps (runs that diverge are recorded as such)
-  const std::vector<double> ours_h = {5e-2, 2e-2, 1e-2, 5e-3, 2e-3, 1e-3, 5e-4, 2e-4, 1e-4, 5e-5, 2e-5, 1e-5};
-  const std::vector<double> native_h = {5e-2, 2e-2, 1e-2, 5e-3, 2e-3, 1e-3, 5e-4,
+  const std::vector<double> ours_h = {1e-1, 5e-2, 2e-2, 1e-2, 5e-3, 2e-3, 1e-3, 5e-4, 2e-4, 1e-4, 5e-5, 2e-5, 1e-5};
+  const std::vector<double> native_h = {1e-1, 5e-2, 2e-2, 1e-2, 5e-3, 2e-3, 1e-3, 5e-4,
                                         2e-4, 1e-4, 5e-5, 2e-5, 1e-5, 5e-6, 2e-6};
   if (o.quick) {
     p.families.push_back({"PCS / implicit", false, false, Method::Implicit, {2, 4}, 0, {1e-3, 5e-4}});
@@ -304,9 +304,9 @@ Problem circle(const Options& o) {
     const double s = t >= Tr ? 1.0 : 0.5 * (1 - std::cos(kPi * t / Tr));
     d->xfrc_applied[6 * body + 4] = s * M;  // torque about world y: bends the tip towards -z
   };
-  // both sides start at the same large steps (the native chain diverges there)
-  const std::vector<double> ours_h = {1e-1, 5e-2, 2e-2, 1e-2, 5e-3, 2e-3, 1e-3, 5e-4, 2e-4, 1e-4};
-  const std::vector<double> native_h = {1e-1, 5e-2, 2e-2, 1e-2, 5e-3, 2e-3, 1e-3, 5e-4,
+  // both sides start at the same large steps, up to a quarter of the ramp
+  const std::vector<double> ours_h = {2.5e-1, 1e-1, 5e-2, 2e-2, 1e-2, 5e-3, 2e-3, 1e-3, 5e-4, 2e-4, 1e-4};
+  const std::vector<double> native_h = {2.5e-1, 1e-1, 5e-2, 2e-2, 1e-2, 5e-3, 2e-3, 1e-3, 5e-4,
                                         2e-4, 1e-4, 5e-5, 2e-5, 1e-5, 5e-6};
   if (o.quick) {
     p.families.push_back({"PCS / implicit", false, false, Method::Implicit, {1, 2}, 0, {1e-2, 5e-3}});
@@ -477,34 +477,50 @@ struct Point {
   Setting s;
   int nv = 0;
   double error = kInf;
+  // the largest of its own error and those of the same discretisation at smaller steps (a coarse
+  // step that beats its finer ones got lucky: errors cancelling at the samples); fronts and the
+  // equal-error summary use it (credit_errors)
+  double credited = kInf;
   std::vector<double> walls;
   bool diverged = false;
   std::string message;
   double wall() const { return median(walls); }
 };
 
-// Points of `pts` on the lower-left envelope (error against wall time).
+// Point::credited for the points of one family (same discretisation: same space knob and order).
+void credit_errors(std::vector<Point>& pts) {
+  for (Point& p : pts) {
+    p.credited = p.error;
+    if (!std::isfinite(p.error)) continue;
+    for (const Point& q : pts)
+      if (std::isfinite(q.error) && q.s.h < p.s.h && q.s.space == p.s.space && q.s.order == p.s.order)
+        p.credited = std::max(p.credited, q.error);
+  }
+}
+
+// Points of `pts` on the lower-left envelope (credited error against wall time).
 std::vector<int> pareto(const std::vector<Point>& pts) {
   std::vector<int> idx;
   for (size_t i = 0; i < pts.size(); ++i) {
-    if (!std::isfinite(pts[i].error)) continue;
+    if (!std::isfinite(pts[i].credited)) continue;
     bool dominated = false;
     for (size_t j = 0; j < pts.size() && !dominated; ++j)
-      dominated = j != i && std::isfinite(pts[j].error) && pts[j].wall() <= pts[i].wall() &&
-                  pts[j].error <= pts[i].error && (pts[j].wall() < pts[i].wall() || pts[j].error < pts[i].error);
+      dominated = j != i && std::isfinite(pts[j].credited) && pts[j].wall() <= pts[i].wall() &&
+                  pts[j].credited <= pts[i].credited &&
+                  (pts[j].wall() < pts[i].wall() || pts[j].credited < pts[i].credited);
     if (!dominated) idx.push_back(static_cast<int>(i));
   }
   std::sort(idx.begin(), idx.end(), [&](int a, int b) { return pts[a].wall() < pts[b].wall(); });
   return idx;
 }
 
-// Least wall time to reach relative error e on the Pareto front of `pts` (all families of one
+// Least wall time to reach relative error e on the Pareto front (credited errors) of `pts` (all families of one
 // side together), interpolating log(time) against log(error) between front points; inf when the
 // front never gets that low, the fastest time when e is above all of it.
 double time_to_error(const std::vector<const Point*>& pts, double e) {
   std::vector<std::pair<double, double>> all, fr;  // (wall, error)
   for (const Point* p : pts)
-    if (std::isfinite(p->error) && p->error > 0) all.emplace_back(p->wall(), p->error);
+    if (std::isfinite(p->credited) && p->credited > 0) all.emplace_back(p->wall(), p->credited);
   std::sort(all.begin(), all.end());
   for (const auto& q : all)
     if (fr.empty() || q.second < fr.back().second) fr.push_back(q);
@@ -678,6 +694,7 @@ json run_problem(const Problem& p, const Options& o) {
       if (!any_ok && !f.native) continue;
     }
     // medians for the Pareto points
+    credit_errors(pts);
     for (int i : pareto(pts)) {
       Point& pt = pts[i];
       while (static_cast<int>(pt.walls.size()) < o.reps && pt.wall() < cap) {  // runs over the cap: once
@@ -696,6 +713,7 @@ json run_problem(const Problem& p, const Options& o) {
       json j = setting_json(pt.s);
       j["nv"] = pt.nv;
       j["error"] = std::isfinite(pt.error) ? json(pt.error) : json(nullptr);
+      j["credited_error"] = std::isfinite(pt.credited) ? json(pt.credited) : json(nullptr);
       j["wall_s"] = pt.wall();
       j["wall_runs_s"] = pt.walls;
       j["diverged"] = pt.diverged;
