@@ -611,7 +611,6 @@ SceneData::SceneData(const Scene& s) {
   qacc_tmp.assign(nv, 0);
   qpos_save.assign(nq, 0);
   qvel_save.assign(nv, 0);
-  qM_save.assign(s.m->nM, 0);
   rk_q0.assign(nq, 0);
   rk_v0.assign(nv, 0);
   rk_a0.assign(na, 0);
@@ -912,15 +911,16 @@ double actuator_force_velocity_derivative(const mjModel* m, const mjData* d, int
 // slide joints (velocity servos such as a flagellar motor are stiff dampers) and when `rods`;
 // actuators on other transmissions (tendons, sites, ball and free joints) stay explicit.
 // Assembled in MuJoCo's sparse qM (K and D live inside each section's dof chain, D_f in the
-// kinematic tree's pattern), after forward, and factorised as MuJoCo does (factor_ldl) into
-// sd.A_LD / sd.A_LDiagInv; qM is restored (a copy), MuJoCo's own factor is not touched.
+// kinematic tree's pattern), after forward: assembled in sd.A_LD from qM and factorised there as
+// MuJoCo factorises qM (factor_ldl), with 1/diag(D) in sd.A_LDiagInv; mjData is not touched.
 void factor_implicit(const Scene& s, SceneData& sd, bool rods, double cD, double cK) {
   const mjModel* m = s.m;
   mjData* d = sd.d;
   const double h = m->opt.timestep, hD = cD * h, hK = cK * h * h;
   const int nv = m->nv;
-  std::copy(d->qM, d->qM + m->nM, sd.qM_save.begin());
-  for (int i = 0; i < nv; ++i) d->qM[m->dof_Madr[i]] += hD * m->dof_damping[i];
+  mjtNum* A = sd.A_LD.data();
+  std::copy(d->qM, d->qM + m->nM, A);
+  for (int i = 0; i < nv; ++i) A[m->dof_Madr[i]] += hD * m->dof_damping[i];
   if (rods && !(m->opt.disableflags & mjDSBL_ACTUATION))
     for (int a = 0; a < m->nu; ++a) {
       const int tt = m->actuator_trntype[a];
@@ -932,18 +932,17 @@ void factor_implicit(const Scene& s, SceneData& sd, bool rods, double cD, double
       const int j = m->actuator_trnid[2 * a];
       if (m->jnt_type[j] != mjJNT_HINGE && m->jnt_type[j] != mjJNT_SLIDE) continue;
       const double g = m->actuator_gear[6 * a];
-      d->qM[m->dof_Madr[m->jnt_dofadr[j]]] -= hD * g * g * actuator_force_velocity_derivative(m, d, a);
+      A[m->dof_Madr[m->jnt_dofadr[j]]] -= hD * g * g * actuator_force_velocity_derivative(m, d, a);
     }
   if (rods)
     for (const auto& rb : s.rods)
       for (int i = 0; i < rb.model.nv; ++i)
         for (int j = 0; j <= i; ++j) {
           const double a = hD * rb.model.D(i, j) + hK * rb.model.K(i, j);
-          if (a != 0.0) d->qM[m->dof_Madr[rb.dof0 + i] + (i - j)] += a;
+          if (a != 0.0) A[m->dof_Madr[rb.dof0 + i] + (i - j)] += a;
         }
-  add_fluid_damping(s, sd, hD);  // fluid hook: + cD h D_f (no-op without the fluid)
-  factor_ldl(m, d, d->qM, sd.A_LD.data(), sd.A_LDiagInv.data());
-  std::copy(sd.qM_save.begin(), sd.qM_save.end(), d->qM);
+  add_fluid_damping(s, sd, hD, A);  // fluid hook: + cD h D_f (no-op without the fluid)
+  factor_ldl(m, d, A, A, sd.A_LDiagInv.data());
 }
 
 // x = A^-1 y with the factor of factor_implicit.

@@ -102,7 +102,7 @@ struct SceneData {
   // constraints): d->qfrc_smooth holds the forces, d->qacc, d->qacc_smooth and d->qLD are stale
   bool forces_only = false;
   // scratch (sized once)
-  std::vector<mjtNum> tmp_nv, qacc_tmp, qpos_save, qvel_save, qM_save;
+  std::vector<mjtNum> tmp_nv, qacc_tmp, qpos_save, qvel_save;
   std::vector<mjtNum> rk_q0, rk_v0, rk_a0, rk_kq, rk_kv, rk_ka, rk_dx;  // RK4 stages
   struct RodScratch {
     std::vector<int> anc;  // MuJoCo dofs above the rod's base, nearest first

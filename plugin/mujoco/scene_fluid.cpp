@@ -243,9 +243,9 @@ void fluid_forces(const Scene& s, SceneData& sd) {
   for (int i = 0; i < m->nv; ++i) d->qfrc_passive[i] -= out[i];
 }
 
-void add_fluid_damping(const Scene& s, SceneData& sd, double h) {
+void add_fluid_damping(const Scene& s, const SceneData& sd, double h, double* A) {
   if (!s.fluid.active) return;
-  for (int k = 0; k < s.m->nM; ++k) sd.d->qM[k] += h * sd.fluid_qD[k];
+  for (int k = 0; k < s.m->nM; ++k) A[k] += h * sd.fluid_qD[k];
 }
 
 }  // namespace cosserat::mj

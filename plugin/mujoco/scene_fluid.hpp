@@ -73,7 +73,7 @@ void setup_fluid(Scene& s);
 void fluid_damping(const Scene& s, SceneData& sd);
 // qfrc_passive -= D qvel. In fwd_velocity, after mj_passive.
 void fluid_forces(const Scene& s, SceneData& sd);
-// qM += h D (for the implicit solves of the integrators).
-void add_fluid_damping(const Scene& s, SceneData& sd, double h);
+// A += h D, A a matrix in qM's sparse layout (the implicit solves' matrix).
+void add_fluid_damping(const Scene& s, const SceneData& sd, double h, double* A);
 
 }  // namespace cosserat::mj
