@@ -1141,16 +1141,14 @@ bool newton_step(const Scene& s, SceneData& sd, const Scheme& sc, int iterations
   for (int k = 0; k < iterations; ++k) {
     forward(s, sd, Need::Forces);  // at (q+, v+)
     ++sd.newton_stats.iterations;
-    // y = M r, M at (q+, v+)
-    if (sd.forces_only) {  // M f(q+, v+) = qfrc_smooth (no constraints): M r = M z + c_f qfrc_smooth
-      for (int i = 0; i < nv; ++i) w.r[i] = (sc.af * w.f0[i] - sc.am * w.A0[i]) / (1.0 - sc.am) - w.A[i];
-      mj_mulM(m, d, w.y.data(), w.r.data());
-      mju_addToScl(w.y.data(), d->qfrc_smooth, (1.0 - sc.af) / (1.0 - sc.am), nv);
-    } else {
-      for (int i = 0; i < nv; ++i)
-        w.r[i] = ((1.0 - sc.af) * d->qacc[i] + sc.af * w.f0[i] - sc.am * w.A0[i]) / (1.0 - sc.am) - w.A[i];
-      mj_mulM(m, d, w.y.data(), w.r.data());
+    // y = M r, M at (q+, v+), r = c f(q+, v+) + z; when forward skipped the accelerations (no
+    // constraints), M f(q+, v+) = qfrc_smooth: y = M z + c qfrc_smooth
+    for (int i = 0; i < nv; ++i) {
+      w.r[i] = (sc.af * w.f0[i] - sc.am * w.A0[i]) / (1.0 - sc.am) - w.A[i];
+      if (!sd.forces_only) w.r[i] += c * d->qacc[i];
     }
+    mj_mulM(m, d, w.y.data(), w.r.data());
+    if (sd.forces_only) mju_addToScl(w.y.data(), d->qfrc_smooth, c, nv);
     solve_implicit(s, sd, w.delta.data(), w.y.data());
     // the plain correction's size decides convergence; the state is then the corrected iterate
     double dmax = 0.0, vmax = 0.0, amax = 0.0;
