@@ -159,6 +159,7 @@ def plot_work_precision(j, png):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     fig, ax = plt.subplots(figsize=(8, 5.5))
+    credit_errors(j)
     cmap = plt.get_cmap("tab20")
     colors = [cmap(i) for i in (0, 2, 4, 6, 8, 10, 12, 14, 16, 18, 1, 3, 5, 7, 9, 11, 13, 15, 17, 19)]
     for i, f in enumerate(j["families"]):
@@ -167,7 +168,6 @@ def plot_work_precision(j, png):
             continue
         c = colors[i % len(colors)]
         ax.scatter([p["wall_s"] for p in pts], [p["error"] for p in pts], s=8, color=c, alpha=0.3)
-        credit_errors(j)
         fr = front(pts)  # the family's front of credited errors
         style = "--" if f["native"] else "-"
         ax.plot([t for t, _ in fr], [e for _, e in fr], style, marker="o", ms=4, color=c, label=f["name"])

@@ -169,7 +169,8 @@ json breakdown(const mj::Scene& s, mj::SceneData& sd, Sim& sim, const Ctx& c, st
   json j;
   j["forces_only"] = forces_only;
   auto T = [&](const std::function<void()>& f) { return timed({}, f, c.reps, c.min_time); };
-  auto unless_skipped = [&](double t) { return forces_only ? 0.0 : t; };
+  // a stage the step skips costs nothing (and is not timed)
+  auto unless_skipped = [&](const std::function<double()>& time_it) { return forces_only ? 0.0 : time_it(); };
   // public blocks
   const double t_pos = T([&] { mj::fwd_position(s, sd, need); });
   const double t_spos = T([&] { mj_sensorPos(m, d); });
@@ -177,9 +178,9 @@ json breakdown(const mj::Scene& s, mj::SceneData& sd, Sim& sim, const Ctx& c, st
   const double t_svel = T([&] { mj_sensorVel(m, d); });
   const double t_act = T([&] { mj_fwdActuation(m, d); });
   // (forces only: the forces' sum that replaces mj_fwdAcceleration is not timed on its own)
-  const double t_acc = unless_skipped(T([&] { mj_fwdAcceleration(m, d); }));
-  const double t_con = unless_skipped(T([&] { mj_fwdConstraint(m, d); }));
-  const double t_sacc = unless_skipped(T([&] { mj_sensorAcc(m, d); }));
+  const double t_acc = unless_skipped([&] { return T([&] { mj_fwdAcceleration(m, d); }); });
+  const double t_con = unless_skipped([&] { return T([&] { mj_fwdConstraint(m, d); }); });
+  const double t_sacc = unless_skipped([&] { return T([&] { mj_sensorAcc(m, d); }); });
   const double t_fwd = T([&] { mj::forward(s, sd, need); });
   const double t_step = timed([&] { st.restore(m, d); }, [&] { sim.step(); }, c.reps, c.min_time);
   st.restore(m, d);
@@ -195,11 +196,11 @@ json breakdown(const mj::Scene& s, mj::SceneData& sd, Sim& sim, const Ctx& c, st
   mjs["mj_camlight"] = M(mj_camlight);
   mjs["mj_tendon"] = M(mj_tendon);
   mjs["mj_crb"] = M(mj_crb);
-  mjs["mj_factorM"] = unless_skipped(M(mj_factorM));
+  mjs["mj_factorM"] = unless_skipped([&] { return M(mj_factorM); });
   mjs["mj_collision"] = M(mj_collision);
   mjs["mj_makeConstraint"] = M(mj_makeConstraint);
   mjs["mj_transmission"] = M(mj_transmission);
-  mjs["mj_projectConstraint"] = unless_skipped(M(mj_projectConstraint));
+  mjs["mj_projectConstraint"] = unless_skipped([&] { return M(mj_projectConstraint); });
   mjs["mj_comVel"] = M(mj_comVel);
   mjs["mj_passive"] = M(mj_passive);
   mjs["mj_referenceConstraint"] = M(mj_referenceConstraint);
