@@ -57,7 +57,7 @@ void on_mujoco_error(const char* msg) {
 
 Integrator parse_integrator(const std::string& flag, const std::string& text) {
   const auto in = cosserat::integrator_from_name(text);
-  if (!in) fail(flag + ": unknown integrator '" + text + "' (euler, implicit, trapezoidal, genalpha, rk4)");
+  if (!in) fail(flag + ": unknown integrator '" + text + "' (euler, implicit, trapezoidal, genalpha, midpoint, rk4)");
   return *in;
 }
 
@@ -68,12 +68,14 @@ const char* integrator_name(Integrator in) {
     case Integrator::RK4: return "rk4";
     case Integrator::Trapezoidal: return "trapezoidal";
     case Integrator::GeneralizedAlpha: return "genalpha";
+    case Integrator::Midpoint: return "midpoint";
   }
   return "?";
 }
 
 Option integrator_option(std::optional<Integrator>& target) {
-  return {"--integrator", "NAME", "euler | implicit | trapezoidal | genalpha | rk4 (default: implicit with rods, euler without)",
+  return {"--integrator", "NAME", "euler | implicit | trapezoidal | genalpha | midpoint | rk4 (default: implicit with rods, euler "
+          "without; midpoint: the energy-conserving implicit midpoint rule, for long undamped runs)",
           [&target](const std::string& v) { target = parse_integrator("--integrator", v); }};
 }
 
@@ -199,7 +201,8 @@ struct SimOptions {
     c.options.push_back({"--newton", "N",
                          "implicit and trapezoidal: up to N Newton corrections per step, making the step fully implicit "
                          "(every force, constraints included, at the end of the step); a step that does not converge is "
-                         "split in halves. 0: one linearised solve (default: 10 for trapezoidal and genalpha, 0 for implicit; genalpha always makes at least 1)",
+                         "split in halves. 0: one linearised solve (default: 10 for trapezoidal, genalpha and midpoint, 0 "
+                         "for implicit; genalpha and midpoint always make at least 1)",
                          [this](const std::string& v) { newton = parse_int("--newton", v, 0); }});
     c.options.push_back(positive_option("--newton-tol", "TOL",
                                         "tolerance of the Newton corrections: h |delta a| <= TOL (|v| + h |a|), "
@@ -761,7 +764,8 @@ int cmd_demo(int argc, char** argv) {
                 text_option("--out", "DIR", "output directory (default out/demo)", o.out)};
   if (!cl.parse(argc, argv)) return 0;
   const Integrator integrator = o.integrator.value_or(Integrator::Implicit);
-  if (integrator == Integrator::GeneralizedAlpha) fail("--integrator genalpha: MuJoCo scenes only (the demo runs the core solver)");
+  if (integrator == Integrator::GeneralizedAlpha || integrator == Integrator::Midpoint)
+    fail(std::string("--integrator ") + integrator_name(integrator) + ": MuJoCo scenes only (the demo runs the core solver)");
 
   const Model m = demo_model(o);
   Data d(m);

@@ -13,6 +13,7 @@ std::optional<Integrator> integrator_from_name(std::string_view n) {
   if (n == "rk4") return Integrator::RK4;
   if (n == "trapezoidal") return Integrator::Trapezoidal;
   if (n == "genalpha") return Integrator::GeneralizedAlpha;
+  if (n == "midpoint") return Integrator::Midpoint;
   return std::nullopt;
 }
 
@@ -73,6 +74,8 @@ Status step(const Model& m, Data& d, double h, Integrator method) {
     case Integrator::Trapezoidal: step_semi_implicit(m, d, h, true, 0.5); break;
     case Integrator::GeneralizedAlpha:
       throw std::invalid_argument("the generalized-alpha integrator is the scene's (mj::step) only");
+    case Integrator::Midpoint:
+      throw std::invalid_argument("the midpoint integrator is the scene's (mj::step) only");
   }
   if (!d.q.allFinite() || !d.v.allFinite()) {
     // our own divergence check: restore the last good state and report

@@ -11,8 +11,8 @@
 //    part only: gravity, Coriolis and geometric stiffness are explicit, so the method is first
 //    order overall (a W-method). A-stable; stiff modes are not damped (Implicit damps them).
 //  - RK4: classic 4th-order Runge-Kutta on (q, v).
-//  - GeneralizedAlpha: the MuJoCo scene's only (mj::step, scene.hpp; step() here throws
-//    std::invalid_argument). The scene also solves Implicit and Trapezoidal fully implicitly by
+//  - GeneralizedAlpha and Midpoint (the energy-conserving implicit midpoint rule): the MuJoCo
+//    scene's only (mj::step, scene.hpp; step() here throws std::invalid_argument). The scene also solves Implicit and Trapezoidal fully implicitly by
 //    Newton iterations (Scene::newton_iterations; Trapezoidal does by default): this core step is
 //    always the linearised one above.
 // A step that produces non-finite values restores the previous state and returns Diverged.
@@ -25,7 +25,7 @@
 
 namespace cosserat {
 
-enum class Integrator { Euler, Implicit, RK4, Trapezoidal, GeneralizedAlpha };
+enum class Integrator { Euler, Implicit, RK4, Trapezoidal, GeneralizedAlpha, Midpoint };
 std::optional<Integrator> integrator_from_name(std::string_view name);
 
 Status step(const Model& m, Data& d, double h, Integrator method = Integrator::Implicit);

@@ -669,18 +669,24 @@ void smooth_forces(const mjModel* m, mjData* d) {
 }
 }  // namespace
 
-void fwd_position(const Scene& s, SceneData& sd, Need need) {
+void fwd_inertia(const Scene& s, SceneData& sd) {
   const mjModel* m = s.m;
   mjData* d = sd.d;
   mj_kinematics(m, d);
   for (size_t r = 0; r < s.rods.size(); ++r) patch_rod_kinematics(s, sd, static_cast<int>(r));
   mj_comPos(m, d);
   for (size_t r = 0; r < s.rods.size(); ++r) patch_cdof(s, sd, static_cast<int>(r));
+  mj_crb(m, d);
+  for (size_t r = 0; r < s.rods.size(); ++r) patch_qM(s, sd, static_cast<int>(r));
+}
+
+void fwd_position(const Scene& s, SceneData& sd, Need need) {
+  const mjModel* m = s.m;
+  mjData* d = sd.d;
+  fwd_inertia(s, sd);
   mj_camlight(m, d);
   mj_tendon(m, d);
   if (m->ntendon && !s.rods.empty()) patch_tendons(s, sd);
-  mj_crb(m, d);
-  for (size_t r = 0; r < s.rods.size(); ++r) patch_qM(s, sd, static_cast<int>(r));
   fluid_damping(s, sd);  // fluid hook: damping matrix (scene_fluid.hpp); no-op without the fluid
   // (MuJoCo factorises M before the collisions; nothing up to the constraint projection reads
   // the factor, so it waits until the constraint rows tell whether it is needed)
@@ -1012,10 +1018,13 @@ void implicit_step(const Scene& s, SceneData& sd, bool rods = true, double theta
 //   (1 - am) A + am A0 = (1 - af) f(q+, v+) + af f(q, v).
 struct Scheme {
   double cq0, cq1, cv0, cv1, am, af;
-  bool carry;  // A0 is carried from the previous step (otherwise A0 = f(q, v))
+  bool carry;             // A0 is carried from the previous step (otherwise A0 = f(q, v))
+  bool midpoint = false;  // f at the step's midpoint instead (midpoint_step)
 };
 Scheme backward_euler() { return {0, 1, 0, 1, 0, 0, false}; }
 Scheme trapezoidal_rule() { return {0.25, 0.25, 0.5, 0.5, 0.5, 0.5, false}; }
+// q+ = q + h v + h^2/2 A, v+ = v + h A: q+ = q + h (v + v+)/2 (midpoint_step)
+Scheme midpoint_rule() { return {0, 0.5, 0, 1, 0, 0, false, true}; }
 // Chung and Hulbert's parameters for the spectral radius rho at infinite frequency (rho = 1: the
 // trapezoidal rule; rho < 1 damps the stiff modes, second order for every rho in [0, 1]).
 Scheme generalized_alpha(double rho) {
@@ -1033,6 +1042,17 @@ void restore_start(SceneData& sd) {
   std::copy(w.act0.begin(), w.act0.end(), d->act);
   std::copy(w.act_dot0.begin(), w.act_dot0.end(), d->act_dot);
   d->time = w.t0;
+}
+
+// Saves the start state (qpos, qvel, act, act_dot, time) for restore_start.
+void save_start(SceneData& sd, const mjModel* m) {
+  const mjData* d = sd.d;
+  SceneData::NewtonScratch& w = sd.newton;
+  std::copy(d->qpos, d->qpos + m->nq, w.q0.begin());
+  std::copy(d->qvel, d->qvel + m->nv, w.v0.begin());
+  std::copy(d->act, d->act + m->na, w.act0.begin());
+  std::copy(d->act_dot, d->act_dot + m->na, w.act_dot0.begin());
+  w.t0 = d->time;
 }
 
 // The state (q+, v+) of the scheme for the end acceleration w.A (from the saved start state).
@@ -1095,6 +1115,37 @@ void anderson_update(SceneData& sd, int nv, int memory, int k, int& stored) {
   }
 }
 
+enum class Iterate { Continue, Converged, Stop };
+
+// After the solve for the plain correction w.delta of iteration k: decides convergence on its
+// size, h cv1 |delta| <= newton_tol (|v+| + h |a_v|) + 1e-12 (max norms over the dofs), applies
+// the (Anderson-accelerated) correction to w.A and tells whether to go on. Stop: non-finite, or
+// the corrections grew tenfold over the first (`first`; a single rise is tolerated: the
+// corrections of a simplified Newton need not decrease monotonically).
+Iterate apply_correction(const Scene& s, SceneData& sd, const Scheme& sc, int k, int& stored, double& first) {
+  SceneData::NewtonScratch& w = sd.newton;
+  const int nv = s.m->nv;
+  const double h = s.m->opt.timestep;
+  double dmax = 0.0, vmax = 0.0, amax = 0.0;
+  for (int i = 0; i < nv; ++i) {
+    dmax = std::max(dmax, std::abs(w.delta[i]));
+    double av = sc.cv1 * (w.A[i] + w.delta[i]);
+    if (sc.cv0 != 0.0) av += sc.cv0 * w.A0[i];
+    amax = std::max(amax, std::abs(av));
+    vmax = std::max(vmax, std::abs(w.v0[i] + h * av));
+  }
+  const double norm = h * sc.cv1 * dmax;
+  const bool done = !std::isfinite(norm) || norm <= s.newton_tol * (vmax + h * amax) + 1e-12;
+  const int memory = std::clamp(s.newton_memory, 0, kMaxNewtonMemory);
+  if (memory > 0 && !done) anderson_update(sd, nv, memory, k, stored);
+  for (int i = 0; i < nv; ++i) w.A[i] += w.delta[i];  // delta: the (accelerated) correction
+  if (!std::isfinite(norm)) return Iterate::Stop;
+  if (done) return Iterate::Converged;
+  if (k == 0) first = norm;
+  else if (norm > 10.0 * first) return Iterate::Stop;
+  return Iterate::Continue;
+}
+
 // One step of the scheme by simplified Newton iterations: the first iterate is the linearised
 // step, each correction solves A_N delta = M r with the step's matrix
 //   A_N = M + c (cv1 h D + cq1 h^2 K),  c = (1 - af) / (1 - am),
@@ -1104,8 +1155,7 @@ void anderson_update(SceneData& sd, int nv, int memory, int k, int& stored) {
 bool newton_step(const Scene& s, SceneData& sd, const Scheme& sc, int iterations) {
   const mjModel* m = s.m;
   mjData* d = sd.d;
-  const int nq = m->nq, nv = m->nv, na = m->na;
-  const double h = m->opt.timestep;
+  const int nq = m->nq, nv = m->nv;
   SceneData::NewtonScratch& w = sd.newton;
   // backward Euler needs no acceleration at the start (only the other schemes' f(q, v) terms do).
   // (cq1 = 1 alone does not tell: the generalized alpha with rho = 0 has it too.)
@@ -1115,16 +1165,12 @@ bool newton_step(const Scene& s, SceneData& sd, const Scheme& sc, int iterations
   const bool carried = sc.carry && w.carry_valid && w.t_end == d->time &&
                        std::equal(w.q_end.begin(), w.q_end.end(), d->qpos) &&
                        std::equal(w.v_end.begin(), w.v_end.end(), d->qvel);
-  std::copy(d->qpos, d->qpos + nq, w.q0.begin());
-  std::copy(d->qvel, d->qvel + nv, w.v0.begin());
-  std::copy(d->act, d->act + na, w.act0.begin());
-  std::copy(d->act_dot, d->act_dot + na, w.act_dot0.begin());
+  save_start(sd, m);
   if (sd.forces_only)  // backward Euler without constraints: f(q, v) is not needed (af = am = 0)
     std::fill(w.f0.begin(), w.f0.end(), 0.0);
   else
     std::copy(d->qacc, d->qacc + nv, w.f0.begin());
   if (!carried) std::copy(w.f0.begin(), w.f0.end(), w.A0.begin());
-  w.t0 = d->time;
   // first iterate: the linearised step (backward Euler, or the trapezoidal rule whose average
   // acceleration a gives A = 2 a - f(q, v))
   implicit_step(s, sd, true, be ? 1.0 : 0.5);
@@ -1135,9 +1181,8 @@ bool newton_step(const Scene& s, SceneData& sd, const Scheme& sc, int iterations
   }
   if (!be) set_end_state(s, sd, sc);
   bool converged = false;
-  double first = 0.0;
-  const int memory = std::clamp(s.newton_memory, 0, kMaxNewtonMemory);
-  int stored = 0;  // Anderson history columns in use
+  double first = 0.0;  // size of the first correction
+  int stored = 0;      // Anderson history columns in use
   for (int k = 0; k < iterations; ++k) {
     forward(s, sd, Need::Forces);  // at (q+, v+)
     ++sd.newton_stats.iterations;
@@ -1150,27 +1195,10 @@ bool newton_step(const Scene& s, SceneData& sd, const Scheme& sc, int iterations
     mj_mulM(m, d, w.y.data(), w.r.data());
     if (sd.forces_only) mju_addToScl(w.y.data(), d->qfrc_smooth, c, nv);
     solve_implicit(s, sd, w.delta.data(), w.y.data());
-    // the plain correction's size decides convergence; the state is then the corrected iterate
-    double dmax = 0.0, vmax = 0.0, amax = 0.0;
-    for (int i = 0; i < nv; ++i) {
-      dmax = std::max(dmax, std::abs(w.delta[i]));
-      const double av = sc.cv0 * w.A0[i] + sc.cv1 * (w.A[i] + w.delta[i]);
-      amax = std::max(amax, std::abs(av));
-      vmax = std::max(vmax, std::abs(w.v0[i] + h * av));
-    }
-    const double norm = h * sc.cv1 * dmax;
-    const bool done = !std::isfinite(norm) || norm <= s.newton_tol * (vmax + h * amax) + 1e-12;
-    if (memory > 0 && !done) anderson_update(sd, nv, memory, k, stored);
-    for (int i = 0; i < nv; ++i) w.A[i] += w.delta[i];  // delta: the (accelerated) correction
+    const Iterate it = apply_correction(s, sd, sc, k, stored, first);
     set_end_state(s, sd, sc);
-    if (!std::isfinite(norm)) break;
-    if (done) {
-      converged = true;
-      break;
-    }
-    if (k == 0) first = norm;
-    else if (norm > 10.0 * first) break;  // diverging (a single rise is tolerated: the corrections
-                                          // of a simplified Newton need not decrease monotonically)
+    if (it == Iterate::Converged) converged = true;
+    if (it != Iterate::Continue) break;
   }
   w.carry_valid = sc.carry;
   std::copy(w.A.begin(), w.A.end(), w.A0.begin());
@@ -1180,12 +1208,93 @@ bool newton_step(const Scene& s, SceneData& sd, const Scheme& sc, int iterations
   return converged;
 }
 
+// The energy-conserving implicit midpoint rule. With v_m = (v + v+)/2 and the midpoint state
+//   q_m = q + h/2 v_m (MuJoCo's position integration: quaternions along their geodesic), t + h/2,
+//   q+ = q + h v_m,  v+ = v + h A,  M(q_m) A = F(q_m, v_m) + mu M(q_m) v_m,
+// F every force of the scene at the midpoint (constraint forces included: MuJoCo's forward there).
+// Without mu this is the implicit midpoint rule, second order, whose energy error is O(h^3) per
+// step and not bounded on stiff nonlinear problems (Simo and Tarnow 1992: the midpoint and the
+// trapezoidal rules blow up in nonlinear elastodynamics, as the trapezoidal rule does in
+// docs/bench/RESULTS.md's long run). The scalar mu (O(h^2)) restores the energy balance exactly,
+//   E(q+, v+) - E(q, v) = h v_m . (the non-conservative forces at the midpoint),
+// E = kinetic + gravity + the rods' elastic energy + the hinge and slide joints' springs: a
+// discrete gradient in Gonzalez's sense, corrected along v_m. Those elastic forces are linear in
+// the coordinates, so their midpoint values are exact discrete gradients, and the momentum equation
+// leaves
+//   h mu v_m' M v_m = h v_m' (M A + qfrc_bias) - [T + V_gravity](q+, v+) + [T + V_gravity](q, v),
+// M and qfrc_bias (Coriolis and gravity, rods included) at the midpoint. Each iteration evaluates
+// the forces at the midpoint (one forward) and T + V_gravity at the end (poses and mass matrix),
+// takes mu from the current iterate and corrects A with M + h/2 D + h^2/4 K (the linearisation of
+// M(q_m) (A - f(q_m, v_m)), the trapezoidal rule's matrix). Undamped, the energy is constant to
+// the Newton tolerance; with damping it can only decrease. Tendon springs and springs on ball and
+// free joints are nonlinear in the coordinates: their energy is kept to O(h^3) per step only.
+// A step whose correction would change the velocity by more than a quarter (|h mu| > 1/4: a step
+// too large for the motion, typically with the kinetic energy near zero while stiff modes are not
+// resolved) is not converged: it is split. On the undamped cantilever of the stress runs at 5 ms,
+// 2% of the steps are.
+bool midpoint_step(const Scene& s, SceneData& sd, int iterations) {
+  constexpr double kMaxCorrection = 0.25;
+  mjModel* m = s.m;  // the midpoint state is a step of h/2: opt.timestep changes meanwhile
+  mjData* d = sd.d;
+  const int nv = m->nv;
+  const double h = m->opt.timestep;
+  SceneData::NewtonScratch& w = sd.newton;
+  const Scheme sc = midpoint_rule();
+  forward(s, sd, Need::Forces);
+  const SceneEnergy e0 = energy(s, sd);
+  const double E0 = e0.kinetic + e0.gravity;
+  save_start(sd, m);
+  // first iterate: the linearised trapezoidal step, whose average acceleration (d->qacc) is A
+  implicit_step(s, sd, true, 0.5);
+  std::copy(d->qacc, d->qacc + nv, w.A.begin());
+  mjtNum* Mv = w.A0.data();  // M(q_m) v_m (A0 and f0 are not used by this scheme)
+  mjtNum* vm = w.f0.data();  // v_m
+  bool converged = false;
+  double first = 0.0;  // size of the first correction
+  int stored = 0;      // Anderson history columns in use
+  for (int k = 0; k < iterations; ++k) {
+    restore_start(sd);  // the midpoint state: half a step with A
+    std::copy(w.A.begin(), w.A.end(), d->qacc);
+    m->opt.timestep = 0.5 * h;
+    advance(s, sd, w.A.data());
+    m->opt.timestep = h;
+    forward(s, sd, Need::Forces);
+    ++sd.newton_stats.iterations;
+    std::copy(d->qvel, d->qvel + nv, vm);
+    mj_mulM(m, d, Mv, vm);
+    mj_mulM(m, d, w.y.data(), w.A.data());  // M A
+    const double S = mju_dot(vm, Mv, nv);
+    const double P = mju_dot(vm, w.y.data(), nv) + mju_dot(vm, d->qfrc_bias, nv);
+    // r = M (f(q_m, v_m) - A); M f = qfrc_smooth when forward skipped the accelerations
+    if (sd.forces_only) {
+      mju_sub(w.r.data(), d->qfrc_smooth, w.y.data(), nv);
+    } else {
+      mj_mulM(m, d, w.r.data(), d->qacc);
+      mju_subFrom(w.r.data(), w.y.data(), nv);
+    }
+    set_end_state(s, sd, sc);
+    fwd_inertia(s, sd);
+    const SceneEnergy e1 = energy(s, sd);
+    double mu = S > 0.0 ? (h * P - (e1.kinetic + e1.gravity - E0)) / (h * S) : 0.0;
+    const bool clamped = !(std::abs(h * mu) <= kMaxCorrection);
+    if (clamped) mu = std::isfinite(mu) ? std::copysign(kMaxCorrection / h, mu) : 0.0;
+    mju_addToScl(w.r.data(), Mv, mu, nv);
+    solve_implicit(s, sd, w.delta.data(), w.r.data());
+    const Iterate it = apply_correction(s, sd, sc, k, stored, first);
+    if (it == Iterate::Converged) converged = !clamped;
+    if (it != Iterate::Continue) break;
+  }
+  set_end_state(s, sd, sc);
+  w.carry_valid = false;
+  return converged;
+}
+
 // newton_step, with a step whose iterations do not converge redone as two half steps (down to
 // h / 2^kMaxSplit; below that the last iterate is kept and counted as unconverged).
 void newton_step_split(const Scene& s, SceneData& sd, const Scheme& sc, int iterations, int depth = 0) {
   constexpr int kMaxSplit = 6;
   SceneData::NewtonScratch& w = sd.newton;
-  if (newton_step(s, sd, sc, iterations)) return;
+  if (sc.midpoint ? midpoint_step(s, sd, iterations) : newton_step(s, sd, sc, iterations)) return;
   if (depth == kMaxSplit) {
     ++sd.newton_stats.unconverged;
     return;
@@ -1292,6 +1401,9 @@ Status step(const Scene& s, SceneData& sd, Integrator method) {
       break;
     case Integrator::GeneralizedAlpha:
       newton_step_split(s, sd, generalized_alpha(s.rho_inf), std::max(1, s.newton_for(method)));
+      break;
+    case Integrator::Midpoint:
+      newton_step_split(s, sd, midpoint_rule(), std::max(1, s.newton_for(method)));
       break;
   }
   if (!state_finite(m, d)) {

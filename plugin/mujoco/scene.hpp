@@ -83,7 +83,9 @@ struct Scene {
   double rho_inf = 0.8;  // generalized alpha: spectral radius at infinite frequency, in [0, 1]
   int newton_for(Integrator method) const {
     if (newton_iterations >= 0) return newton_iterations;
-    return method == Integrator::Trapezoidal || method == Integrator::GeneralizedAlpha ? 10 : 0;
+    return method == Integrator::Trapezoidal || method == Integrator::GeneralizedAlpha || method == Integrator::Midpoint
+               ? 10
+               : 0;
   }
   SceneFluid fluid;               // low-Reynolds fluid (scene_fluid.hpp); inactive without viscosity
 };
@@ -188,6 +190,8 @@ void recompute_invweight0(Scene& s);
 
 // Lower-level stages (exposed for tests and for the static solver).
 void fwd_position(const Scene& s, SceneData& sd, Need need = Need::Acceleration);
+// The part of fwd_position that energy() needs: poses (rods patched), cdof and the mass matrix.
+void fwd_inertia(const Scene& s, SceneData& sd);
 void fwd_velocity(const Scene& s, SceneData& sd);
 
 }  // namespace cosserat::mj
