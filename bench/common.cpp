@@ -251,6 +251,7 @@ const char* method_name(Method m) {
     case Method::TrapezoidalLinear: return "trapezoidal-lin";
     case Method::GeneralizedAlpha: return "genalpha";
     case Method::ImplicitNewton: return "implicit-newton";
+    case Method::Midpoint: return "midpoint";
   }
   return "?";
 }
@@ -276,6 +277,7 @@ class RodSim : public Sim {
         scene_->newton_iterations = 0;
         break;
       case Method::GeneralizedAlpha: integ_ = Integrator::GeneralizedAlpha; break;
+      case Method::Midpoint: integ_ = Integrator::Midpoint; break;
     }
   }
   const mjModel* m() const override { return scene_->m; }

@@ -203,7 +203,7 @@ json result_json(const Result& r) {
 }
 
 const Method kMethods[] = {Method::Euler,       Method::Implicit,         Method::ImplicitNewton, Method::Trapezoidal,
-                           Method::TrapezoidalLinear, Method::GeneralizedAlpha, Method::RK4};
+                           Method::TrapezoidalLinear, Method::GeneralizedAlpha, Method::Midpoint, Method::RK4};
 
 }  // namespace
 

@@ -21,7 +21,9 @@
 // interpolation between front points).
 //
 // Usage: work_precision [--quick] [--problem NAME]... [--out DIR] [--reps N] [--cap S]
-//                       [--models DIR]
+//                       [--models DIR] [--family TEXT]...
+// --family keeps only the contender families whose name contains TEXT (e.g. "midpoint", "native
+// hinge"): for trying one contender; the README figures come from runs of all of them.
 // Writes DIR/work_precision_<problem>.json (plots: bench/plot.py).
 #include <algorithm>
 #include <cmath>
@@ -55,6 +57,7 @@ struct Options {
   int reps = 3;
   double cap = -1;  // seconds per run (default: quick 1.5, full 10)
   bool reference_only = false;
+  std::vector<std::string> families;  // --family: name filters (empty: all)
 };
 
 // ------------------------------------------------------------------------------------ settings --
@@ -245,9 +248,11 @@ Problem cantilever(const Options& o) {
       f.quadrature = 1;
       p.families.push_back(f);
     }
-    // the fully implicit second-order schemes (Newton iterations): GVS only
-    for (Method m : {Method::Trapezoidal, Method::GeneralizedAlpha})
+    // the fully implicit second-order schemes (Newton iterations): GVS only, and the
+    // energy-conserving midpoint rule (the problem is undamped) with PCS too
+    for (Method m : {Method::Trapezoidal, Method::GeneralizedAlpha, Method::Midpoint})
       p.families.push_back({std::string("GVS 2 sec / ") + method_name(m), false, false, m, {1, 2, 3, 4}, 2, ours_h});
+    p.families.push_back({"PCS / midpoint", false, false, Method::Midpoint, {1, 2, 4, 8, 16}, 0, ours_h});
     for (Method m : {Method::Euler, Method::RK4, Method::Implicit})
       p.families.push_back({std::string("native hinge / ") + method_name(m), true, false, m, {4, 8, 16, 32, 64}, 0, native_h});
     p.families.push_back({"native ball / euler", true, true, Method::Euler, {4, 8, 16, 32, 64}, 0, native_h});
@@ -779,10 +784,11 @@ int main(int argc, char** argv) {
     else if (a == "--reference-only") o.reference_only = true;
     else if (a == "--reps") o.reps = std::atoi(next().c_str());
     else if (a == "--cap") o.cap = std::atof(next().c_str());
+    else if (a == "--family") o.families.push_back(next());
     else {
       std::fprintf(stderr,
                    "usage: work_precision [--quick] [--problem cantilever|circle|flagellate|octopus]... [--out DIR] "
-                   "[--reps N] [--cap SECONDS] [--models DIR] [--refs DIR]\n");
+                   "[--reps N] [--cap SECONDS] [--models DIR] [--refs DIR] [--family TEXT]...\n");
       return 1;
     }
   }
@@ -798,7 +804,16 @@ int main(int argc, char** argv) {
       std::fprintf(stderr, "work_precision: unknown problem '%s'\n", name.c_str());
       return 1;
     }
-    for (const Problem& p : ps) write_json(o.out + "/work_precision_" + p.name + ".json", run_problem(p, o));
+    for (Problem& p : ps) {
+      if (!o.families.empty()) {  // --family: only the families whose name contains one of the texts
+        auto unwanted = [&o](const Family& f) {
+          return std::none_of(o.families.begin(), o.families.end(),
+                              [&f](const std::string& t) { return f.name.find(t) != std::string::npos; });
+        };
+        p.families.erase(std::remove_if(p.families.begin(), p.families.end(), unwanted), p.families.end());
+      }
+      write_json(o.out + "/work_precision_" + p.name + ".json", run_problem(p, o));
+    }
   }
   return 0;
 }
