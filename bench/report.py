@@ -47,9 +47,13 @@ def credit_errors(j):
     """Each point's credited error: the largest of its own and those of the same discretisation
     (family, and the label without its step) at smaller steps that were run. A coarse step that beats its finer
     ones got lucky (time and space errors cancelling at one sampling of the trajectory); the front
-    and the equal-error tables count only what a user can rely on. Sets p["credited"]."""
+    and the equal-error tables count only what a user can rely on. Sets p["credited"]: the bench's own
+    "credited_error" when the JSON has it (it computes the same), else computed here for older files."""
     for f in j["families"]:
         for p in f["points"]:
+            if "credited_error" in p:
+                p["credited"] = p["credited_error"]
+                continue
             e = p["error"]
             if e is None:
                 p["credited"] = None
