@@ -110,18 +110,19 @@ inline void add_cross(const Mat6X& Sb, const Cols& F, MatX& M, int rb, int cf) {
 // (For a non-symmetric A only the base coupling and the blocks S_b^T .. S_a, b an ancestor of a,
 // are those of J^T A J: the blocks below are filled as their transposes. Inertia and drag are
 // symmetric.)
-void composite(const Model& m, Data& d, Mat6 Node::*field, MatX& out_M, Mat6& out_base, Mat6X& out_F_base) {
+void composite(const Model& m, Data& d, NodeMatrix which, MatX& out_M, Mat6& out_base, Mat6X& out_F_base) {
   const int nn = static_cast<int>(m.nodes.size());
-  // a fixed subtree's composite is constant (Model::update_fixed_composites); only the inertia and
-  // the drag have one
-  Mat6 Node::*fixed = field == &Node::inertia ? &Node::inertia_sub : field == &Node::drag ? &Node::drag_sub : nullptr;
+  const bool inertia = which == NodeMatrix::Inertia;
+  Mat6 Node::*field = inertia ? &Node::inertia : &Node::drag;
+  // a fixed subtree's composite is constant (Model::update_fixed_composites)
+  Mat6 Node::*fixed = inertia ? &Node::inertia_sub : &Node::drag_sub;
   // inertias are rigid-body spatial inertias (Model::finalize checks): the cheaper congruence
-  auto congruence = field == &Node::inertia ? add_congruence_rigid : add_congruence_Ad_inv;
+  auto congruence = inertia ? add_congruence_rigid : add_congruence_Ad_inv;
   // composite matrix in each node frame: Ic_i = A_i + sum_c Ad*_{g_ic} Ic_c Ad^-1_{g_ic}
   // (the nodes inside a fixed subtree are not visited: their Ic is left as it was)
   for (int i = nn - 1; i >= 0; --i) {
     const Node& n = m.nodes[i];
-    if (fixed && n.fixed_subtree) {
+    if (n.fixed_subtree) {
       if (!inside_fixed_subtree(m, n)) d.Ic[i] = n.*fixed;
       continue;
     }
@@ -182,7 +183,7 @@ void composite(const Model& m, Data& d, Mat6 Node::*field, MatX& out_M, Mat6& ou
   }
 }
 
-void crba(const Model& m, Data& d) { composite(m, d, &Node::inertia, d.M, d.Ic_base, d.F_base); }
+void crba(const Model& m, Data& d) { composite(m, d, NodeMatrix::Inertia, d.M, d.Ic_base, d.F_base); }
 
 void rnea(const Model& m, Data& d, const Eigen::Ref<const VecX>& qacc, bool gravity, bool external,
           Eigen::Ref<VecX> tau) {

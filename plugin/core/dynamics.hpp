@@ -13,12 +13,14 @@ namespace cosserat {
 // base frame) and d.F_base (6 x nv, base-frame wrench per unit qacc), so that for a base with
 // body-frame acceleration a_b the full mass matrix is [[Ic_base, F_base], [F_base^T, M]].
 void crba(const Model& m, Data& d);
-// The same recursion for another per-node 6x6 matrix (node frame, angular first), e.g. the fluid
-// resistance Node::drag (fluid.hpp): out_M = sum_i J_i^T A_i J_i over the nodes, with the base
-// coupling out_base (6 x 6) and out_F_base (6 x nv) as for Ic_base and F_base. Uses d.Ic as scratch.
-// The per-node matrices must be symmetric (inertia and drag are): out_M is filled as a symmetric
-// matrix from its upper blocks.
-void composite(const Model& m, Data& d, Mat6 Node::*field, MatX& out_M, Mat6& out_base, Mat6X& out_F_base);
+// The same recursion for the nodes' inertia (crba) or fluid resistance Node::drag (fluid.hpp):
+// out_M = sum_i J_i^T A_i J_i over the nodes (A_i = Node::inertia or Node::drag, node frame, angular
+// first), with the base coupling out_base (6 x 6) and out_F_base (6 x nv) as for Ic_base and
+// F_base. Uses d.Ic as scratch. Fixed subtrees take their cached composite (Node::inertia_sub,
+// Node::drag_sub). The matrices are symmetric: out_M is filled as a symmetric matrix from its
+// upper blocks.
+enum class NodeMatrix { Inertia, Drag };
+void composite(const Model& m, Data& d, NodeMatrix which, MatX& out_M, Mat6& out_base, Mat6X& out_F_base);
 // Recursive Newton-Euler: tau = M qacc + C v + gravity - external loads. After fwd_velocity.
 // `gravity` and `external` switch those contributions on; the base moves as d.base_twist/accel.
 // d.f_base receives the base-frame wrench the base must supply to the tree (its inverse dynamics).

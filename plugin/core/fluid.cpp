@@ -80,7 +80,7 @@ bool has_drag(const Model& m) {
   return false;
 }
 
-void fluid_damping(const Model& m, Data& d) { composite(m, d, &Node::drag, d.D_fluid, d.Dc_base, d.DF_base); }
+void fluid_damping(const Model& m, Data& d) { composite(m, d, NodeMatrix::Drag, d.D_fluid, d.Dc_base, d.DF_base); }
 
 void add_fluid_force(const Model& m, const Data& d, VecX& tau, Vec6* base_wrench) {
   (void)m;

@@ -293,7 +293,7 @@ void check_composite(Model& m, unsigned seed) {
   CompositeOut gd, rd, jd;
   gd.M.resize(m.nv, m.nv);
   gd.F_base.resize(6, m.nv);
-  composite(m, d, &Node::drag, gd.M, gd.base, gd.F_base);
+  composite(m, d, NodeMatrix::Drag, gd.M, gd.base, gd.F_base);
   composite_reference(m, d, &Node::drag, rd.M, rd.base, rd.F_base);
   composite_from_jacobians(m, d, &Node::drag, jd.M, jd.base, jd.F_base);
   EXPECT_GT((rd.M - rd.M.transpose()).norm(), 1e-3 * rd.M.norm());  // really non-symmetric
@@ -304,7 +304,7 @@ void check_composite(Model& m, unsigned seed) {
   EXPECT_LT((gd.base - jd.base).norm(), 1e-12 * jd.base.norm());
   EXPECT_LT((gd.F_base - jd.F_base).norm(), 1e-12 * jd.F_base.norm());
   for (Node& n : m.nodes) n.drag = 0.5 * (n.drag + n.drag.transpose()).eval();
-  composite(m, d, &Node::drag, gd.M, gd.base, gd.F_base);
+  composite(m, d, NodeMatrix::Drag, gd.M, gd.base, gd.F_base);
   composite_from_jacobians(m, d, &Node::drag, jd.M, jd.base, jd.F_base);
   expect_close(gd, jd, 1e-12, "symmetrised drag vs sum J^T A J");
   for (Node& n : m.nodes) n.drag.setZero();
@@ -425,8 +425,8 @@ TEST(KernelsFast, FixedSubtreesEqualNodeByNode) {
     crba(ref, dr);
     expect_close({d.M, d.Ic_base, d.F_base}, {dr.M, dr.Ic_base, dr.F_base}, 1e-13, "crba");
     CompositeOut gd{MatX(m.nv, m.nv), Mat6(), Mat6X(6, m.nv)}, rd = gd;
-    composite(m, d, &Node::drag, gd.M, gd.base, gd.F_base);
-    composite(ref, dr, &Node::drag, rd.M, rd.base, rd.F_base);
+    composite(m, d, NodeMatrix::Drag, gd.M, gd.base, gd.F_base);
+    composite(ref, dr, NodeMatrix::Drag, rd.M, rd.base, rd.F_base);
     expect_close(gd, rd, 1e-13, "drag composite");
     VecX qacc(m.nv), tau(m.nv), tau_ref(m.nv);
     for (int k = 0; k < m.nv; ++k) qacc(k) = u(gen);
