@@ -16,6 +16,7 @@
 #include "scene.hpp"
 
 #include <algorithm>
+#include <cfloat>
 #include <cmath>
 #include <cstring>
 #include <limits>
@@ -1275,7 +1276,13 @@ bool midpoint_step(const Scene& s, SceneData& sd, int iterations) {
     set_end_state(s, sd, sc);
     fwd_inertia(s, sd);
     const SceneEnergy e1 = energy(s, sd);
-    double mu = S > 0.0 ? (h * P - (e1.kinetic + e1.gravity - E0)) / (h * S) : 0.0;
+    // the energy defect the correction removes, unless it is within what the tolerance allows
+    // anyway (the kinetic energy to newton_tol, the energies to round-off): a rod at rest has
+    // S ~ 0 and a defect of round-off, whose quotient means nothing
+    const double defect = h * P - (e1.kinetic + e1.gravity - E0);
+    const double allowed = s.newton_tol * (e0.kinetic + e1.kinetic) +
+                           64 * DBL_EPSILON * (e0.kinetic + std::abs(e0.gravity) + e1.kinetic + std::abs(e1.gravity));
+    double mu = std::abs(defect) > allowed && S > 0.0 ? defect / (h * S) : 0.0;
     const bool clamped = !(std::abs(h * mu) <= kMaxCorrection);
     if (clamped) mu = std::isfinite(mu) ? std::copysign(kMaxCorrection / h, mu) : 0.0;
     mju_addToScl(w.r.data(), Mv, mu, nv);
