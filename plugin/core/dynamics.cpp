@@ -330,8 +330,8 @@ Energy energy(const Model& m, const Data& d) {
       e.gravity -= mass * m.gravity.dot(d.g[i].act(c));
     }
   }
-  const VecX dq = d.q - m.q_ref;
-  e.elastic = 0.5 * dq.dot(m.K * dq);
+  // coefficient-wise product: no temporaries (the scene's energy-conserving step calls this)
+  e.elastic = 0.5 * (d.q - m.q_ref).dot(m.K.lazyProduct(d.q - m.q_ref));
   return e;
 }
 

@@ -1233,6 +1233,8 @@ bool newton_step(const Scene& s, SceneData& sd, const Scheme& sc, int iterations
 // too large for the motion, typically with the kinetic energy near zero while stiff modes are not
 // resolved) is not converged: it is split. On the undamped cantilever of the stress runs at 5 ms,
 // 2% of the steps are.
+void kinetic_and_gravity(const Scene& s, SceneData& sd, SceneEnergy& e);
+
 bool midpoint_step(const Scene& s, SceneData& sd, int iterations) {
   constexpr double kMaxCorrection = 0.25;
   mjModel* m = s.m;  // the midpoint state is a step of h/2: opt.timestep changes meanwhile
@@ -1242,7 +1244,8 @@ bool midpoint_step(const Scene& s, SceneData& sd, int iterations) {
   SceneData::NewtonScratch& w = sd.newton;
   const Scheme sc = midpoint_rule();
   forward(s, sd, Need::Forces);
-  const SceneEnergy e0 = energy(s, sd);
+  SceneEnergy e0, e1;  // kinetic and gravity only (the elastic energy is balanced exactly)
+  kinetic_and_gravity(s, sd, e0);
   const double E0 = e0.kinetic + e0.gravity;
   save_start(sd, m);
   // first iterate: the linearised trapezoidal step, whose average acceleration (d->qacc) is A
@@ -1275,7 +1278,7 @@ bool midpoint_step(const Scene& s, SceneData& sd, int iterations) {
     }
     set_end_state(s, sd, sc);
     fwd_inertia(s, sd);
-    const SceneEnergy e1 = energy(s, sd);
+    kinetic_and_gravity(s, sd, e1);
     // the energy defect the correction removes, unless it is within what the tolerance allows
     // anyway (the kinetic energy to newton_tol, the energies to round-off): a rod at rest has
     // S ~ 0 and a defect of round-off, whose quotient means nothing
@@ -1427,23 +1430,33 @@ Status step(const Scene& s, SceneData& sd, Integrator method) {
 
 // ------------------------------------------------------------------------------- outputs --
 
-SceneEnergy energy(const Scene& s, SceneData& sd) {
+namespace {
+// The kinetic and gravitational parts of energy() (after fwd_inertia).
+void kinetic_and_gravity(const Scene& s, SceneData& sd, SceneEnergy& e) {
   const mjModel* m = s.m;
   mjData* d = sd.d;
-  SceneEnergy e;
   mj_mulM(m, d, sd.tmp_nv.data(), d->qvel);  // qM includes the rods' inertia
   e.kinetic = 0.5 * mju_dot(sd.tmp_nv.data(), d->qvel, m->nv);
   // gravity as the dynamics sees it now (MuJoCo's option, unless disabled)
   const Vec3 g = (m->opt.disableflags & mjDSBL_GRAVITY) ? Vec3::Zero()
                                                          : Vec3(m->opt.gravity[0], m->opt.gravity[1], m->opt.gravity[2]);
+  e.gravity = 0.0;
   for (int b = 1; b < m->nbody; ++b)
     e.gravity -= m->body_mass[b] * g.dot(Vec3(d->xipos[3 * b], d->xipos[3 * b + 1], d->xipos[3 * b + 2]));
   for (size_t r = 0; r < s.rods.size(); ++r) {
     double mass = 0.0;
     const Vec3 com = cosserat::center_of_mass(s.rods[r].model, sd.rod[r], &mass);
     e.gravity -= mass * g.dot(com);
-    e.elastic += cosserat::energy(s.rods[r].model, sd.rod[r]).elastic;
   }
+}
+}  // namespace
+
+SceneEnergy energy(const Scene& s, SceneData& sd) {
+  const mjModel* m = s.m;
+  mjData* d = sd.d;
+  SceneEnergy e;
+  kinetic_and_gravity(s, sd, e);
+  for (size_t r = 0; r < s.rods.size(); ++r) e.elastic += cosserat::energy(s.rods[r].model, sd.rod[r]).elastic;
   // MuJoCo's springs: hinge and slide joints, tendons (ball and free joint springs are not counted)
   for (int j = 0; j < m->njnt; ++j) {
     const int t = m->jnt_type[j], a = m->jnt_qposadr[j];

@@ -43,7 +43,7 @@ TEST(SceneStepAlloc, NoHeapAllocationInStep) {
     auto s = load_scene(kModels + name);
     const double h = s->m->opt.timestep;
     for (Integrator it : {Integrator::Euler, Integrator::Implicit, Integrator::RK4, Integrator::Trapezoidal,
-                          Integrator::GeneralizedAlpha}) {
+                          Integrator::GeneralizedAlpha, Integrator::Midpoint}) {
       SCOPED_TRACE(name + " integrator " + std::to_string(static_cast<int>(it)));
       SceneData sd(*s);
       if (s->m->nkey > 0) mj_resetDataKeyframe(s->m, sd.d, 0);
@@ -51,7 +51,8 @@ TEST(SceneStepAlloc, NoHeapAllocationInStep) {
       s->m->opt.timestep = h;
       for (int k = 0; k < static_cast<int>(0.3 / h); ++k) ASSERT_EQ(step(*s, sd, Integrator::Implicit), Status::Ok);
       // the explicit integrators need small steps on the stiff rods (bench/README.md, stress)
-      const bool a_stable = it == Integrator::Implicit || it == Integrator::Trapezoidal || it == Integrator::GeneralizedAlpha;
+      const bool a_stable = it == Integrator::Implicit || it == Integrator::Trapezoidal ||
+                            it == Integrator::GeneralizedAlpha || it == Integrator::Midpoint;
       s->m->opt.timestep = a_stable ? h : std::min(h, 1e-5);
       for (int k = 0; k < 5; ++k) ASSERT_EQ(step(*s, sd, it), Status::Ok);  // scratch reaches its size
       const int ncon = sd.d->ncon;
