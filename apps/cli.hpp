@@ -1,6 +1,7 @@
 // Command-line parsing shared by the cosserat tool's commands (apps/cosserat.cpp and
-// apps/render_commands.cpp): options "--opt value" / "--opt=value", generated --help, strict
-// number parsing, and one failure type reported as a one-line reason with exit status 1.
+// apps/render_commands.cpp) and the benchmark programs (bench/*_main.cpp): options "--opt value" /
+// "--opt=value", generated --help, strict number parsing, and one failure type reported as a
+// one-line reason with exit status 1.
 #pragma once
 
 #include <algorithm>
@@ -25,6 +26,14 @@ struct Failure : std::runtime_error {
 
 [[noreturn]] inline void fail(const std::string& msg) { throw Failure(msg); }
 
+// A program's report of a failure on stderr, "<program>: <reason>" (the prefix once: parse()'s
+// messages start with the command's name already); returns the exit status, 1.
+inline int report(const std::string& program, const Failure& f) {
+  const std::string what = f.what();
+  std::cerr << (what.rfind(program + ": ", 0) == 0 ? what : program + ": " + what) << "\n";
+  return 1;
+}
+
 // ---------------------------------------------------------------------------- option parsing --
 
 struct Option {
@@ -41,12 +50,15 @@ struct CommandLine {
   std::string summary;                  // one line
   std::vector<std::string> positional;  // metavars of the required positional arguments
   std::vector<Option> options;
-  std::string details;                  // extra help text
+  std::string details = {};             // extra help text
   std::string synopsis = {};            // replaces the generated usage after the name, if given
+  std::string program = "cosserat";     // what is typed before the name (empty: the name is the program)
+
+  std::string command() const { return program.empty() ? name : program + " " + name; }
 
   std::string usage() const {
-    if (!synopsis.empty()) return "cosserat " + name + " " + synopsis;
-    std::string u = "cosserat " + name;
+    if (!synopsis.empty()) return command() + " " + synopsis;
+    std::string u = command();
     for (const auto& p : positional) u += " " + p;
     for (const auto& o : options) u += " [" + o.name + (o.metavar.empty() ? "" : " " + o.metavar) + "]";
     return u;
@@ -68,7 +80,7 @@ struct CommandLine {
   // The positional arguments, or nullopt after printing --help. Throws Failure on bad input.
   std::optional<std::vector<std::string>> parse(int argc, char** argv) const {
     std::vector<std::string> pos;
-    const std::string hint = " (see 'cosserat " + name + " --help')";
+    const std::string hint = " (see '" + command() + " --help')";
     for (int i = 0; i < argc; ++i) {
       std::string a = argv[i];
       if (a == "--help" || a == "-h") {

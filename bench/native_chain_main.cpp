@@ -6,27 +6,30 @@
 #include <iostream>
 #include <string>
 
+#include "cli.hpp"
 #include "common.hpp"
 #include "native_chain.hpp"
 
 int main(int argc, char** argv) {
+  namespace cli = cosserat::cli;
   cosserat::bench::NativeChainOptions opt;
-  std::string in, out;
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    if (a == "--segments" && i + 1 < argc) opt.segments = std::atoi(argv[++i]);
-    else if (a == "--ball") opt.ball = true;
-    else if (a == "--base-spring" && i + 1 < argc) opt.base_spring_factor = std::atof(argv[++i]);
-    else if (a == "--out" && i + 1 < argc) out = argv[++i];
-    else if (in.empty() && a[0] != '-') in = a;
-    else {
-      std::fprintf(stderr, "usage: bench_native_chain MODEL.xml [--segments N] [--ball] [--base-spring F] [--out FILE]\n");
-      return 1;
-    }
-  }
-  if (in.empty()) {
-    std::fprintf(stderr, "usage: bench_native_chain MODEL.xml [--segments N] [--ball] [--base-spring F] [--out FILE]\n");
-    return 1;
+  std::string out;
+  cli::CommandLine cl{"bench_native_chain",
+                      "prints the MuJoCo-native equivalent of a scene with <cosserat> rods (native_chain.hpp)",
+                      {"MODEL.xml"},
+                      {cli::int_option("--segments", "N", "capsule bodies per rod (default 8)", opt.segments, 1),
+                       cli::flag_option("--ball", "ball joints instead of hinge triples", opt.ball),
+                       {"--base-spring", "F", "the clamp's spring: F times EI/ds (default 1)",
+                        [&opt](const std::string& v) { opt.base_spring_factor = cli::parse_positive("--base-spring", v); }},
+                       cli::text_option("--out", "FILE", "write the XML there (default: stdout)", out)}};
+  cl.program.clear();
+  std::string in;
+  try {
+    const auto pos = cl.parse(argc - 1, argv + 1);
+    if (!pos) return 0;
+    in = pos->at(0);
+  } catch (const cli::Failure& f) {
+    return cli::report("bench_native_chain", f);
   }
   try {
     const std::string xml = cosserat::bench::native_chain_xml(cosserat::bench::read_file(in), in, opt);

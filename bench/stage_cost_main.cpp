@@ -33,6 +33,7 @@
 #include <string>
 #include <vector>
 
+#include "cli.hpp"
 #include "common.hpp"
 #include "dynamics.hpp"
 #include "kinematics.hpp"
@@ -348,19 +349,19 @@ double mj_step_time(mjModel* m, mjData* d, const Ctx& c) {
 
 }  // namespace
 
-int main(int argc, char** argv) {
+int run_stage_cost(int argc, char** argv) {
   Ctx c;
   std::string out = "docs/bench", models = COSSERAT_SOURCE_DIR "/models";
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    if (a == "--quick") c.quick = true;
-    else if (a == "--out" && i + 1 < argc) out = argv[++i];
-    else if (a == "--models" && i + 1 < argc) models = argv[++i];
-    else {
-      std::fprintf(stderr, "usage: stage_cost [--quick] [--out DIR] [--models DIR]\n");
-      return 1;
-    }
-  }
+  cli::CommandLine cl{"bench_stage_cost",
+                      "per-step cost by stage, features switched off, coupling overhead (bench/README.md); writes "
+                      "DIR/stage_cost.json",
+                      {},
+                      {cli::flag_option("--quick", "fewer repetitions (the CI smoke run)", c.quick),
+                       cli::text_option("--out", "DIR", "output directory (default docs/bench)", out),
+                       cli::text_option("--models", "DIR", "the models to measure: every .xml in DIR (default models/)",
+                                        models)}};
+  cl.program.clear();
+  if (!cl.parse(argc - 1, argv + 1)) return 0;
   if (c.quick) c.reps = 15, c.min_time = 0.01;
   else c.reps = 51, c.min_time = 0.1;
   mju_user_warning = [](const char*) {};
@@ -552,4 +553,12 @@ int main(int argc, char** argv) {
   // unused features: what the scenes compute that nobody reads (measured kernels)
   write_json(out + "/stage_cost.json", report);
   return 0;
+}
+
+int main(int argc, char** argv) {
+  try {
+    return run_stage_cost(argc, argv);
+  } catch (const cosserat::cli::Failure& f) {
+    return cosserat::cli::report("bench_stage_cost", f);
+  }
 }

@@ -31,6 +31,7 @@
 
 #include <Eigen/Eigenvalues>
 
+#include "cli.hpp"
 #include "common.hpp"
 
 #include "scene_statics.hpp"
@@ -207,25 +208,26 @@ const Method kMethods[] = {Method::Euler,       Method::Implicit,         Method
 
 }  // namespace
 
-int main(int argc, char** argv) {
+int run_stress(int argc, char** argv) {
   bool quick = false;
   std::string out = "docs/bench";
   std::vector<std::string> only;  // parts to run (empty: all)
   const std::vector<std::string> parts = {"material", "turns", "long", "soft", "tipmass", "contact"};
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    if (a == "--quick")
-      quick = true;
-    else if (a == "--out" && i + 1 < argc)
-      out = argv[++i];
-    else if (a == "--only" && i + 1 < argc && std::find(parts.begin(), parts.end(), argv[i + 1]) != parts.end())
-      only.push_back(argv[++i]);
-    else {
-      std::fprintf(stderr,
-                   "usage: stress [--quick] [--out DIR] [--only material|turns|long|soft|tipmass|contact]...\n");
-      return 1;
-    }
-  }
+  cli::CommandLine cl{"bench_stress",
+                      "stability stress tests of every integrator (bench/README.md); writes DIR/stress.json",
+                      {},
+                      {cli::flag_option("--quick", "small grids and short runs (the CI smoke run)", quick),
+                       cli::text_option("--out", "DIR", "output directory (default docs/bench)", out),
+                       {"--only", "PART",
+                        "run only this part (repeatable): material, turns, long, soft, tipmass or contact (default: all)",
+                        [&](const std::string& v) {
+                          if (std::find(parts.begin(), parts.end(), v) == parts.end())
+                            cli::fail("--only: unknown part '" + v +
+                                      "' (material, turns, long, soft, tipmass, contact)");
+                          only.push_back(v);
+                        }}}};
+  cl.program.clear();
+  if (!cl.parse(argc - 1, argv + 1)) return 0;
   const auto wanted = [&](const char* part) {
     return only.empty() || std::find(only.begin(), only.end(), part) != only.end();
   };
@@ -533,4 +535,12 @@ int main(int argc, char** argv) {
   for (const auto& f : failure_list) std::printf("  %s\n", f.c_str());
   write_json(out + "/stress.json", report);
   return 0;
+}
+
+int main(int argc, char** argv) {
+  try {
+    return run_stress(argc, argv);
+  } catch (const cosserat::cli::Failure& f) {
+    return cosserat::cli::report("bench_stress", f);
+  }
 }

@@ -37,6 +37,7 @@
 #include <string>
 #include <vector>
 
+#include "cli.hpp"
 #include "common.hpp"
 #include "native_chain.hpp"
 
@@ -765,33 +766,37 @@ json run_problem(const Problem& p, const Options& o) {
 
 }  // namespace
 
-int main(int argc, char** argv) {
+int run_work_precision(int argc, char** argv) {
   Options o;
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    auto next = [&]() -> std::string {
-      if (i + 1 >= argc) {
-        std::fprintf(stderr, "work_precision: %s needs a value\n", a.c_str());
-        std::exit(1);
-      }
-      return argv[++i];
-    };
-    if (a == "--quick") o.quick = true;
-    else if (a == "--problem") o.problems.push_back(next());
-    else if (a == "--out") o.out = next();
-    else if (a == "--models") o.models = next();
-    else if (a == "--refs") o.refs = next();
-    else if (a == "--reference-only") o.reference_only = true;
-    else if (a == "--reps") o.reps = std::atoi(next().c_str());
-    else if (a == "--cap") o.cap = std::atof(next().c_str());
-    else if (a == "--family") o.families.push_back(next());
-    else {
-      std::fprintf(stderr,
-                   "usage: work_precision [--quick] [--problem cantilever|circle|flagellate|octopus]... [--out DIR] "
-                   "[--reps N] [--cap SECONDS] [--models DIR] [--refs DIR] [--family TEXT]...\n");
-      return 1;
-    }
-  }
+  const std::vector<std::string> problems = {"cantilever", "circle", "flagellate", "octopus"};
+  cli::CommandLine cl{
+      "bench_work_precision",
+      "run time against error, ours and the MuJoCo-native chains (bench/README.md); writes "
+      "DIR/work_precision_<problem>.json",
+      {},
+      {cli::flag_option("--quick", "small grids (the CI smoke run)", o.quick),
+       {"--problem", "NAME", "cantilever, circle, flagellate or octopus (repeatable; default: all)",
+        [&](const std::string& v) {
+          if (std::find(problems.begin(), problems.end(), v) == problems.end())
+            cli::fail("--problem: unknown problem '" + v +
+                      "' (cantilever, circle, flagellate, octopus)");
+          o.problems.push_back(v);
+        }},
+       cli::text_option("--out", "DIR", "output directory (default docs/bench)", o.out),
+       cli::int_option("--reps", "N", "timings per front point, their median is reported (default 3)", o.reps, 1),
+       {"--cap", "S", "a family stops growing when one run takes longer than S seconds (default: quick 1.5, full 10)",
+        [&](const std::string& v) { o.cap = cli::parse_positive("--cap", v); }},
+       cli::text_option("--models", "DIR", "where the shipped models are (default models/)", o.models),
+       cli::text_option("--refs", "DIR", "where the reference trajectories are cached (default docs/bench)", o.refs),
+       cli::flag_option("--reference-only", "compute (or load) the references and stop", o.reference_only),
+       {"--family", "TEXT",
+        "only the contender families whose name contains TEXT (repeatable), e.g. midpoint or 'native hinge'",
+        [&](const std::string& v) {
+          if (v.empty()) cli::fail("--family: empty text");
+          o.families.push_back(v);
+        }}}};
+  cl.program.clear();
+  if (!cl.parse(argc - 1, argv + 1)) return 0;
   if (o.problems.empty()) o.problems = {"cantilever", "circle", "flagellate", "octopus"};
   mju_user_warning = [](const char*) {};  // divergence is detected and reported per run
   for (const std::string& name : o.problems) {
@@ -800,10 +805,7 @@ int main(int argc, char** argv) {
     else if (name == "circle") ps.push_back(circle(o));
     else if (name == "flagellate") ps = flagellates(o);
     else if (name == "octopus") ps.push_back(octopus(o));
-    else {
-      std::fprintf(stderr, "work_precision: unknown problem '%s'\n", name.c_str());
-      return 1;
-    }
+    else cli::fail("unknown problem '" + name + "'");
     for (Problem& p : ps) {
       if (!o.families.empty()) {  // --family: only the families whose name contains one of the texts
         auto unwanted = [&o](const Family& f) {
@@ -816,4 +818,12 @@ int main(int argc, char** argv) {
     }
   }
   return 0;
+}
+
+int main(int argc, char** argv) {
+  try {
+    return run_work_precision(argc, argv);
+  } catch (const cosserat::cli::Failure& f) {
+    return cosserat::cli::report("bench_work_precision", f);
+  }
 }

@@ -146,6 +146,25 @@ TEST_F(Cli, RunJsonHasRequiredKeys) {
   EXPECT_LT(j["energy"]["max_rel_drift"].get<double>(), 1e-3);  // rk4, no damping
 }
 
+// The energy-conserving midpoint rule from the command line: the undamped cantilever keeps its
+// energy (the report's largest relative drift) far below what the tolerance bounds per step, and
+// the demo (core solver only) refuses it with a one-line reason.
+TEST_F(Cli, RunMidpointKeepsTheEnergy) {
+  const fs::path out = scratch() / "midpoint.json";
+  const Result r = cosserat("run '" + kCantilever + "' --duration 0.2 --integrator midpoint --every 1 --json '" +
+                            out.string() + "'");
+  ASSERT_EQ(r.status, 0) << r.err;
+  const json j = json::parse(read(out));
+  EXPECT_EQ(j["integrator"], "midpoint");
+  EXPECT_EQ(j["steps"], 200);
+  EXPECT_LT(j["energy"]["max_rel_drift"].get<double>(), 1e-8);
+  EXPECT_EQ(j["newton"]["unconverged"], 0);
+  const Result demo = cosserat("demo --integrator midpoint --out '" + (scratch() / "demo_mid").string() + "'");
+  EXPECT_EQ(demo.status, 1);
+  EXPECT_EQ(lines(demo.err).size(), 1u) << demo.err;
+  EXPECT_NE(demo.err.find("midpoint"), std::string::npos) << demo.err;
+}
+
 TEST_F(Cli, CompareModelWithItselfHasZeroDeviation) {
   const fs::path out = scratch() / "compare.json";
   const Result r = cosserat("compare '" + kCantilever + "' '" + kCantilever + "' --duration 0.02 --json '" + out.string() + "'");
