@@ -57,7 +57,7 @@ void on_mujoco_error(const char* msg) {
 
 Integrator parse_integrator(const std::string& flag, const std::string& text) {
   const auto in = cosserat::integrator_from_name(text);
-  if (!in) fail(flag + ": unknown integrator '" + text + "' (euler, implicit, trapezoidal, genalpha, midpoint, rk4)");
+  if (!in) fail(flag + ": unknown integrator '" + text + "' (" + cosserat::kIntegratorNames + ")");
   return *in;
 }
 

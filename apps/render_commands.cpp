@@ -75,7 +75,7 @@ struct PictureOptions {
     c.options.push_back(text_option("--key", "K", "start from keyframe K (name or index)", key));
     c.options.push_back(text_option("--ctrl", "U", "actuator controls: nu numbers separated by commas (after --key)", ctrl));
     c.options.push_back(positive_option("--timestep", "h", "time step [s] (default: the model's <option timestep>)", timestep));
-    c.options.push_back(text_option("--integrator", "NAME", "euler | implicit | trapezoidal | rk4 (default: implicit with rods, euler without)", integrator));
+    c.options.push_back(text_option("--integrator", "NAME", "euler | implicit | trapezoidal | genalpha | midpoint | rk4 (default: implicit with rods, euler without; see 'cosserat run --help')", integrator));
   }
 
   void finish() {
@@ -98,7 +98,7 @@ struct Simulation {
     integrator = scene->integrator;
     if (!o.integrator.empty()) {
       const auto in = cosserat::integrator_from_name(o.integrator);
-      if (!in) fail("--integrator: unknown integrator '" + o.integrator + "' (euler, implicit, rk4)");
+      if (!in) fail("--integrator: unknown integrator '" + o.integrator + "' (" + cosserat::kIntegratorNames + ")");
       integrator = *in;
     }
     data = std::make_unique<mj::SceneData>(*scene);

@@ -27,6 +27,8 @@ namespace cosserat {
 
 enum class Integrator { Euler, Implicit, RK4, Trapezoidal, GeneralizedAlpha, Midpoint };
 std::optional<Integrator> integrator_from_name(std::string_view name);
+// The names integrator_from_name knows, for messages.
+constexpr const char* kIntegratorNames = "euler, implicit, trapezoidal, genalpha, midpoint, rk4";
 
 Status step(const Model& m, Data& d, double h, Integrator method = Integrator::Implicit);
 
