@@ -336,6 +336,19 @@ int cmd_check(int argc, char** argv) {
   return 0;
 }
 
+
+// What to try when a run diverges, for the integrator it used.
+std::string divergence_hint(const Simulation& s) {
+  const Integrator in = s.integrator();
+  if (in == Integrator::Euler || in == Integrator::RK4)
+    return "try a smaller --timestep, or --integrator implicit: explicit integrators need steps below the stiffest "
+           "mode's period";
+  if (s.scene().newton_for(in) == 0)
+    return "try --newton 10 (gravity, Coriolis and geometric stiffness are explicit in the linearised step) or a "
+           "smaller --timestep";
+  return "try a smaller --timestep, or more --newton corrections";
+}
+
 int cmd_run(int argc, char** argv) {
   SimOptions sim;
   StateOptions state;
@@ -441,7 +454,7 @@ int cmd_run(int argc, char** argv) {
     print_positions(out, s.data());
     for (const auto& w : warnings) std::printf("warning: %s\n", w.c_str());
   }
-  if (diverged) fail("simulation diverged: " + s.data().warning + " (try a smaller --timestep, --integrator implicit, or --newton 10)");
+  if (diverged) fail("simulation diverged: " + s.data().warning + " (" + divergence_hint(s) + ")");
   return 0;
 }
 
