@@ -19,6 +19,8 @@
 //     a rod too long for that is a LoadError at the rod (see check_depth).
 #include "mjcf.hpp"
 
+#include "integrators.hpp"
+
 #include <tinyxml2.h>
 
 #include <algorithm>
@@ -303,7 +305,7 @@ class Preprocessor {
   void map_lines(const XMLElement* root, Preprocessed& out) const;
   void emit_excludes(XMLDocument& doc, XMLElement* root);
   void check_depth(const XMLElement* root) const;
-  void check_fluid_fields(const XMLElement* root) const;
+  void check_custom_fields(const XMLElement* root) const;
 
   Reader reader(const XMLElement* e) const { return Reader(e, origin(e), origins_); }
   const Origin& origin(const XMLElement* e) const;
@@ -817,7 +819,7 @@ Preprocessed Preprocessor::run(const std::string& text, const std::string& path)
   std::vector<std::string> stack{canonical_key(file)};
   expand_includes(root, doc, stack);
   collect_names(root);
-  check_fluid_fields(root);
+  check_custom_fields(root);
   rewrite(root);
   emit_excludes(doc, root);
   check_depth(root);
@@ -829,17 +831,22 @@ Preprocessed Preprocessor::run(const std::string& text, const std::string& path)
   return out;
 }
 
-// The fluid's <custom> fields (plugin/mujoco/scene_fluid.hpp), checked here where their file and
-// line are known: <text name="cosserat:fluid" data="gray-hancock|lighthill|mujoco"> and
-// <numeric name="cosserat:drag:NAME" data="c_t c_n [c_rot]" or "0">, NAME a geom or a body.
-void Preprocessor::check_fluid_fields(const XMLElement* root) const {
+// The plugin's <custom> fields, checked here where their file and line are known: the fluid's
+// (plugin/mujoco/scene_fluid.hpp) <text name="cosserat:fluid" data="gray-hancock|lighthill|mujoco">
+// and <numeric name="cosserat:drag:NAME" data="c_t c_n [c_rot]" or "0">, NAME a geom or a body;
+// the scene's integrator <text name="cosserat:integrator" data="euler|implicit|...">.
+void Preprocessor::check_custom_fields(const XMLElement* root) const {
   for (const XMLElement* custom = root->FirstChildElement("custom"); custom;
        custom = custom->NextSiblingElement("custom"))
     for (const XMLElement* c = custom->FirstChildElement(); c; c = c->NextSiblingElement()) {
       const std::string name = c->Attribute("name") ? c->Attribute("name") : "";
       if (name.rfind("cosserat:", 0) != 0) continue;
       const Reader r = reader(c);
-      if (is(c, "text") && name == "cosserat:fluid") {
+      if (is(c, "text") && name == "cosserat:integrator") {
+        const std::string v = r.text("data");
+        r.check(integrator_from_name(v).has_value(), "data",
+                "of '" + name + "' must name an integrator (" + kIntegratorNames + "), got '" + v + "'");
+      } else if (is(c, "text") && name == "cosserat:fluid") {
         const std::string v = r.text("data");
         r.check(v == "gray-hancock" || v == "lighthill" || v == "mujoco", "data",
                 "of '" + name + "' must be 'gray-hancock', 'lighthill' or 'mujoco', got '" + v + "'");
@@ -855,8 +862,8 @@ void Preprocessor::check_fluid_fields(const XMLElement* root) const {
           for (double x : *v) r.check(x > 0, "data", "coefficients must be positive, got '" + r.text("data") + "'");
         r.check(!r.has("size") || r.integer("size", 0, 1) == static_cast<int>(v->size()), "size", "differs from the number of values in 'data'");
       } else {
-        r.fail_attr("name", "'" + name + "': unknown cosserat field (known: <text name=\"cosserat:fluid\">, "
-                            "<numeric name=\"cosserat:drag:NAME\">)");
+        r.fail_attr("name", "'" + name + "': unknown cosserat field (known: <text name=\"cosserat:integrator\">, "
+                            "<text name=\"cosserat:fluid\">, <numeric name=\"cosserat:drag:NAME\">)");
       }
     }
 }

@@ -866,6 +866,11 @@ std::unique_ptr<Scene> compile(const Preprocessed& pre) {
   if (!s->rods.empty()) recompute_invweight0(*s);
   s->integrator = s->rods.empty() ? Integrator::Euler : Integrator::Implicit;
   if (s->m->opt.integrator == mjINT_RK4) s->integrator = Integrator::RK4;
+  // <custom><text name="cosserat:integrator" data="NAME"/> (a known name: the preprocessor checked)
+  const mjModel* m = s->m;
+  for (int i = 0; i < m->ntext; ++i)
+    if (std::strcmp(m->names + m->name_textadr[i], "cosserat:integrator") == 0)
+      if (const auto in = integrator_from_name(m->text_data + m->text_adr[i])) s->integrator = *in;
   return s;
 }
 

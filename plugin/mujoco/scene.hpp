@@ -63,7 +63,9 @@ struct Scene {
   std::vector<int> site_index;    // per MuJoCo site: index into that rod's sites
   std::vector<int> site_section;  // per MuJoCo site: section (proxy) of the rod carrying it
   std::string path;
-  Integrator integrator = Integrator::Implicit;  // default: Implicit with rods, Euler without
+  // step()'s integrator: the model's <custom><text name="cosserat:integrator" data="NAME"/> if it
+  // has one, else RK4 for <option integrator="RK4">, Implicit with rods, Euler without
+  Integrator integrator = Integrator::Implicit;
   // Newton iterations of the implicit and trapezoidal steps. With N > 0 the step is the fully
   // implicit theta method (backward Euler, or the trapezoidal rule, with every force at the end of
   // the step), solved by up to N simplified-Newton corrections to the relative velocity tolerance

@@ -413,3 +413,26 @@ TEST(Newton, MidpointRuleRestsOnTheFloor) {
 }
 
 }  // namespace
+
+namespace {
+
+// A model chooses its integrator with <custom><text name="cosserat:integrator" data="midpoint"/>
+// (the command line's --integrator overrides it): the scene's default becomes the midpoint rule,
+// whose steps keep the energy where the default (linearised implicit, backward Euler) loses it.
+TEST(Newton, ModelChoosesTheMidpointRule) {
+  std::string xml = undamped_cantilever();
+  const std::string plain = xml;
+  xml.replace(xml.find("<worldbody>"), 11, R"(<custom><text name="cosserat:integrator" data="midpoint"/></custom><worldbody>)");
+  auto s = load_scene_string(xml, kPath);
+  EXPECT_EQ(s->integrator, Integrator::Midpoint);
+  EXPECT_EQ(load_scene_string(plain, kPath)->integrator, Integrator::Implicit);
+  SceneData sd(*s);
+  forward(*s, sd);
+  const double e0 = energy(*s, sd).total();
+  for (int k = 0; k < 200; ++k) ASSERT_EQ(step(*s, sd), Status::Ok);
+  forward(*s, sd);
+  EXPECT_NEAR(energy(*s, sd).total(), e0, 1e-5 * std::abs(e0));
+  EXPECT_GT(sd.newton_stats.iterations, 0);  // stepped by the Newton scheme
+}
+
+}  // namespace
