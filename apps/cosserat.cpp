@@ -201,8 +201,9 @@ struct SimOptions {
     c.options.push_back({"--newton", "N",
                          "implicit and trapezoidal: up to N Newton corrections per step, making the step fully implicit "
                          "(every force, constraints included, at the end of the step); a step that does not converge is "
-                         "split in halves. 0: one linearised solve (default: 10 for trapezoidal, genalpha and midpoint, 0 "
-                         "for implicit; genalpha and midpoint always make at least 1)",
+                         "split in halves. 1: one correction per step, without a convergence test or splitting (a "
+                         "linearly implicit step). 0: one linearised solve (default: 10 for trapezoidal, genalpha and "
+                         "midpoint, 0 for implicit; genalpha and midpoint always make at least 1)",
                          [this](const std::string& v) { newton = parse_int("--newton", v, 0); }});
     c.options.push_back(positive_option("--newton-tol", "TOL",
                                         "tolerance of the Newton corrections: h |delta a| <= TOL (|v| + h |a|), "

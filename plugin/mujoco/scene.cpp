@@ -1309,7 +1309,11 @@ bool midpoint_step(const Scene& s, SceneData& sd, int iterations) {
 void newton_step_split(const Scene& s, SceneData& sd, const Scheme& sc, int iterations, int depth = 0) {
   constexpr int kMaxSplit = 6;
   SceneData::NewtonScratch& w = sd.newton;
-  if (sc.midpoint ? midpoint_step(s, sd, iterations) : newton_step(s, sd, sc, iterations)) return;
+  const bool converged = sc.midpoint ? midpoint_step(s, sd, iterations) : newton_step(s, sd, sc, iterations);
+  // one correction per step (--newton 1) is a linearly implicit step of the scheme, by choice: it is
+  // kept without a convergence test (splitting would chase a tolerance one correction cannot meet,
+  // down to h/64 on every step)
+  if (converged || iterations == 1) return;
   if (depth == kMaxSplit) {
     ++sd.newton_stats.unconverged;
     return;

@@ -69,12 +69,13 @@ struct Scene {
   // Newton iterations of the implicit and trapezoidal steps. With N > 0 the step is the fully
   // implicit theta method (backward Euler, or the trapezoidal rule, with every force at the end of
   // the step), solved by up to N simplified-Newton corrections to the relative velocity tolerance
-  // newton_tol; a step that does not converge is redone as two half steps (down to h/64). 0: one
+  // newton_tol; a step that does not converge is redone as two half steps (down to h/64). 1: one
+  // correction after the linearised solve, without a convergence test or splitting. 0: one
   // linearised solve (stiffness and damping implicit, the rest explicit). -1 (default): 10 for
   // the trapezoidal rule (linearised, it is only a W-method whose undamped stiff modes slowly
   // blow up under the explicit nonlinear terms), 0 for implicit (linearised backward Euler damps
-  // them). The generalized-alpha method has no linearised form here: it always iterates (0 counts
-  // as 1). See step().
+  // them), 10 for the generalized-alpha method and the midpoint rule, which have no linearised form
+  // here (0 counts as 1 for them). See step().
   int newton_iterations = -1;
   double newton_tol = 1e-6;
   // Anderson acceleration of the Newton corrections: the last `newton_memory` (at most 4)
