@@ -337,7 +337,6 @@ int cmd_check(int argc, char** argv) {
   return 0;
 }
 
-
 // What to try when a run diverges, for the integrator it used.
 std::string divergence_hint(const Simulation& s) {
   const Integrator in = s.integrator();

@@ -867,10 +867,8 @@ std::unique_ptr<Scene> compile(const Preprocessed& pre) {
   s->integrator = s->rods.empty() ? Integrator::Euler : Integrator::Implicit;
   if (s->m->opt.integrator == mjINT_RK4) s->integrator = Integrator::RK4;
   // <custom><text name="cosserat:integrator" data="NAME"/> (a known name: the preprocessor checked)
-  const mjModel* m = s->m;
-  for (int i = 0; i < m->ntext; ++i)
-    if (std::strcmp(m->names + m->name_textadr[i], "cosserat:integrator") == 0)
-      if (const auto in = integrator_from_name(m->text_data + m->text_adr[i])) s->integrator = *in;
+  if (const int t = mj_name2id(s->m, mjOBJ_TEXT, "cosserat:integrator"); t >= 0)
+    if (const auto in = integrator_from_name(s->m->text_data + s->m->text_adr[t])) s->integrator = *in;
   return s;
 }
 
@@ -1214,6 +1212,25 @@ bool newton_step(const Scene& s, SceneData& sd, const Scheme& sc, int iterations
   return converged;
 }
 
+// The kinetic and gravitational parts of energy() (after fwd_inertia).
+void kinetic_and_gravity(const Scene& s, SceneData& sd, SceneEnergy& e) {
+  const mjModel* m = s.m;
+  mjData* d = sd.d;
+  mj_mulM(m, d, sd.tmp_nv.data(), d->qvel);  // qM includes the rods' inertia
+  e.kinetic = 0.5 * mju_dot(sd.tmp_nv.data(), d->qvel, m->nv);
+  // gravity as the dynamics sees it now (MuJoCo's option, unless disabled)
+  const Vec3 g = (m->opt.disableflags & mjDSBL_GRAVITY) ? Vec3::Zero()
+                                                         : Vec3(m->opt.gravity[0], m->opt.gravity[1], m->opt.gravity[2]);
+  e.gravity = 0.0;
+  for (int b = 1; b < m->nbody; ++b)
+    e.gravity -= m->body_mass[b] * g.dot(Vec3(d->xipos[3 * b], d->xipos[3 * b + 1], d->xipos[3 * b + 2]));
+  for (size_t r = 0; r < s.rods.size(); ++r) {
+    double mass = 0.0;
+    const Vec3 com = cosserat::center_of_mass(s.rods[r].model, sd.rod[r], &mass);
+    e.gravity -= mass * g.dot(com);
+  }
+}
+
 // The energy-conserving implicit midpoint rule. With v_m = (v + v+)/2 and the midpoint state
 //   q_m = q + h/2 v_m (MuJoCo's position integration: quaternions along their geodesic), t + h/2,
 //   q+ = q + h v_m,  v+ = v + h A,  M(q_m) A = F(q_m, v_m) + mu M(q_m) v_m,
@@ -1238,8 +1255,6 @@ bool newton_step(const Scene& s, SceneData& sd, const Scheme& sc, int iterations
 // too large for the motion, typically with the kinetic energy near zero while stiff modes are not
 // resolved) is not converged: it is split. On the undamped cantilever of the stress runs at 5 ms,
 // 2% of the steps are.
-void kinetic_and_gravity(const Scene& s, SceneData& sd, SceneEnergy& e);
-
 bool midpoint_step(const Scene& s, SceneData& sd, int iterations) {
   constexpr double kMaxCorrection = 0.25;
   mjModel* m = s.m;  // the midpoint state is a step of h/2: opt.timestep changes meanwhile
@@ -1438,27 +1453,6 @@ Status step(const Scene& s, SceneData& sd, Integrator method) {
 }
 
 // ------------------------------------------------------------------------------- outputs --
-
-namespace {
-// The kinetic and gravitational parts of energy() (after fwd_inertia).
-void kinetic_and_gravity(const Scene& s, SceneData& sd, SceneEnergy& e) {
-  const mjModel* m = s.m;
-  mjData* d = sd.d;
-  mj_mulM(m, d, sd.tmp_nv.data(), d->qvel);  // qM includes the rods' inertia
-  e.kinetic = 0.5 * mju_dot(sd.tmp_nv.data(), d->qvel, m->nv);
-  // gravity as the dynamics sees it now (MuJoCo's option, unless disabled)
-  const Vec3 g = (m->opt.disableflags & mjDSBL_GRAVITY) ? Vec3::Zero()
-                                                         : Vec3(m->opt.gravity[0], m->opt.gravity[1], m->opt.gravity[2]);
-  e.gravity = 0.0;
-  for (int b = 1; b < m->nbody; ++b)
-    e.gravity -= m->body_mass[b] * g.dot(Vec3(d->xipos[3 * b], d->xipos[3 * b + 1], d->xipos[3 * b + 2]));
-  for (size_t r = 0; r < s.rods.size(); ++r) {
-    double mass = 0.0;
-    const Vec3 com = cosserat::center_of_mass(s.rods[r].model, sd.rod[r], &mass);
-    e.gravity -= mass * g.dot(com);
-  }
-}
-}  // namespace
 
 SceneEnergy energy(const Scene& s, SceneData& sd) {
   const mjModel* m = s.m;
