@@ -797,7 +797,7 @@ int run_work_precision(int argc, char** argv) {
         }}}};
   cl.program.clear();
   if (!cl.parse(argc - 1, argv + 1)) return 0;
-  if (o.problems.empty()) o.problems = {"cantilever", "circle", "flagellate", "octopus"};
+  if (o.problems.empty()) o.problems = problems;
   mju_user_warning = [](const char*) {};  // divergence is detected and reported per run
   for (const std::string& name : o.problems) {
     std::vector<Problem> ps;
