@@ -19,17 +19,21 @@
 //   5. the coupling overhead: our step against MuJoCo's mj_step (a) on the same compiled model
 //      (the proxy chain, stepped as rigid bodies: same dofs, same geoms) and (b) on the native
 //      chain of native_chain.hpp with the same number of dofs, from the same state where
-//      possible, as ratios measured in one run.
+//      possible, as ratios measured in one run: the contenders are timed in interleaved rounds
+//      and each ratio is the median over the rounds of that round's ratio.
 // Usage: stage_cost [--quick] [--out DIR] [--models DIR]. Writes DIR/stage_cost.json.
 #include <dlfcn.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
+#include <functional>
 #include <map>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -142,16 +146,6 @@ Loaded load(const std::string& xml, const std::string& path, double warm = 0.3) 
   if (l.s->m->nkey > 0) mj_resetDataKeyframe(l.s->m, l.sd->d, 0);
   for (long k = 0; k < std::lround(warm / h); ++k) l.sim->step();
   return l;
-}
-
-double step_time(Sim& sim, const Ctx& c) {
-  State st;
-  st.save(sim.m(), sim.d());
-  const double t = timed([&] { st.restore(sim.m(), sim.d()); }, [&] { sim.step(); }, c.reps, c.min_time);
-  st.restore(sim.m(), sim.d());
-  sim.step();  // leave a consistent state
-  st.restore(sim.m(), sim.d());
-  return t;
 }
 
 json breakdown(const mj::Scene& s, mj::SceneData& sd, Sim& sim, const Ctx& c, std::map<std::string, double>& cat) {
@@ -338,15 +332,6 @@ long allocations_per_step(Sim& sim, int steps) {
   return std::lround(static_cast<double>(g_allocs.load()) / steps);
 }
 
-// Step time of a MuJoCo model with mj_step from its current state (restored each time).
-double mj_step_time(mjModel* m, mjData* d, const Ctx& c) {
-  State st;
-  st.save(m, d);
-  const double t = timed([&] { st.restore(m, d); }, [&] { mj_step(m, d); }, c.reps, c.min_time);
-  st.restore(m, d);
-  return t;
-}
-
 }  // namespace
 
 int run_stage_cost(int argc, char** argv) {
@@ -490,9 +475,30 @@ int run_stage_cost(int argc, char** argv) {
     }
     jm["features_off"] = jv;
 
-    // 5. coupling overhead
+    // 5. coupling overhead: our step (default integrator and euler), mj_step on the same compiled
+    // model and mj_step on the native chain, timed in interleaved rounds from their own states
+    // (the machine's speed drifts between seconds; a round hits the four alike). The ratios are
+    // medians over the rounds of each round's ratio.
     json jo;
     {
+      struct Contender {
+        std::string key;
+        std::function<void()> save, restore, step;
+        std::vector<double> t;
+      };
+      std::vector<Contender> cs;
+      auto sim_contender = [](const std::string& key, Sim& sim) {
+        auto st = std::make_shared<State>();
+        return Contender{key, [st, &sim] { st->save(sim.m(), sim.d()); }, [st, &sim] { st->restore(sim.m(), sim.d()); },
+                         [&sim] { sim.step(); }, {}};
+      };
+      cs.push_back(sim_contender("ours", *l.sim));
+      // our step with MuJoCo's Euler, from the same state
+      std::unique_ptr<Sim> es = make_rod_sim(xml, path, Method::Euler, m->opt.timestep);
+      mju_copy(es->d()->qpos, l.sd->d->qpos, m->nq);
+      mju_copy(es->d()->qvel, l.sd->d->qvel, m->nv);
+      if (m->nu) mju_copy(es->d()->ctrl, l.sd->d->ctrl, m->nu);
+      cs.push_back(sim_contender("ours_euler", *es));
       // (a) MuJoCo's mj_step on the same compiled model (proxies as rigid bodies with their unit masses)
       const mj::Preprocessed pre = mj::preprocess_string(xml, path);
       mjModel* pm = load_mujoco_string(pre.xml, path);
@@ -501,49 +507,73 @@ int run_stage_cost(int argc, char** argv) {
       mju_copy(pd->qvel, l.sd->d->qvel, pm->nv);
       if (pm->nu) mju_copy(pd->ctrl, l.sd->d->ctrl, pm->nu);
       mj_forward(pm, pd);
-      const double t_same = mj_step_time(pm, pd, c);
-      const double t_ours = step_time(*l.sim, c);
-      Sim* euler_sim = nullptr;
-      std::unique_ptr<Sim> es = make_rod_sim(xml, path, Method::Euler, m->opt.timestep);
-      euler_sim = es.get();
-      mju_copy(euler_sim->d()->qpos, l.sd->d->qpos, m->nq);
-      mju_copy(euler_sim->d()->qvel, l.sd->d->qvel, m->nv);
-      if (m->nu) mju_copy(euler_sim->d()->ctrl, l.sd->d->ctrl, m->nu);
-      const double t_ours_euler = step_time(*euler_sim, c);
-      jo["ours_step_us"] = 1e6 * t_ours;
-      jo["ours_euler_step_us"] = 1e6 * t_ours_euler;
-      jo["same_model_mj_step_us"] = 1e6 * t_same;
-      jo["same_model_ncon"] = pd->ncon;
-      jo["ratio_same_model"] = t_ours / t_same;
-      jo["ratio_same_model_euler"] = t_ours_euler / t_same;
-      std::printf("coupling overhead: ours %.1f us (%s), ours euler %.1f us; mj_step on the same compiled model "
-                  "%.1f us (ncon %d vs %d): ratio %.1f (euler %.1f)\n",
-                  1e6 * t_ours, l.s->integrator == Integrator::Implicit ? "implicit" : "default", 1e6 * t_ours_euler,
-                  1e6 * t_same, pd->ncon, l.sd->d->ncon, t_ours / t_same, t_ours_euler / t_same);
-      mj_deleteData(pd);
-      mj_deleteModel(pm);
-      // (b) the native chain with one body per section (same dofs for PCS rods)
+      {
+        auto st = std::make_shared<State>();
+        cs.push_back({"same_model", [st, pm, pd] { st->save(pm, pd); }, [st, pm, pd] { st->restore(pm, pd); },
+                      [pm, pd] { mj_step(pm, pd); }, {}});
+      }
+      // (b) the native chain with one body per section (same dofs for PCS rods), warmed up
+      std::unique_ptr<Sim> ns;
+      NativeChainOptions o;
+      o.segments = l.s->rods.empty() ? 1 : l.s->rods[0].model.rods[0].nsections;
       try {
-        NativeChainOptions o;
-        o.segments = l.s->rods.empty() ? 1 : l.s->rods[0].model.rods[0].nsections;
         const std::string nx = native_chain_xml(xml, path, o);
-        auto ns = make_mujoco_sim(nx, path, Method::Euler, m->opt.timestep);
+        ns = make_mujoco_sim(nx, path, Method::Euler, m->opt.timestep);
         if (ns->m()->nkey > 0)
           for (int i = 0; i < ns->m()->nu; ++i) ns->d()->ctrl[i] = ns->m()->key_ctrl[i];
         for (long k = 0; k < std::lround((c.quick ? 0.1 : 0.3) / m->opt.timestep); ++k) ns->step();
-        const double t_nat = step_time(*ns, c);
-        jo["native_chain_segments"] = o.segments;
-        jo["native_chain_nv"] = ns->m()->nv;
-        jo["native_chain_ncon"] = ns->d()->ncon;
-        jo["native_chain_mj_step_us"] = 1e6 * t_nat;
-        jo["ratio_native_chain"] = t_ours / t_nat;
-        jo["ratio_native_chain_euler"] = t_ours_euler / t_nat;
-        std::printf("                   native chain N=%d: nv %d, ncon %d, mj_step %.1f us: ratio %.1f (euler %.1f)\n",
-                    o.segments, ns->m()->nv, ns->d()->ncon, 1e6 * t_nat, t_ours / t_nat, t_ours_euler / t_nat);
+        cs.push_back(sim_contender("native_chain", *ns));
       } catch (const std::exception& e) {
         jo["native_chain_error"] = e.what();
         std::printf("                   native chain: %s\n", e.what());
       }
+      for (Contender& k : cs) k.save();
+      const int rounds = c.quick ? 5 : 21;
+      for (int r = 0; r < rounds; ++r)
+        for (Contender& k : cs) {
+          k.t.push_back(timed(k.restore, k.step, 5, c.min_time / 5));
+          k.restore();
+        }
+      auto find = [&](const std::string& key) -> const Contender* {
+        for (const Contender& k : cs)
+          if (k.key == key) return &k;
+        return nullptr;
+      };
+      // median over the rounds of a / b within each round
+      auto ratio = [&](const Contender& a, const Contender& b) {
+        std::vector<double> q;
+        for (size_t r = 0; r < a.t.size(); ++r) q.push_back(a.t[r] / b.t[r]);
+        return median(q);
+      };
+      const Contender &ours = *find("ours"), &ours_e = *find("ours_euler"), &same = *find("same_model");
+      jo["rounds"] = rounds;
+      for (const Contender& k : cs) {
+        jo[k.key + "_step_us"] = 1e6 * median(k.t);
+        jo[k.key + "_step_best_us"] = 1e6 * *std::min_element(k.t.begin(), k.t.end());
+      }
+      // (the keys the report reads, as before)
+      jo["same_model_mj_step_us"] = jo["same_model_step_us"];
+      jo["same_model_ncon"] = pd->ncon;
+      jo["ratio_same_model"] = ratio(ours, same);
+      jo["ratio_same_model_euler"] = ratio(ours_e, same);
+      std::printf("coupling overhead (%d interleaved rounds, medians): ours %.1f us (%s), ours euler %.1f us; mj_step on "
+                  "the same compiled model %.1f us (ncon %d vs %d): ratio %.2f (euler %.2f)\n",
+                  rounds, 1e6 * median(ours.t), l.s->integrator == Integrator::Implicit ? "implicit" : "default",
+                  1e6 * median(ours_e.t), 1e6 * median(same.t), pd->ncon, l.sd->d->ncon, ratio(ours, same),
+                  ratio(ours_e, same));
+      if (const Contender* nat = find("native_chain")) {
+        jo["native_chain_segments"] = o.segments;
+        jo["native_chain_nv"] = ns->m()->nv;
+        jo["native_chain_ncon"] = ns->d()->ncon;
+        jo["native_chain_mj_step_us"] = jo["native_chain_step_us"];
+        jo["ratio_native_chain"] = ratio(ours, *nat);
+        jo["ratio_native_chain_euler"] = ratio(ours_e, *nat);
+        std::printf("                   native chain N=%d: nv %d, ncon %d, mj_step %.1f us: ratio %.2f (euler %.2f)\n",
+                    o.segments, ns->m()->nv, ns->d()->ncon, 1e6 * median(nat->t), ratio(ours, *nat),
+                    ratio(ours_e, *nat));
+      }
+      mj_deleteData(pd);
+      mj_deleteModel(pm);
     }
     jm["coupling_overhead"] = jo;
     jmodels.push_back(jm);
