@@ -266,9 +266,7 @@ double cable_integral(const Model& m, const Data& d, int c, double s, Eigen::Ref
 
 void add_distributed_force(const Model& m, Data& d, int rod, const Vec3& f) {
   const Rod& r = m.rods[rod];
-  for (int s = r.first_section; s < r.first_section + r.nsections; ++s)
-    for (int i = m.sections[s].first_node; i <= m.sections[s].end_node; ++i)
-      d.f_ext_world[i].tail<3>() += m.nodes[i].dX * f;
+  for (int i = r.first_node; i <= r.tip_node; ++i) d.f_ext_world[i].tail<3>() += m.nodes[i].dX * f;
 }
 
 void add_rod_point_wrench(const Model& m, const Data& d, int rod, double X, const Vec3& moment,

@@ -56,20 +56,19 @@ RodFluidInfo set_rod_drag(Model& m, int rod, const RodFluid& f) {
     return gray_hancock(f.viscosity, a, lambda);
   };
   info.base = coefficients(r.radius(0.0));
-  for (int s = r.first_section; s < r.first_section + r.nsections; ++s)
-    for (int i = m.sections[s].first_node; i <= m.sections[s].end_node; ++i) {
-      Node& n = m.nodes[i];
-      n.drag.setZero();
-      if (!f.enabled || n.dX <= 0.0) continue;
-      const RftCoefficients c = coefficients(r.radius(n.X));
-      if (!valid(c))
-        throw std::invalid_argument("rod '" + r.name + "': resistive-force coefficients are not positive (c_t = " +
-                                    std::to_string(c.ct) + ", c_n = " + std::to_string(c.cn) +
-                                    "): the filament is too thick for its wavelength " + std::to_string(lambda) +
-                                    " m; give the drag coefficients explicitly");
-      n.drag.diagonal() << c.crot, 0.0, 0.0, c.ct, c.cn, c.cn;
-      n.drag *= n.dX;
-    }
+  for (int i = r.first_node; i <= r.tip_node; ++i) {
+    Node& n = m.nodes[i];
+    n.drag.setZero();
+    if (!f.enabled || n.dX <= 0.0) continue;
+    const RftCoefficients c = coefficients(r.radius(n.X));
+    if (!valid(c))
+      throw std::invalid_argument("rod '" + r.name + "': resistive-force coefficients are not positive (c_t = " +
+                                  std::to_string(c.ct) + ", c_n = " + std::to_string(c.cn) +
+                                  "): the filament is too thick for its wavelength " + std::to_string(lambda) +
+                                  " m; give the drag coefficients explicitly");
+    n.drag.diagonal() << c.crot, 0.0, 0.0, c.ct, c.cn, c.cn;
+    n.drag *= n.dX;
+  }
   if (m.finalized) m.update_fixed_composites();
   return info;
 }

@@ -152,11 +152,36 @@ int Model::add_rod(int parent, const SE3& placement, const RodSpec& spec) {
     sec.dof0 = nv;
     sec.rest_strain = ss.rest_strain;
     sec.material = ss.material;
-    sec.start_node = prev;
     nv += sec.ndof;
 
-    const int nq = ss.quadrature > 0 ? ss.quadrature : ss.order + 2;
-    gauss_legendre01(nq, gx, gw);
+    // mass quadrature: Gauss points, or for PCS by default the 3-point Gauss-Lobatto rule (0, 1/2,
+    // 1; weights 1/6, 2/3, 1/6), as exact (cubics) with one node per section less: its end points
+    // are the frames at the section's ends, which the neighbouring sections share
+    const bool lobatto = sec.order == 0 && ss.quadrature == 0;
+    const int nq = lobatto ? 1 : ss.quadrature > 0 ? ss.quadrature : ss.order + 2;
+    if (lobatto) gx = {0.5}, gw = {2.0 / 3.0};
+    else gauss_legendre01(nq, gx, gw);
+    const double w_end = lobatto ? 1.0 / 6.0 : 0.0;  // weight of each end point
+    sec.end_weight = w_end;
+    const Vec6 density = section_inertia_density(ss.material, rod.radius(X0));
+    if (lobatto && prev != parent) {  // the start point: the previous section's end frame
+      nodes[prev].dX += w_end * sec.length;
+      nodes[prev].inertia += (w_end * sec.length * density).asDiagonal();
+    } else if (lobatto) {  // the start point: a fixed frame at the rod's base
+      Node n;
+      n.parent = parent;
+      n.offset = placement;
+      n.h = 0.0;
+      n.rod = rod_id;
+      n.section = static_cast<int>(sections.size());
+      n.X = X0;
+      n.dX = w_end * sec.length;
+      n.inertia = (n.dX * density).asDiagonal();
+      nodes.push_back(n);
+      prev = static_cast<int>(nodes.size()) - 1;
+      rod.base_node = prev;
+    }
+    sec.start_node = prev;
     sec.first_node = static_cast<int>(nodes.size());
     require(ss.substeps >= 1, "rod '" + spec.name + "': substeps must be >= 1");
     double Xprev = X0;
@@ -177,8 +202,8 @@ int Model::add_rod(int parent, const SE3& placement, const RodSpec& spec) {
         sec.basis(Xprev + n.h * (0.5 + kSqrt3 / 6.0), n.Phi_b);
         n.xibar_a = n.xibar_b = sec.rest_strain;
         n.commutator = sec.order > 0;
-        if (j < nq && k == nsub) {
-          n.dX = gw[j] * sec.length;
+        if (k == nsub && (j < nq || w_end > 0.0)) {
+          n.dX = (j < nq ? gw[j] : w_end) * sec.length;
           n.inertia = (n.dX * section_inertia_density(ss.material, rod.radius(X))).asDiagonal();
         }
         n.rod = rod_id;
@@ -195,6 +220,7 @@ int Model::add_rod(int parent, const SE3& placement, const RodSpec& spec) {
   }
   rod.nsections = static_cast<int>(specs.size());
   rod.tip_node = prev;
+  rod.first_node = rod.base_node >= 0 ? rod.base_node : sections[rod.first_section].first_node;
   rods.push_back(rod);
   return rod_id;
 }

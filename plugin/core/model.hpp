@@ -9,9 +9,13 @@
 //  - a PCS section has constant strain, Phi_a = Phi_b = B: the commutator vanishes and the step is
 //    the exact exponential of DESIGN.md section 4;
 //  - a GVS section uses Phi(X) = B (x) Legendre(X): the commutator term is kept.
-// Each rod section is split at the Gauss points of its mass quadrature plus its end; the inertia
-// of the rod is lumped at those Gauss points (weight x cross-section inertia density), so mass
-// matrix, bias, energy and momentum are all exact for this discrete model.
+// Each rod section is split at the points of its mass quadrature plus its end; the inertia of the
+// rod is lumped at those points (weight x cross-section inertia density), so mass matrix, bias,
+// energy and momentum are all exact for this discrete model. PCS sections use by default the
+// 3-point Gauss-Lobatto rule (X0, mid, end; weights 1/6, 2/3, 1/6 of the length): the end points
+// are frames the neighbouring sections share (the first section's start is Rod::base_node), so a
+// section has two nodes, whose steps are equal (one exponential); GVS sections use order + 2
+// Gauss points.
 #pragma once
 
 #include <string>
@@ -46,7 +50,8 @@ struct SectionSpec {
   int order = 0;  // 0: piecewise constant strain (PCS); > 0: GVS Legendre order
   Vec6 rest_strain = (Vec6() << 0, 0, 0, 1, 0, 0).finished();
   RodMaterial material;
-  int quadrature = 0;  // mass points in the section; 0: order + 2
+  int quadrature = 0;  // Gauss points of the mass quadrature; 0: PCS, the 3-point Gauss-Lobatto rule
+                       // (ends shared with the neighbouring sections: one node inside); GVS, order + 2
   int substeps = 1;    // Magnus steps between consecutive quadrature points (GVS kinematic accuracy
                        // improves as substeps^-4; intermediate nodes carry no inertia)
 };
@@ -103,6 +108,10 @@ struct Section {
   RodMaterial material;
   int start_node = -1;     // node at X0 (the rod's attachment frame for the first section)
   int first_node = 0, end_node = 0;  // nodes inside the section: first_node..end_node (end at X0+L)
+  // Gauss-Lobatto mass quadrature (PCS default): the weight, as a fraction of the length, of each
+  // end point (1/6), whose mass sits on start_node and end_node (nodes shared with the neighbours,
+  // which add their own); 0: Gauss points, all inside the section
+  double end_weight = 0.0;
   // Strain basis Phi(X) = B (x) [P_0 .. P_order]((X - X0)/length): dof index = c*(order+1)+k.
   void basis(double X, Mat6X& Phi) const;
   // Phi(X) x for the section's dof block x (strains, or strain rates), given the Legendre weights
@@ -117,6 +126,10 @@ struct Rod {
   SE3 placement;        // X = 0 frame in the parent frame
   int first_section = 0, nsections = 0;
   int tip_node = -1;
+  // The rod's nodes are first_node..tip_node (contiguous, X increasing). base_node: a fixed node at
+  // X = 0 carrying the mass point the first section's Gauss-Lobatto rule puts there (-1: none);
+  // it is first_node then, and the first section's start_node.
+  int first_node = -1, base_node = -1;
   double radius(double X) const { return radius_base + (radius_tip - radius_base) * X / length; }
 };
 

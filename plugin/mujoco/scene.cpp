@@ -807,13 +807,26 @@ void recompute_invweight0(Scene& s) {
       const cosserat::Model& rm = s.rods[proxy_rod[b]].model;
       const cosserat::Data& rd = sd.rod[proxy_rod[b]];
       const Section& sec = rm.sections[proxy_sec[b]];
+      // the section's own mass points: its nodes' lumped cross-sections, the end points of a
+      // Gauss-Lobatto section (shared with the neighbours) with this section's weight only
+      const cosserat::Rod& rod = rm.rods[sec.rod];
+      auto point_mass = [&](double w, double X) {
+        return w * sec.length * section_inertia_density(sec.material, rod.radius(X))(3);
+      };
       double mass = 0.0;
       Vec3 com = Vec3::Zero();
       for (int i = sec.first_node; i <= sec.end_node; ++i) {
-        const Mat6& I = rm.nodes[i].inertia;
-        if (I(3, 3) <= 0) continue;
-        mass += I(3, 3);
-        com += I(3, 3) * rd.g[i].act(unskew(I.topRightCorner<3, 3>()) / I(3, 3));
+        const Node& n = rm.nodes[i];
+        const double mi = i == sec.end_node && sec.end_weight > 0 ? point_mass(sec.end_weight, n.X)
+                                                                   : n.inertia(3, 3);
+        if (mi <= 0) continue;
+        mass += mi;
+        com += mi * rd.g[i].u;
+      }
+      if (sec.end_weight > 0) {
+        const double mi = point_mass(sec.end_weight, sec.X0);
+        mass += mi;
+        com += mi * rd.g[sec.start_node].u;
       }
       com /= mass;
       mj_jac(m, sd.d, jp.data(), jr.data(), com.data(), b);

@@ -237,8 +237,11 @@ namespace {
 
 // The coupling to a moving base (Ic_base, F_base, f_base) equals what a free joint at the base
 // sees: put the same rods on a free joint at q = 0 (identity pose, body twist = v_free).
-TEST(Dynamics, BaseCouplingEqualsFreeJointBlocks) {
-  RodSpec a = rod_spec("sr", 2, 1, 0.3, 0.01);
+// (a GVS rod, and a PCS one, whose Gauss-Lobatto mass quadrature puts a fixed node at the base)
+class BaseCoupling : public ::testing::TestWithParam<int> {};
+
+TEST_P(BaseCoupling, EqualsFreeJointBlocks) {
+  RodSpec a = rod_spec("sr", 2, GetParam(), 0.3, 0.01);
   a.section.rest_strain << 0.2, -0.3, 0.5, 1.0, 0.0, 0.02;
   SE3 place(exp_so3(Vec3(0.3, 0.1, -0.2)), Vec3(0.05, 0.01, 0.0));
   auto [fixed, floating] = fixed_and_floating(a, place);
@@ -266,6 +269,56 @@ TEST(Dynamics, BaseCouplingEqualsFreeJointBlocks) {
   EXPECT_LT((dl.M.bottomRightCorner(fixed.nv, fixed.nv) - df.M).norm(), 1e-13 * s);
   EXPECT_LT((tau_l.head(6) - df.f_base).norm(), 1e-12 * (1 + tau_l.norm()));
   EXPECT_LT((tau_l.tail(fixed.nv) - tau_f).norm(), 1e-12 * (1 + tau_l.norm()));
+}
+INSTANTIATE_TEST_SUITE_P(PcsAndGvs, BaseCoupling, ::testing::Values(0, 1));
+
+// The mass quadratures of a rod mixing PCS sections (default: 3-point Gauss-Lobatto, end points
+// shared with the neighbours; and 2-point Gauss), GVS and rigid sections: every point of the rod
+// is counted once. Straight and uniform, the rod is a cylinder, whose spatial inertia about its
+// base the rules integrate exactly (polynomials of degree <= 2 in X); tapered, mass and first
+// moment (degree <= 3) stay exact.
+TEST(Dynamics, MassQuadraturesCountEveryPointOnce) {
+  for (const double taper : {1.0, 0.5}) {
+    const double L = 0.4, r0 = 0.01, r1 = taper * r0, rho = 1100.0;
+    RodSpec spec = rod_spec("sr", 1, 0, L, r0);
+    spec.radius_tip = r1;
+    SectionSpec pcs = spec.section, gauss2 = pcs, gvs = pcs, rigid = pcs;
+    gauss2.quadrature = 2;
+    gvs.order = 1;
+    rigid.dofs = *strain_mask_from_name("rigid");
+    spec.overrides = {pcs, gauss2, gvs, pcs, rigid, pcs, pcs};
+    Model m;
+    const int r = m.add_rod(-1, SE3::Identity(), spec);
+    m.finalize();
+    const Rod& rod = m.rods[r];
+    EXPECT_EQ(rod.base_node, rod.first_node);  // the first section is Gauss-Lobatto
+    double length = 0.0;
+    for (int i = rod.first_node; i <= rod.tip_node; ++i) length += m.nodes[i].dX;
+    EXPECT_NEAR(length, L, 1e-14);
+    Data d(m);
+    fwd_position(m, d);
+    crba(m, d);
+    const Mat6& Ic = d.Ic_base;
+    // analytic: A(X) = pi r(X)^2 with r linear from r0 to r1
+    auto integral = [&](int k) {  // int_0^L A(X) X^k dX, by 8-point Gauss (exact: degree k + 2)
+      std::vector<double> x, w;
+      gauss_legendre01(8, x, w);
+      double sum = 0.0;
+      for (size_t j = 0; j < x.size(); ++j) {
+        const double X = x[j] * L, rr = r0 + (r1 - r0) * x[j];
+        sum += w[j] * L * M_PI * rr * rr * std::pow(X, k);
+      }
+      return sum;
+    };
+    const double mass = rho * integral(0), first = rho * integral(1);
+    EXPECT_NEAR(Ic(3, 3), mass, 1e-13 * mass) << taper;
+    EXPECT_NEAR(unskew(Ic.topRightCorner<3, 3>()).x(), first, 1e-13 * first) << taper;
+    EXPECT_LT(unskew(Ic.topRightCorner<3, 3>()).tail<2>().norm(), 1e-15 * first);
+    if (taper != 1.0) continue;
+    // the uniform cylinder about its base end: I = diag(m r^2 / 2, m r^2 / 4 + m L^2 / 3, same)
+    const Vec3 I(mass * r0 * r0 / 2, mass * r0 * r0 / 4 + mass * L * L / 3, mass * r0 * r0 / 4 + mass * L * L / 3);
+    EXPECT_LT((Ic.topLeftCorner<3, 3>() - Mat3(I.asDiagonal())).norm(), 1e-13 * I.norm());
+  }
 }
 
 }  // namespace

@@ -393,9 +393,10 @@ TEST(KernelsFast, FixedSubtreesEqualNodeByNode) {
     ref.nodes[i].fixed_subtree = false;
   }
   // roots: the rigid tip section and the rigid rod (rigid section 1 carries soft sections below
-  // it, so it is no fixed subtree); inside: 4 + 1 tip nodes and the frame, 3 x 3 rigid-rod nodes
+  // it, so it is no fixed subtree); inside: 4 + 1 tip nodes and the frame, and the rigid rod's
+  // 3 x 2 nodes below its base node (Gauss-Lobatto PCS sections: middle and end)
   EXPECT_EQ(roots, 2);
-  EXPECT_EQ(inside, 5 + 8);
+  EXPECT_EQ(inside, 5 + 6);
   const int branch_parent = m.rods[1].first_section >= 0 ? m.nodes[m.sections[m.rods[1].first_section].first_node].parent : -1;
   EXPECT_FALSE(m.nodes[branch_parent].fixed_subtree);  // the branch hangs from a rigid node above it
 
@@ -494,7 +495,7 @@ TEST(KernelsFast, GroupJacobiansEqualSectionJacobians) {
 // PCS steps of equal length (the quadrature is symmetric) are computed once (Node::same_step):
 // the kinematics equal those of the same model computing every step.
 TEST(KernelsFast, RepeatedPcsStepsEqualRecomputedOnes) {
-  for (int quadrature : {2, 3, 4}) {
+  for (int quadrature : {0, 2, 3, 4}) {  // 0: the default, 3-point Gauss-Lobatto
     Model m;
     RodSpec r = rod_spec("sr", 3, 0, 0.5, 0.01);
     r.section.quadrature = quadrature;
@@ -507,8 +508,14 @@ TEST(KernelsFast, RepeatedPcsStepsEqualRecomputedOnes) {
       reused += n.same_step >= 0;
       n.same_step = -1;
     }
-    // steps: quadrature + 1 per section, symmetric in pairs (the middle one alone when even)
-    EXPECT_EQ(reused, 3 * ((quadrature + 1) / 2)) << quadrature;
+    // Gauss: quadrature + 1 steps per section, symmetric in pairs (the middle one alone when
+    // even); Gauss-Lobatto: a base node and two equal steps per section, one exponential each
+    if (quadrature == 0) {
+      EXPECT_EQ(m.nodes.size(), 1u + 3 * 2);
+      EXPECT_EQ(reused, 3);
+    } else {
+      EXPECT_EQ(reused, 3 * ((quadrature + 1) / 2)) << quadrature;
+    }
     Data d(m), dr(ref);
     randomize(d, 5 + quadrature);
     dr.q = d.q;
@@ -519,7 +526,7 @@ TEST(KernelsFast, RepeatedPcsStepsEqualRecomputedOnes) {
     fwd_velocity(ref, dr);
     for (size_t i = 0; i < m.nodes.size(); ++i) {
       EXPECT_LT((d.g[i].u - dr.g[i].u).norm() + (d.g[i].R - dr.g[i].R).norm(), 1e-14) << i;
-      EXPECT_LT((d.S[i] - dr.S[i]).norm(), 1e-14 * dr.S[i].norm()) << i;
+      EXPECT_LE((d.S[i] - dr.S[i]).norm(), 1e-14 * dr.S[i].norm()) << i;  // (0 = 0 at the base node)
       EXPECT_LT((d.Sdot[i] - dr.Sdot[i]).norm(), 1e-14 * (1 + dr.Sdot[i].norm())) << i;
       EXPECT_LT((d.cbias[i] - dr.cbias[i]).norm(), 1e-14 * (1 + dr.cbias[i].norm())) << i;
     }
