@@ -154,10 +154,12 @@ int Model::add_rod(int parent, const SE3& placement, const RodSpec& spec) {
     sec.material = ss.material;
     nv += sec.ndof;
 
-    // mass quadrature: Gauss points, or for PCS by default the 3-point Gauss-Lobatto rule (0, 1/2,
+    // mass quadrature: Gauss points, or for PCS optionally the 3-point Gauss-Lobatto rule (0, 1/2,
     // 1; weights 1/6, 2/3, 1/6), as exact (cubics) with one node per section less: its end points
     // are the frames at the section's ends, which the neighbouring sections share
-    const bool lobatto = sec.order == 0 && ss.quadrature == 0;
+    require(!ss.lobatto || (ss.order == 0 && ss.quadrature == 0),
+            "rod '" + spec.name + "': the Gauss-Lobatto mass rule is for PCS sections (order 0), without a Gauss point count");
+    const bool lobatto = ss.lobatto;
     const int nq = lobatto ? 1 : ss.quadrature > 0 ? ss.quadrature : ss.order + 2;
     if (lobatto) gx = {0.5}, gw = {2.0 / 3.0};
     else gauss_legendre01(nq, gx, gw);

@@ -11,11 +11,11 @@
 //  - a GVS section uses Phi(X) = B (x) Legendre(X): the commutator term is kept.
 // Each rod section is split at the points of its mass quadrature plus its end; the inertia of the
 // rod is lumped at those points (weight x cross-section inertia density), so mass matrix, bias,
-// energy and momentum are all exact for this discrete model. PCS sections use by default the
-// 3-point Gauss-Lobatto rule (X0, mid, end; weights 1/6, 2/3, 1/6 of the length): the end points
-// are frames the neighbouring sections share (the first section's start is Rod::base_node), so a
-// section has two nodes, whose steps are equal (one exponential); GVS sections use order + 2
-// Gauss points.
+// energy and momentum are all exact for this discrete model. The points: order + 2 Gauss points
+// by default; for PCS sections optionally the 3-point Gauss-Lobatto rule (SectionSpec::lobatto:
+// X0, mid, end, weights 1/6, 2/3, 1/6 of the length), whose end points are frames the
+// neighbouring sections share (the first section's start is Rod::base_node), so that a section
+// has two nodes with equal steps (one exponential).
 #pragma once
 
 #include <string>
@@ -50,8 +50,13 @@ struct SectionSpec {
   int order = 0;  // 0: piecewise constant strain (PCS); > 0: GVS Legendre order
   Vec6 rest_strain = (Vec6() << 0, 0, 0, 1, 0, 0).finished();
   RodMaterial material;
-  int quadrature = 0;  // Gauss points of the mass quadrature; 0: PCS, the 3-point Gauss-Lobatto rule
-                       // (ends shared with the neighbouring sections: one node inside); GVS, order + 2
+  int quadrature = 0;  // Gauss points of the mass quadrature; 0: order + 2
+  // PCS only: the 3-point Gauss-Lobatto mass rule instead (section ends and middle, weights 1/6,
+  // 2/3, 1/6; the ends shared with the neighbouring sections): as exact as 2 Gauss points
+  // (cubics), with two nodes and one exponential per section instead of three and two. Its end
+  // points sit where a section bent through whole turns has a singular tangent operator: there
+  // the section's inertia in some strain directions is underestimated (stiff, spurious modes).
+  bool lobatto = false;
   int substeps = 1;    // Magnus steps between consecutive quadrature points (GVS kinematic accuracy
                        // improves as substeps^-4; intermediate nodes carry no inertia)
 };

@@ -270,7 +270,20 @@ SectionSpec read_section_spec(const Reader& r, SectionSpec s) {
   r.check(s.material.poisson > -1.0 && s.material.poisson <= 0.5, "poisson", "must be in (-1, 0.5]");
   s.material.viscosity = r.number("viscosity", s.material.viscosity);
   r.check(s.material.viscosity >= 0, "viscosity", "must be >= 0");
-  s.quadrature = r.integer("quadrature", s.quadrature, 1);
+  if (r.text("quadrature") == "lobatto") {
+    s.lobatto = true;
+    s.quadrature = 0;
+  } else if (r.has("quadrature")) {
+    s.quadrature = r.integer("quadrature", s.quadrature, 1);
+    s.lobatto = false;
+  }
+  if (r.has("quadrature"))
+    r.check(!s.lobatto || s.order == 0, "quadrature",
+            "'lobatto' (the Gauss-Lobatto mass rule) is for PCS sections (order 0); give a GVS section a Gauss point count");
+  else
+    r.check(!s.lobatto || s.order == 0, "order",
+            "must be 0 under quadrature=\"lobatto\" (the Gauss-Lobatto mass rule is for PCS sections); give this section a "
+            "Gauss point count");
   return s;
 }
 

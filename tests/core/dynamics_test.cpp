@@ -237,11 +237,12 @@ namespace {
 
 // The coupling to a moving base (Ic_base, F_base, f_base) equals what a free joint at the base
 // sees: put the same rods on a free joint at q = 0 (identity pose, body twist = v_free).
-// (a GVS rod, and a PCS one, whose Gauss-Lobatto mass quadrature puts a fixed node at the base)
+// (a GVS rod, and a PCS one with the Gauss-Lobatto mass rule, which puts a fixed node at the base)
 class BaseCoupling : public ::testing::TestWithParam<int> {};
 
 TEST_P(BaseCoupling, EqualsFreeJointBlocks) {
   RodSpec a = rod_spec("sr", 2, GetParam(), 0.3, 0.01);
+  a.section.lobatto = GetParam() == 0;
   a.section.rest_strain << 0.2, -0.3, 0.5, 1.0, 0.0, 0.02;
   SE3 place(exp_so3(Vec3(0.3, 0.1, -0.2)), Vec3(0.05, 0.01, 0.0));
   auto [fixed, floating] = fixed_and_floating(a, place);
@@ -272,9 +273,9 @@ TEST_P(BaseCoupling, EqualsFreeJointBlocks) {
 }
 INSTANTIATE_TEST_SUITE_P(PcsAndGvs, BaseCoupling, ::testing::Values(0, 1));
 
-// The mass quadratures of a rod mixing PCS sections (default: 3-point Gauss-Lobatto, end points
-// shared with the neighbours; and 2-point Gauss), GVS and rigid sections: every point of the rod
-// is counted once. Straight and uniform, the rod is a cylinder, whose spatial inertia about its
+// The mass quadratures of a rod mixing PCS sections (3-point Gauss-Lobatto, end points shared with
+// the neighbours; 2-point Gauss, the default and given explicitly), GVS and rigid sections (with
+// either rule): every point of the rod is counted once. Straight and uniform, the rod is a cylinder, whose spatial inertia about its
 // base the rules integrate exactly (polynomials of degree <= 2 in X); tapered, mass and first
 // moment (degree <= 3) stay exact.
 TEST(Dynamics, MassQuadraturesCountEveryPointOnce) {
@@ -282,11 +283,14 @@ TEST(Dynamics, MassQuadraturesCountEveryPointOnce) {
     const double L = 0.4, r0 = 0.01, r1 = taper * r0, rho = 1100.0;
     RodSpec spec = rod_spec("sr", 1, 0, L, r0);
     spec.radius_tip = r1;
-    SectionSpec pcs = spec.section, gauss2 = pcs, gvs = pcs, rigid = pcs;
+    SectionSpec pcs = spec.section, lobatto = pcs, gauss2 = pcs, gvs = pcs, rigid = pcs;
+    lobatto.lobatto = true;
     gauss2.quadrature = 2;
     gvs.order = 1;
     rigid.dofs = *strain_mask_from_name("rigid");
-    spec.overrides = {pcs, gauss2, gvs, pcs, rigid, pcs, pcs};
+    SectionSpec rigid_lobatto = rigid;
+    rigid_lobatto.lobatto = true;
+    spec.overrides = {lobatto, gauss2, gvs, lobatto, rigid_lobatto, pcs, lobatto, rigid, lobatto};
     Model m;
     const int r = m.add_rod(-1, SE3::Identity(), spec);
     m.finalize();

@@ -393,10 +393,9 @@ TEST(KernelsFast, FixedSubtreesEqualNodeByNode) {
     ref.nodes[i].fixed_subtree = false;
   }
   // roots: the rigid tip section and the rigid rod (rigid section 1 carries soft sections below
-  // it, so it is no fixed subtree); inside: 4 + 1 tip nodes and the frame, and the rigid rod's
-  // 3 x 2 nodes below its base node (Gauss-Lobatto PCS sections: middle and end)
+  // it, so it is no fixed subtree); inside: 4 + 1 tip nodes and the frame, 3 x 3 rigid-rod nodes
   EXPECT_EQ(roots, 2);
-  EXPECT_EQ(inside, 5 + 6);
+  EXPECT_EQ(inside, 5 + 8);
   const int branch_parent = m.rods[1].first_section >= 0 ? m.nodes[m.sections[m.rods[1].first_section].first_node].parent : -1;
   EXPECT_FALSE(m.nodes[branch_parent].fixed_subtree);  // the branch hangs from a rigid node above it
 
@@ -495,10 +494,11 @@ TEST(KernelsFast, GroupJacobiansEqualSectionJacobians) {
 // PCS steps of equal length (the quadrature is symmetric) are computed once (Node::same_step):
 // the kinematics equal those of the same model computing every step.
 TEST(KernelsFast, RepeatedPcsStepsEqualRecomputedOnes) {
-  for (int quadrature : {0, 2, 3, 4}) {  // 0: the default, 3-point Gauss-Lobatto
+  for (int quadrature : {0, 2, 3, 4}) {  // 0: the 3-point Gauss-Lobatto rule
     Model m;
     RodSpec r = rod_spec("sr", 3, 0, 0.5, 0.01);
     r.section.quadrature = quadrature;
+    r.section.lobatto = quadrature == 0;
     r.section.rest_strain << 0.5, -1.0, 2.0, 1.0, 0.0, 0.0;
     m.add_rod(-1, SE3::Identity(), r);
     m.finalize();

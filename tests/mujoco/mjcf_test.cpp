@@ -107,6 +107,10 @@ std::vector<BadCase> bad_cases() {
       {"negative viscosity", in_world(rod + R"( viscosity="-1"/>)"), 3, "'viscosity' must be >= 0"},
       {"zero density", in_world(rod + R"( density="0"/>)"), 3, "'density' must be positive"},
       {"zero quadrature", in_world(rod + R"( quadrature="0"/>)"), 3, "'quadrature' must be >= 1"},
+      {"bad quadrature", in_world(rod + R"( quadrature="simpson"/>)"), 3, "'quadrature'"},
+      {"lobatto on GVS", in_world(rod + R"( order="2" quadrature="lobatto"/>)"), 3, "'quadrature' 'lobatto' (the Gauss-Lobatto"},
+      {"lobatto rod, GVS section", in_world(rod + " quadrature=\"lobatto\">\n<section order=\"1\"/>\n</cosserat>"), 4,
+       "'order' must be 0 under quadrature=\"lobatto\""},
       {"zero capsules", in_world(rod + R"( capsules="0"/>)"), 3, "'capsules' must be >= 1"},
       {"bad selfcollide", in_world(rod + R"( selfcollide="yes"/>)"), 3, "'selfcollide' must be 'true' or 'false'"},
       {"bad rgba count", in_world(rod + R"( rgba="1 0 0"/>)"), 3, "'rgba' needs 4"},
@@ -364,6 +368,23 @@ TEST(MjcfScenes, RodOnTheTipOfAnotherRod) {
   mj_kinematics(m.get(), d.get());
   EXPECT_NEAR(d->xpos[3 * hand], 0.55, 1e-12);  // tip frame + the body's own pos
   EXPECT_NEAR(d->site_xpos[3 * id(m.get(), mjOBJ_SITE, "finger/tip")], 0.77, 1e-12);
+}
+
+// quadrature="lobatto" (PCS: the 3-point Gauss-Lobatto mass rule) is inherited by the sections
+// and replaced by a Gauss point count.
+TEST(MjcfScenes, LobattoMassRule) {
+  const std::string xml = in_world(R"(<cosserat name="arm" length="1" quadrature="lobatto">
+  <section/>
+  <section quadrature="3"/>
+</cosserat>)");
+  const Preprocessed p = preprocess_string(xml, kInline);
+  const auto& s = p.rods.at(0).spec.overrides;
+  ASSERT_EQ(s.size(), 2u);
+  EXPECT_TRUE(p.rods.at(0).spec.section.lobatto);
+  EXPECT_TRUE(s[0].lobatto);
+  EXPECT_EQ(s[0].quadrature, 0);
+  EXPECT_FALSE(s[1].lobatto);
+  EXPECT_EQ(s[1].quadrature, 3);
 }
 
 TEST(MjcfScenes, SectionOverrides) {

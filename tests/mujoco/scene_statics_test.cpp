@@ -38,6 +38,7 @@ Model core_cantilever() {
   spec.sections = 8;
   spec.section.dofs = *strain_mask_from_name("kl");
   spec.section.material = RodMaterial{1000.0, 1e8, 0.5, 0.0};
+  spec.section.lobatto = true;  // quadrature="lobatto"
   SE3 place;
   place.u = Vec3(0, 0, 1);
   const int r = m.add_rod(-1, place, spec);
