@@ -26,6 +26,7 @@
 #include <algorithm>
 #include <charconv>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -531,8 +532,10 @@ void Preprocessor::read_sections(const Reader& r, RodInput& rod) {
   // one SectionSpec per section: the rod's values, overridden by each <section>
   std::vector<SectionSpec>& secs = spec.overrides;
   std::vector<bool> sized;
+  std::vector<const XMLElement*> elements;  // each section's <section> (none: the rod's attributes)
   for (const XMLElement* c = r.element()->FirstChildElement("section"); c;
        c = c->NextSiblingElement("section")) {
+    elements.push_back(c);
     const Reader s = reader(c);
     s.allow_attributes({"length", "strain", "dofs", "order", "reststrain", "density", "young", "poisson",
                         "viscosity", "quadrature"});
@@ -572,6 +575,18 @@ void Preprocessor::read_sections(const Reader& r, RodInput& rod) {
     if (!sized[i]) secs[i].length = (L - given) / unsized;
     X += secs[i].length;
     rod.section_end.push_back(i + 1 == secs.size() ? L : X);
+    // the Gauss-Lobatto mass rule's end points: singular tangent operator at whole turns
+    const double turn = secs[i].rest_strain.head<3>().norm() * secs[i].length;
+    if (secs[i].lobatto && turn >= M_PI) {
+      char turns[32];
+      std::snprintf(turns, sizeof turns, "%.2f", turn / (2 * M_PI));
+      const std::string msg = "section " + std::to_string(i) + " bends through " + turns +
+                              " turns at rest: quadrature=\"lobatto\" is for sections bending less than half a turn "
+                              "(its mass points at the section ends sit near a whole turn, where the tangent operator "
+                              "is singular); use more sections or Gauss points (quadrature=\"2\")";
+      if (i < elements.size()) reader(elements[i]).fail(msg);
+      r.fail(msg);
+    }
   }
 }
 

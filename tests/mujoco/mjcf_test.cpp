@@ -109,6 +109,11 @@ std::vector<BadCase> bad_cases() {
       {"zero quadrature", in_world(rod + R"( quadrature="0"/>)"), 3, "'quadrature' must be >= 1"},
       {"bad quadrature", in_world(rod + R"( quadrature="simpson"/>)"), 3, "'quadrature'"},
       {"lobatto on GVS", in_world(rod + R"( order="2" quadrature="lobatto"/>)"), 3, "'quadrature' 'lobatto' (the Gauss-Lobatto"},
+      {"lobatto, a turn per section", in_world(rod + R"( quadrature="lobatto" reststrain="0 0 6.3 1 0 0"/>)"), 3,
+       "section 0 bends through 1.00 turns at rest: quadrature=\"lobatto\" is for sections bending less than half"},
+      {"lobatto, a curled section", in_world(rod + " sections=\"2\" quadrature=\"lobatto\">\n<section/>\n"
+                                                   "<section reststrain=\"0 7 0 1 0 0\"/>\n</cosserat>"), 5,
+       "section 1 bends through 0.56 turns"},
       {"lobatto rod, GVS section", in_world(rod + " quadrature=\"lobatto\">\n<section order=\"1\"/>\n</cosserat>"), 4,
        "'order' must be 0 under quadrature=\"lobatto\""},
       {"zero capsules", in_world(rod + R"( capsules="0"/>)"), 3, "'capsules' must be >= 1"},
