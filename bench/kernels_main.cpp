@@ -8,6 +8,7 @@
 
 #include <cmath>
 #include <memory>
+#include <tuple>
 
 #include "dynamics.hpp"
 #include "integrators.hpp"
@@ -53,12 +54,14 @@ void BM_Ad_inv_apply(benchmark::State& st) {
 }
 BENCHMARK(BM_Ad_inv_apply);
 
-// A clamped rod: PCS with n sections (order 0) or GVS (2 sections of order n), kl strain.
+// A clamped rod: PCS with n sections (order 0) or GVS (2 sections of order n), kl strain; PCS
+// with the default 2 Gauss mass points per section or the Gauss-Lobatto rule (lobatto = 1).
 struct Rod {
   Model m;
   std::unique_ptr<Data> d;
-  Rod(int sections, int order, const char* strain = "kl") {
+  Rod(int sections, int order, bool lobatto = false, const char* strain = "kl") {
     RodSpec s = testing::rod_spec(strain, sections, order, 0.5, 0.01);
+    s.section.lobatto = lobatto;
     m.add_rod(-1, SE3::Identity(), s);
     m.finalize();
     d = std::make_unique<Data>(m);
@@ -69,12 +72,13 @@ struct Rod {
 };
 
 void rod_args(benchmark::internal::Benchmark* b) {
-  b->ArgNames({"sections", "order"});
-  for (auto [s, o] : {std::pair{1, 0}, {8, 0}, {32, 0}, {2, 2}, {2, 4}}) b->Args({s, o});
+  b->ArgNames({"sections", "order", "lobatto"});
+  for (auto [s, o, l] : {std::tuple{1, 0, 0}, {8, 0, 0}, {8, 0, 1}, {32, 0, 0}, {32, 0, 1}, {2, 2, 0}, {2, 4, 0}})
+    b->Args({s, o, l});
 }
 
 void BM_section_jacobian(benchmark::State& st) {
-  Rod r(st.range(0), st.range(1));
+  Rod r(st.range(0), st.range(1), st.range(2));
   Mat6X J(6, r.m.max_ndof);
   const Section& sec = r.m.sections.back();
   for (auto _ : st) section_jacobian(r.m, *r.d, 0, sec.X0 + sec.length, J);
@@ -82,7 +86,7 @@ void BM_section_jacobian(benchmark::State& st) {
 BENCHMARK(BM_section_jacobian)->Apply(rod_args);
 
 void BM_section_jacobian_dot(benchmark::State& st) {
-  Rod r(st.range(0), st.range(1));
+  Rod r(st.range(0), st.range(1), st.range(2));
   Mat6X J(6, r.m.max_ndof), Jd(6, r.m.max_ndof);
   const Section& sec = r.m.sections.back();
   for (auto _ : st) section_jacobian(r.m, *r.d, 0, sec.X0 + sec.length, J, &Jd);
@@ -90,33 +94,33 @@ void BM_section_jacobian_dot(benchmark::State& st) {
 BENCHMARK(BM_section_jacobian_dot)->Apply(rod_args);
 
 void BM_rod_pose(benchmark::State& st) {
-  Rod r(st.range(0), st.range(1));
+  Rod r(st.range(0), st.range(1), st.range(2));
   const double X = 0.37 * r.m.rods[0].length;
   for (auto _ : st) benchmark::DoNotOptimize(rod_pose(r.m, *r.d, 0, X));
 }
 BENCHMARK(BM_rod_pose)->Apply(rod_args);
 
 void BM_fwd_position(benchmark::State& st) {
-  Rod r(st.range(0), st.range(1));
+  Rod r(st.range(0), st.range(1), st.range(2));
   for (auto _ : st) fwd_position(r.m, *r.d);
 }
 BENCHMARK(BM_fwd_position)->Apply(rod_args);
 
 void BM_fwd_velocity(benchmark::State& st) {
-  Rod r(st.range(0), st.range(1));
+  Rod r(st.range(0), st.range(1), st.range(2));
   for (auto _ : st) fwd_velocity(r.m, *r.d);
 }
 BENCHMARK(BM_fwd_velocity)->Apply(rod_args);
 
 void BM_mass_matrix_crba(benchmark::State& st) {
-  Rod r(st.range(0), st.range(1));
+  Rod r(st.range(0), st.range(1), st.range(2));
   for (auto _ : st) crba(r.m, *r.d);
   st.counters["nv"] = r.m.nv;
 }
 BENCHMARK(BM_mass_matrix_crba)->Apply(rod_args);
 
 void BM_rnea(benchmark::State& st) {
-  Rod r(st.range(0), st.range(1));
+  Rod r(st.range(0), st.range(1), st.range(2));
   VecX a = VecX::Zero(r.m.nv), tau(r.m.nv);
   for (auto _ : st) rnea(r.m, *r.d, a, true, true, tau);
 }
