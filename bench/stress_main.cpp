@@ -43,6 +43,13 @@ namespace {
 
 constexpr double kPi = 3.14159265358979323846;
 
+// --rod-attr NAME=VALUE: set on every rod of every scene the sweep loads (e.g. quadrature=lobatto)
+std::vector<std::pair<std::string, std::string>> g_rod_attrs;
+std::string with_rod_attrs(std::string xml) {
+  for (const auto& [name, value] : g_rod_attrs) xml = set_rod_attr(xml, name, value);
+  return xml;
+}
+
 struct Case {
   double E = 1e7, L = 0.5, r = 0.005, rho = 1000, viscosity = 0;
   std::string strain = "kl";
@@ -95,7 +102,7 @@ Result energy_run(const std::string& xml, Method method, double h, long steps,
   Result r;
   std::unique_ptr<Sim> sim;
   try {
-    sim = make_rod_sim(xml, "stress.xml", method, h);
+    sim = make_rod_sim(with_rod_attrs(xml), "stress.xml", method, h);
   } catch (const std::exception& e) {
     r.reason = std::string("load: ") + e.what();
     return r;
@@ -143,7 +150,7 @@ Result rest_run(const std::string& xml, double L, Method method, double h, long 
   Result r;
   std::unique_ptr<Sim> sim;
   try {
-    sim = make_rod_sim(xml, "stress.xml", method, h);
+    sim = make_rod_sim(with_rod_attrs(xml), "stress.xml", method, h);
   } catch (const std::exception& e) {
     r.reason = std::string("load: ") + e.what();
     return r;
@@ -218,6 +225,14 @@ int run_stress(int argc, char** argv) {
                       {},
                       {cli::flag_option("--quick", "small grids and short runs (the CI smoke run)", quick),
                        cli::text_option("--out", "DIR", "output directory (default docs/bench)", out),
+                       {"--rod-attr", "NAME=VALUE",
+                        "set this attribute on every rod of every scene (repeatable), e.g. quadrature=lobatto",
+                        [&](const std::string& v) {
+                          const size_t eq = v.find('=');
+                          if (eq == std::string::npos || eq == 0 || eq + 1 == v.size())
+                            cli::fail("--rod-attr: expected NAME=VALUE, got '" + v + "'");
+                          g_rod_attrs.emplace_back(v.substr(0, eq), v.substr(eq + 1));
+                        }},
                        {"--only", "PART",
                         "run only this part (repeatable): material, turns, long, soft, tipmass or contact (default: all)",
                         [&](const std::string& v) {
@@ -235,6 +250,7 @@ int run_stress(int argc, char** argv) {
   json report;
   report["machine"] = machine_info();
   report["quick"] = quick;
+  for (const auto& [name, value] : g_rod_attrs) report["rod_attributes"][name] = value;
   int failures = 0;
   std::vector<std::string> failure_list;
   auto note = [&](const std::string& what, const Result& r) {
@@ -498,7 +514,7 @@ int run_stress(int argc, char** argv) {
       // settle, then measure the drift over further steps
       Result r;
       try {
-        auto sim = make_rod_sim(xml, "rest_on_floor.xml", m, 1e-3);
+        auto sim = make_rod_sim(with_rod_attrs(xml), "rest_on_floor.xml", m, 1e-3);
         const int tip = sim->site_id("rod/tip");
         const Trajectory settle = run(*sim, 2.0, 1e-3, 2.0, {tip});
         if (settle.diverged) {
