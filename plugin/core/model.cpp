@@ -165,23 +165,21 @@ int Model::add_rod(int parent, const SE3& placement, const RodSpec& spec) {
     else gauss_legendre01(nq, gx, gw);
     const double w_end = lobatto ? 1.0 / 6.0 : 0.0;  // weight of each end point
     sec.end_weight = w_end;
-    const Vec6 density = section_inertia_density(ss.material, rod.radius(X0));
-    if (lobatto && prev != parent) {  // the start point: the previous section's end frame
+    if (lobatto) {  // the start point: the previous section's end frame, or a fixed one at the base
+      if (prev == parent) {
+        Node n;
+        n.parent = parent;
+        n.offset = placement;
+        n.h = 0.0;
+        n.rod = rod_id;
+        n.section = static_cast<int>(sections.size());
+        n.X = X0;
+        nodes.push_back(n);
+        prev = static_cast<int>(nodes.size()) - 1;
+        rod.base_node = prev;
+      }
       nodes[prev].dX += w_end * sec.length;
-      nodes[prev].inertia += (w_end * sec.length * density).asDiagonal();
-    } else if (lobatto) {  // the start point: a fixed frame at the rod's base
-      Node n;
-      n.parent = parent;
-      n.offset = placement;
-      n.h = 0.0;
-      n.rod = rod_id;
-      n.section = static_cast<int>(sections.size());
-      n.X = X0;
-      n.dX = w_end * sec.length;
-      n.inertia = (n.dX * density).asDiagonal();
-      nodes.push_back(n);
-      prev = static_cast<int>(nodes.size()) - 1;
-      rod.base_node = prev;
+      nodes[prev].inertia += (w_end * sec.length * section_inertia_density(ss.material, rod.radius(X0))).asDiagonal();
     }
     sec.start_node = prev;
     sec.first_node = static_cast<int>(nodes.size());

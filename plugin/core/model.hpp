@@ -113,7 +113,7 @@ struct Section {
   RodMaterial material;
   int start_node = -1;     // node at X0 (the rod's attachment frame for the first section)
   int first_node = 0, end_node = 0;  // nodes inside the section: first_node..end_node (end at X0+L)
-  // Gauss-Lobatto mass quadrature (PCS default): the weight, as a fraction of the length, of each
+  // Gauss-Lobatto mass quadrature (SectionSpec::lobatto): the weight, as a fraction of the length, of each
   // end point (1/6), whose mass sits on start_node and end_node (nodes shared with the neighbours,
   // which add their own); 0: Gauss points, all inside the section
   double end_weight = 0.0;

@@ -278,13 +278,13 @@ SectionSpec read_section_spec(const Reader& r, SectionSpec s) {
     s.quadrature = r.integer("quadrature", s.quadrature, 1);
     s.lobatto = false;
   }
-  if (r.has("quadrature"))
-    r.check(!s.lobatto || s.order == 0, "quadrature",
-            "'lobatto' (the Gauss-Lobatto mass rule) is for PCS sections (order 0); give a GVS section a Gauss point count");
-  else
-    r.check(!s.lobatto || s.order == 0, "order",
-            "must be 0 under quadrature=\"lobatto\" (the Gauss-Lobatto mass rule is for PCS sections); give this section a "
-            "Gauss point count");
+  if (s.lobatto && s.order > 0) {  // on this element's quadrature, or inherited by a GVS section
+    if (r.has("quadrature"))
+      r.fail_attr("quadrature",
+                  "'lobatto' (the Gauss-Lobatto mass rule) is for PCS sections (order 0); give a GVS section a Gauss point count");
+    r.fail_attr("order", "must be 0 under quadrature=\"lobatto\" (the Gauss-Lobatto mass rule is for PCS sections); give "
+                         "this section a Gauss point count");
+  }
   return s;
 }
 
