@@ -35,6 +35,8 @@ def fmt_e(x):
 def fmt_t(x):
     if x is None:
         return "-"
+    if x < 1e-4:
+        return f"{x * 1e6:.0f} us"
     return f"{x * 1e3:.1f} ms" if x < 1 else f"{x:.2f} s"
 
 
