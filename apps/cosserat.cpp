@@ -173,8 +173,26 @@ void print_positions(const Outputs& o, const mj::SceneData& sd) {
 }
 
 // Warnings MuJoCo counted in mjData (too many contacts, bad numbers, ...), plus its messages.
-std::vector<std::string> collect_warnings(const mjData* d) {
+// A rod section compressed to this fraction of its length or less is reported: the linear
+// constitutive law lets it collapse and invert (SceneData::compression).
+constexpr double kCollapsedStretch = 0.1;
+
+std::string collapse_message(const mj::Scene& sc, const mj::SceneData& sd) {
+  const mj::SceneData::Compression& c = sd.compression;
+  if (!(c.stretch <= kCollapsedStretch)) return {};
+  char b[512];
+  std::snprintf(b, sizeof b,
+                "section %d of rod '%s' was compressed to %.3g of its length (t = %.6g s): the linear constitutive "
+                "law does not resist a section's collapse, and the motion from there on is not physical (a stiffer "
+                "or damped rod, or a smaller load)",
+                c.section, sc.rods[c.rod].decl.name.c_str(), c.stretch, c.time);
+  return b;
+}
+
+std::vector<std::string> collect_warnings(const mj::Scene& sc, const mj::SceneData& sd) {
+  const mjData* d = sd.d;
   std::vector<std::string> w;
+  if (const std::string c = collapse_message(sc, sd); !c.empty()) w.push_back(c);
   for (int i = 0; i < mjNWARNING; ++i)
     if (d->warning[i].number > 0)
       w.push_back(std::string(mju_warningText(i, d->warning[i].lastinfo)) + " (" + std::to_string(d->warning[i].number) +
@@ -338,8 +356,10 @@ int cmd_check(int argc, char** argv) {
 }
 
 // What to try when a run diverges, for the integrator it used.
-std::string divergence_hint(const Simulation& s) {
+std::string divergence_hint(Simulation& s) {
   const Integrator in = s.integrator();
+  if (!collapse_message(s.scene(), s.data()).empty())
+    return "after a rod section collapsed: " + collapse_message(s.scene(), s.data());
   if (in == Integrator::Euler || in == Integrator::RK4)
     return "try a smaller --timestep, or --integrator implicit: explicit integrators need steps below the stiffest "
            "mode's period";
@@ -422,7 +442,7 @@ int cmd_run(int argc, char** argv) {
   const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   if (f.is_open() && !f.flush()) fail("cannot write " + csv);
 
-  std::vector<std::string> warnings = collect_warnings(s.data().d);
+  std::vector<std::string> warnings = collect_warnings(s.scene(), s.data());
   if (diverged) warnings.insert(warnings.begin(), "diverged: " + s.data().warning);
   if (!json_path.empty()) {
     json j;
@@ -711,8 +731,8 @@ int cmd_compare(int argc, char** argv) {
   j["unmatched"] = unmatched;
   j["diverged"] = diverged;
   std::vector<std::string> warnings;
-  for (const auto& w : collect_warnings(a.sim.data().d)) warnings.push_back("A: " + w);
-  for (const auto& w : collect_warnings(b.sim.data().d)) warnings.push_back("B: " + w);
+  for (const auto& w : collect_warnings(a.sim.scene(), a.sim.data())) warnings.push_back("A: " + w);
+  for (const auto& w : collect_warnings(b.sim.scene(), b.sim.data())) warnings.push_back("B: " + w);
   j["warnings"] = warnings;
   if (!json_path.empty()) write_json(json_path, j);
   if (json_path != "-") {

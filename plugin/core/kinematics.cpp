@@ -4,6 +4,9 @@
 //   cbias_i = ad_{eta_i} psi_i + dexp(-Omega) Omega_ddot|_{qacc=0} + ddexp(-Omega, -Omega_dot) Omega_dot.
 #include "kinematics.hpp"
 
+#include <algorithm>
+#include <limits>
+
 namespace cosserat {
 
 namespace {
@@ -322,6 +325,21 @@ Vec6 rod_strain(const Model& m, const Data& d, int r, double X) {
   double P[32];
   legendre01(sec.order, (X - sec.X0) / sec.length, P);
   return sec.basis_apply(P, d.q.data() + sec.dof0) + sec.rest_strain;
+}
+
+double min_axial_stretch(const Model& m, const Data& d, int* section) {
+  double smin = std::numeric_limits<double>::infinity();
+  for (size_t i = 0; i < m.nodes.size(); ++i) {
+    const Node& n = m.nodes[i];
+    if (n.ndof == 0 || n.section < 0 || n.h <= 0) continue;
+    if (m.sections[n.section].B.row(3).isZero()) continue;  // axial strain fixed
+    const double s = d.Omega[i](3) / n.h;
+    if (s < smin) {
+      smin = s;
+      if (section) *section = n.section;
+    }
+  }
+  return smin;
 }
 
 }  // namespace cosserat

@@ -38,6 +38,13 @@ int section_jacobian(const Model& m, const Data& d, int rod, double X, Mat6X& J,
 // Strain xi(X) = Phi(X) q + xi* of rod r.
 Vec6 rod_strain(const Model& m, const Data& d, int rod, double X);
 
+// The smallest axial stretch p_x (deformed over rest length of the centreline) over the Magnus
+// steps of rod sections whose axial strain is free, from the last fwd_position: Omega_x / h of
+// each step (exact for PCS, the step's mean for GVS). +inf when no section can stretch. Its
+// section (global index) goes to `section` if given. A linear constitutive law does not resist a
+// section's collapse: p_x -> 0 and below is an inverted, massless section, not a physical state.
+double min_axial_stretch(const Model& m, const Data& d, int* section = nullptr);
+
 // The Magnus step of a node evaluated for an arbitrary q block (used by the functions above):
 // Omega, and optionally G = dOmega/dq_block.
 Vec6 step_twist(const Node& n, const Eigen::Ref<const VecX>& qi, Mat6X* G);

@@ -171,6 +171,7 @@ RodBinding bind_rod(const mjModel* m, const RodDecl& decl) {
   for (const auto& g : decl.geoms) rb.geom_id.push_back(require_id(m, mjOBJ_GEOM, g.name, decl));
   for (const auto& s : decl.sites) rb.site_id.push_back(require_id(m, mjOBJ_SITE, s.name, decl));
   fix_rigid_placements(rb);
+  for (const Section& sec : rb.model.sections) rb.extensible = rb.extensible || (sec.ndof > 0 && !sec.B.row(3).isZero());
   const int last = rb.proxy_body.back();
   rb.below_begin = last + 1;
   rb.below_end = rb.below_begin;
@@ -897,6 +898,7 @@ void reset(const Scene& s, SceneData& sd) {
   mj_resetData(s.m, sd.d);
   sd.status = Status::Ok;
   sd.warning.clear();
+  sd.compression = {};
 }
 
 // ------------------------------------------------------------------------------ integrators --
@@ -1460,6 +1462,14 @@ Status step(const Scene& s, SceneData& sd, Integrator method) {
     sd.status = Status::Diverged;
     sd.warning = "the state became non-finite at t = " + std::to_string(t) + " s";
     return sd.status;
+  }
+  // the smallest axial stretch of the step's forward evaluations (the rods' data hold the last
+  // one), kept from the first inverted section on (what follows an inversion is not physical)
+  for (size_t r = 0; r < s.rods.size() && sd.compression.stretch > 0; ++r) {
+    if (!s.rods[r].extensible) continue;
+    int section = -1;
+    const double stretch = cosserat::min_axial_stretch(s.rods[r].model, sd.rod[r], &section);
+    if (stretch < sd.compression.stretch) sd.compression = {stretch, t, static_cast<int>(r), section};
   }
   sd.status = Status::Ok;
   return sd.status;

@@ -10,6 +10,7 @@
 // see one system.
 #pragma once
 
+#include <limits>
 #include <memory>
 #include <string>
 #include <vector>
@@ -45,6 +46,7 @@ struct RodBinding {
   };
   std::vector<Fixed> geom_fixed;  // per capsule
   std::vector<Fixed> site_fixed;  // per site
+  bool extensible = false;        // a section with a free axial strain (SceneData::compression)
 };
 
 // Rod capsules' geom_size and geom_rbound follow the state (their chords): a Scene steps one
@@ -103,6 +105,16 @@ struct SceneData {
   std::vector<cosserat::Data> rod;  // per rod
   Status status = Status::Ok;
   std::string warning;              // last divergence message
+  // The smallest axial stretch p_x of any extensible rod section seen by the steps since
+  // construction or reset() (cosserat::min_axial_stretch of each step's last forward evaluation),
+  // with the step's start time, the rod and its section (local index); kept from the first
+  // inversion (stretch <= 0) on. A section compressed towards zero length is outside what the
+  // linear constitutive law describes.
+  struct Compression {
+    double stretch = std::numeric_limits<double>::infinity();
+    double time = 0.0;
+    int rod = -1, section = -1;
+  } compression;
   // the last forward skipped M's factorisation and the accelerations (Need::Forces without
   // constraints): d->qfrc_smooth holds the forces, d->qacc, d->qacc_smooth and d->qLD are stale
   bool forces_only = false;

@@ -76,3 +76,62 @@ TEST(SectionJacobian, TimeDerivativeMatchesFiniteDifferences) {
 }
 
 }  // namespace
+
+namespace {
+
+// The smallest axial stretch (min_axial_stretch) is the axial strain p_x of the most compressed
+// section: exactly for PCS (under both mass rules), the Magnus steps' mean for GVS; sections whose
+// axial strain is fixed (ikl) do not count.
+TEST(MinAxialStretch, IsTheMostCompressedSectionsAxialStrain) {
+  for (bool lobatto : {false, true}) {
+    RodSpec spec = rod_spec("kl", 3, 0);
+    spec.section.lobatto = lobatto;
+    Model m;
+    m.add_rod(-1, SE3::Identity(), spec);
+    m.finalize();
+    Data d(m);
+    // kl: dofs (k_x, k_y, k_z, p_x - 1) per section; bend every section, compress the middle one
+    d.q = 0.3 * VecX::Random(m.nv);
+    d.q(m.sections[0].dof0 + 3) = -0.2;
+    d.q(m.sections[1].dof0 + 3) = -0.75;
+    d.q(m.sections[2].dof0 + 3) = 0.4;
+    fwd_position(m, d);
+    int section = -1;
+    EXPECT_NEAR(min_axial_stretch(m, d, &section), 0.25, 1e-14) << "lobatto " << lobatto;
+    EXPECT_EQ(section, 1);
+    EXPECT_NEAR(rod_strain(m, d, 0, m.sections[1].X0 + 0.5 * m.sections[1].length)(3), 0.25, 1e-14);
+    // an inverted section reads below zero
+    d.q(m.sections[2].dof0 + 3) = -1.5;
+    fwd_position(m, d);
+    EXPECT_NEAR(min_axial_stretch(m, d, &section), -0.5, 1e-14);
+    EXPECT_EQ(section, 2);
+  }
+  // GVS order 1: p_x linear along the section, the steps' means lie between its end values
+  {
+    Model m;
+    m.add_rod(-1, SE3::Identity(), rod_spec("kl", 1, 1));
+    m.finalize();
+    Data d(m);
+    d.q.setZero();
+    // dof index c*(order+1)+k: the axial strain's P_0 and P_1 weights
+    d.q(3 * 2 + 0) = -0.5;
+    d.q(3 * 2 + 1) = 0.4;
+    fwd_position(m, d);
+    const double lo = rod_strain(m, d, 0, 0.0)(3), hi = rod_strain(m, d, 0, m.rods[0].length)(3);
+    const double s = min_axial_stretch(m, d);
+    EXPECT_GT(s, std::min(lo, hi) - 1e-12);
+    EXPECT_LT(s, 0.5);  // the mean p_x is 0.5: the smallest step mean lies below it
+  }
+  // inextensible: nothing can collapse
+  {
+    Model m;
+    m.add_rod(-1, SE3::Identity(), rod_spec("ikl", 2, 0));
+    m.finalize();
+    Data d(m);
+    d.q = 0.3 * VecX::Random(m.nv);
+    fwd_position(m, d);
+    EXPECT_TRUE(std::isinf(min_axial_stretch(m, d)));
+  }
+}
+
+}  // namespace

@@ -7,6 +7,8 @@
 
 #include <cmath>
 #include <cstring>
+#include <fstream>
+#include <sstream>
 #include <string>
 
 #include "dynamics.hpp"
@@ -571,6 +573,56 @@ TEST(Scene, StepsWithoutAccelerationsEqualTheFullPipeline) {
     EXPECT_GT(moved, 0.1);
     EXPECT_LE(diff, 1e-9) << "skipping the accelerations changed the trajectory";
   }
+}
+
+}  // namespace
+
+namespace {
+
+std::string read_text(const std::string& path) {
+  std::ifstream f(path);
+  std::stringstream ss;
+  ss << f.rdbuf();
+  return ss.str();
+}
+
+// SceneData::compression records the smallest axial stretch the steps saw. The string of
+// docs/bench/repro/soft_string_collapse.xml (E = 1e3 Pa, stretching 6-8x under its own weight) run
+// accurately (the energy-keeping midpoint rule at 2 ms; the linearised implicit step at 0.2 ms
+// agrees) inverts its second section at about 1.8 s: the record stops there, at a stretch <= 0.
+// The same string ten times stiffer, and an extensible arm swinging under gravity, stay near 1; an
+// inextensible rod has nothing to record; reset() clears the record.
+TEST(Scene, CompressionRecordsTheMostCompressedSection) {
+  const std::string soft = read_text(COSSERAT_SOURCE_DIR "/docs/bench/repro/soft_string_collapse.xml");
+  ASSERT_FALSE(soft.empty());
+  auto run = [](const std::string& xml, Integrator in, double T) {
+    auto s = load_scene_string(xml, kPath);
+    SceneData sd(*s);
+    const long n = std::lround(T / s->m->opt.timestep);
+    for (long k = 0; k < n; ++k) EXPECT_EQ(step(*s, sd, in), Status::Ok) << "step " << k;
+    SceneData::Compression c = sd.compression;
+    if (c.stretch <= 0) {  // reset clears the record
+      reset(*s, sd);
+      EXPECT_TRUE(std::isinf(sd.compression.stretch));
+    }
+    return c;
+  };
+  const SceneData::Compression c = run(soft, Integrator::Midpoint, 2.0);
+  EXPECT_LE(c.stretch, 0.0);
+  EXPECT_EQ(c.rod, 0);
+  EXPECT_EQ(c.section, 1);
+  EXPECT_GT(c.time, 1.7);
+  EXPECT_LT(c.time, 1.9);
+  const SceneData::Compression stiff =
+      run(replace_all(soft, "young=\"1000\"", "young=\"1e5\""), Integrator::Midpoint, 0.5);
+  EXPECT_GT(stiff.stretch, 0.9);
+  EXPECT_LT(stiff.stretch, 1.0);
+  const SceneData::Compression arm = run(arm_xml("kl", 3, 0, 0.0), Integrator::Implicit, 0.5);
+  EXPECT_GT(arm.stretch, 0.99);
+  EXPECT_LT(arm.stretch, 1.01);
+  const SceneData::Compression ikl = run(arm_xml("ikl", 3, 0, 0.0), Integrator::Implicit, 0.1);
+  EXPECT_TRUE(std::isinf(ikl.stretch));
+  EXPECT_EQ(ikl.rod, -1);
 }
 
 }  // namespace
