@@ -742,6 +742,7 @@ int cmd_compare(int argc, char** argv) {
     for (const char* k : {"a", "b"})
       for (const auto& [name, v] : j["swimming_speed"][k].items())
         std::printf("swimming speed (%s) %s: %s m/s\n", k, name.c_str(), v.dump().c_str());
+    for (const auto& w : warnings) std::printf("warning: %s\n", w.c_str());
   }
   if (diverged) fail(std::string("simulation of ") + (a.diverged ? "A" : "B") + " diverged: " +
                      (a.diverged ? a.sim.data().warning : b.sim.data().warning));
