@@ -590,8 +590,8 @@ std::string read_text(const std::string& path) {
 // docs/bench/repro/soft_string_collapse.xml (E = 1e3 Pa, stretching 6-8x under its own weight) run
 // accurately (the energy-keeping midpoint rule at 2 ms; the linearised implicit step at 0.2 ms
 // agrees) inverts its second section at about 1.8 s: the record stops there, at a stretch <= 0.
-// The same string ten times stiffer, and an extensible arm swinging under gravity, stay near 1; an
-// inextensible rod has nothing to record; reset() clears the record.
+// The same string a hundred times stiffer, and an extensible arm swinging under gravity, stay
+// near 1; an inextensible rod has nothing to record; reset() clears the record.
 TEST(Scene, CompressionRecordsTheMostCompressedSection) {
   const std::string soft = read_text(COSSERAT_SOURCE_DIR "/docs/bench/repro/soft_string_collapse.xml");
   ASSERT_FALSE(soft.empty());
