@@ -173,26 +173,10 @@ void print_positions(const Outputs& o, const mj::SceneData& sd) {
 }
 
 // Warnings MuJoCo counted in mjData (too many contacts, bad numbers, ...), plus its messages.
-// A rod section compressed to this fraction of its length or less is reported: the linear
-// constitutive law lets it collapse and invert (SceneData::compression).
-constexpr double kCollapsedStretch = 0.1;
-
-std::string collapse_message(const mj::Scene& sc, const mj::SceneData& sd) {
-  const mj::SceneData::Compression& c = sd.compression;
-  if (!(c.stretch <= kCollapsedStretch)) return {};
-  char b[512];
-  std::snprintf(b, sizeof b,
-                "section %d of rod '%s' was compressed to %.3g of its length (t = %.6g s): the linear constitutive "
-                "law does not resist a section's collapse, and the motion from there on is not physical (a stiffer "
-                "or damped rod, or a smaller load)",
-                c.section, sc.rods[c.rod].decl.name.c_str(), c.stretch, c.time);
-  return b;
-}
-
 std::vector<std::string> collect_warnings(const mj::Scene& sc, const mj::SceneData& sd) {
   const mjData* d = sd.d;
   std::vector<std::string> w;
-  if (const std::string c = collapse_message(sc, sd); !c.empty()) w.push_back(c);
+  if (const std::string c = mj::collapse_warning(sc, sd); !c.empty()) w.push_back(c);
   for (int i = 0; i < mjNWARNING; ++i)
     if (d->warning[i].number > 0)
       w.push_back(std::string(mju_warningText(i, d->warning[i].lastinfo)) + " (" + std::to_string(d->warning[i].number) +
@@ -358,8 +342,8 @@ int cmd_check(int argc, char** argv) {
 // What to try when a run diverges, for the integrator it used.
 std::string divergence_hint(Simulation& s) {
   const Integrator in = s.integrator();
-  if (!collapse_message(s.scene(), s.data()).empty())
-    return "after a rod section collapsed: " + collapse_message(s.scene(), s.data());
+  if (const std::string c = mj::collapse_warning(s.scene(), s.data()); !c.empty())
+    return "after a rod section collapsed: " + c;
   if (in == Integrator::Euler || in == Integrator::RK4)
     return "try a smaller --timestep, or --integrator implicit: explicit integrators need steps below the stiffest "
            "mode's period";

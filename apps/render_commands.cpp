@@ -123,8 +123,15 @@ struct Simulation {
   void advance_to(double t) {
     const long target = std::llround(t / scene->m->opt.timestep);
     for (; steps < target; ++steps)
-      if (mj::step(*scene, *data, integrator) != cosserat::Status::Ok) fail("the simulation diverged: " + data->warning);
+      if (mj::step(*scene, *data, integrator) != cosserat::Status::Ok) {
+        const std::string c = mj::collapse_warning(*scene, *data);
+        fail("the simulation diverged: " + data->warning + (c.empty() ? "" : " (after a rod section collapsed: " + c + ")"));
+      }
     mj::fwd_position(*scene, *data);
+  }
+  // The collapse warning on stderr, if a rod section collapsed (mj::collapse_warning).
+  void warn() const {
+    if (const std::string c = mj::collapse_warning(*scene, *data); !c.empty()) std::fprintf(stderr, "warning: %s\n", c.c_str());
   }
   double time() const { return data->d->time - t0; }
 };
@@ -223,6 +230,7 @@ int render_command(int argc, char** argv) {
     }
     std::printf("render: %ld frames %dx%d in %s%s\n", frames, renderer.width(), renderer.height(), o.out.c_str(),
                 video.empty() ? "" : (", video " + video).c_str());
+    sim.warn();
     return 0;
   });
 }
@@ -246,6 +254,7 @@ int snapshot_command(int argc, char** argv) {
     make_parent_dir(o.out);
     rd::write_png(o.out, renderer.render(*sim.data));
     std::printf("snapshot: %s %dx%d at t = %g s\n", o.out.c_str(), renderer.width(), renderer.height(), sim.time());
+    sim.warn();
     return 0;
   });
 }

@@ -18,6 +18,7 @@
 #include <algorithm>
 #include <cfloat>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <limits>
 
@@ -892,6 +893,18 @@ std::unique_ptr<Scene> load_scene(const std::string& path) { return compile(prep
 
 std::unique_ptr<Scene> load_scene_string(const std::string& xml, const std::string& path) {
   return compile(preprocess_string(xml, path));
+}
+
+std::string collapse_warning(const Scene& s, const SceneData& sd) {
+  const SceneData::Compression& c = sd.compression;
+  if (!(c.stretch <= kCollapsedStretch)) return {};
+  char b[512];
+  std::snprintf(b, sizeof b,
+                "section %d of rod '%s' was compressed to %.3g of its length (t = %.6g s): the linear constitutive "
+                "law does not resist a section's collapse, and the motion from there on is not physical (a stiffer "
+                "or damped rod, or a smaller load)",
+                c.section, s.rods[c.rod].decl.name.c_str(), c.stretch, c.time);
+  return b;
 }
 
 void reset(const Scene& s, SceneData& sd) {

@@ -180,3 +180,30 @@ TEST_F(CommandsTest, HelpListsTheOptions) {
 }
 
 }  // namespace
+
+namespace {
+
+// A rod section that collapsed is reported by the picture commands too: a warning on stderr after a
+// snapshot of the soft string of docs/bench/repro/ (it inverts a section at 1.8 s), and in the
+// one-line reason of a render that diverges after the collapse.
+TEST_F(CommandsTest, CollapsedSectionIsReported) {
+  const std::string soft = std::string(COSSERAT_SOURCE_DIR) + "/docs/bench/repro/soft_string_collapse.xml";
+  testing::internal::CaptureStderr();
+  ASSERT_EQ(run(snapshot_command, {"snapshot", soft, "--out", (dir / "s.png").string(), "--time", "2", "--integrator",
+                                   "midpoint", "--width", "64", "--height", "48"}),
+            0);
+  const std::string warn = testing::internal::GetCapturedStderr();
+  EXPECT_NE(warn.find("warning: section 1 of rod 'rod' was compressed to"), std::string::npos) << warn;
+  const std::string err = failure(render_command, {"render", soft, "--out", (dir / "r").string(), "--duration", "2",
+                                                   "--fps", "5", "--integrator", "implicit", "--width", "64",
+                                                   "--height", "48"});
+  EXPECT_NE(err.find("after a rod section collapsed: section 3 of rod 'rod'"), std::string::npos) << err;
+  // no warning without a collapse
+  testing::internal::CaptureStderr();
+  ASSERT_EQ(run(snapshot_command, {"snapshot", kModels + "cantilever.xml", "--out", (dir / "c.png").string(), "--time",
+                                   "0.05", "--width", "64", "--height", "48"}),
+            0);
+  EXPECT_EQ(testing::internal::GetCapturedStderr().find("warning:"), std::string::npos);
+}
+
+}  // namespace
