@@ -194,6 +194,7 @@ struct SimOptions {
   std::optional<int> newton;
   double newton_tol = 1e-6;
   int newton_memory = 3;
+  bool newton_refresh = false;
   std::optional<double> rho;
 
   void add_to(CommandLine& c) {
@@ -218,6 +219,11 @@ struct SimOptions {
                            newton_memory = parse_int("--newton-memory", v, 0);
                            if (newton_memory > 4) fail("--newton-memory: " + v + " is more than 4");
                          }});
+    c.options.push_back(flag_option("--newton-refresh",
+                                    "trapezoidal, genalpha, implicit with --newton: factorise the Newton matrix again at "
+                                    "the first iterate (fewer corrections on smooth motion; at steps where the default "
+                                    "iteration fails and splits, the scheme's full step is taken instead)",
+                                    newton_refresh));
     c.options.push_back({"--rho", "R",
                          "genalpha: spectral radius at infinite frequency, 0 <= R <= 1 (default 0.8; 1: no damping of "
                          "stiff modes, the trapezoidal rule; 0: the most damping)",
@@ -266,6 +272,7 @@ class Simulation {
     if (o.newton) scene_->newton_iterations = *o.newton;
     scene_->newton_tol = o.newton_tol;
     scene_->newton_memory = o.newton_memory;
+    scene_->newton_refresh = o.newton_refresh;
     if (o.rho) scene_->rho_inf = *o.rho;
     data_ = std::make_unique<mj::SceneData>(*scene_);
     state.apply(*scene_, *data_);

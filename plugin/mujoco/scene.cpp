@@ -1181,8 +1181,8 @@ Iterate apply_correction(const Scene& s, SceneData& sd, const Scheme& sc, int k,
 // One step of the scheme by simplified Newton iterations: the first iterate is the linearised
 // step, each correction solves A_N delta = M r with the matrix
 //   A_N = M + c (cv1 h D + cq1 h^2 K),  c = (1 - af) / (1 - am),
-// M and the state-dependent parts of D (actuators, fluid) taken at the first iterate (q+, v+)
-// (Scene::newton_refresh; otherwise at the step's start),
+// M and the state-dependent parts of D (actuators, fluid) taken at the step's start (with
+// Scene::newton_refresh: at the first iterate (q+, v+)),
 // and the residual r = ((1 - af) f(q+, v+) + af f(q, v) - am A0) / (1 - am) - A. Returns whether the
 // velocity correction h cv1 |delta| fell below newton_tol (|v+| + h |a_v|) (absolute 1e-12) before
 // the iterations ran out or stopped contracting; either way the state is the last iterate's.

@@ -85,13 +85,16 @@ struct Scene {
   // matrix, which misses the configuration dependence of the mass matrix and the geometric
   // stiffness). 0: plain simplified Newton.
   int newton_memory = 3;
-  // The iteration matrix of newton_step (trapezoidal, genalpha, implicit with corrections) is
-  // factorised again at the first iterate (q+, v+), whose M and velocity derivatives (actuators,
-  // fluid) are the residual's, instead of kept from the step's start: on the undamped cantilever at
-  // 5 ms a third fewer plain corrections (a fifth with Anderson acceleration, which then adds 3%).
-  // The midpoint rule keeps its start matrix: refreshed at its first midpoint state it needed more
-  // corrections and splits on the octopus arm's contacts.
-  bool newton_refresh = true;
+  // true: the iteration matrix of newton_step (trapezoidal, genalpha, implicit with corrections)
+  // is factorised again at the first iterate (q+, v+), whose M and velocity derivatives (actuators,
+  // fluid) are the residual's, instead of kept from the step's start. On the undamped cantilever at
+  // 5 ms that is a third fewer plain corrections (a fifth with Anderson acceleration), on the soft
+  // string a third fewer and a tenth of the split steps. Not the default: where the start matrix's
+  // iteration fails and splits the step (heavy tip masses at 2-10 ms: 30-250 corrections per step),
+  // the refreshed one converges at the full step, where the trapezoidal rule and the generalized
+  // alpha method gain energy (bench_stress: a tip of 10x the rod's mass stable at 1 ms instead of
+  // 10 ms). The midpoint rule always keeps its start matrix.
+  bool newton_refresh = false;
   double rho_inf = 0.8;  // generalized alpha: spectral radius at infinite frequency, in [0, 1]
   int newton_for(Integrator method) const {
     if (newton_iterations >= 0) return newton_iterations;
