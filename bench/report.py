@@ -204,13 +204,34 @@ def plot_work_precision(j, png):
     plt.close(fig)
 
 
+def corrections(row):
+    """Newton corrections per step (and split steps) of a stress run, '-' without corrections."""
+    c = row.get("newton_corrections_per_step")
+    if c is None:
+        return "-"
+    splits = row.get("newton_splits", 0)
+    return f"{c:.2f}" + (f" ({splits} split)" if splits else "")
+
+
+def substeps_note(row):
+    """' (N corr./step)' when the run at the largest stable step needed more than 10 Newton
+    corrections per step: its iteration kept failing and splitting the steps (hidden sub-steps)."""
+    h = row.get("largest_stable_step")
+    for t in row.get("runs", []):
+        if h is not None and t.get("h") == h and t.get("newton_corrections_per_step", 0) > 10:
+            return f" ({t['newton_corrections_per_step']:.0f} corr./step)"
+    return ""
+
+
 def stress_section(path):
     j = load(path)
     out = ["## Stability stress tests", "", f"Machine: {machine_line(j['machine'])}.", ""]
     if j.get("parts_note"):
         out += [j["parts_note"], ""]
     out += ["Largest stable step (energy does not grow, state finite) of each integrator, and whether the "
-            "resting state (static equilibrium) then stays put (tip drift < 1e-6 L):", ""]
+            "resting state (static equilibrium) then stays put (tip drift < 1e-6 L); '(N corr./step)': the "
+            "Newton iteration at that step needed more than 10 corrections per step, its failures splitting "
+            "the steps (sub-stepping that the step alone does not show):", ""]
     mat = j.get("material", [])
     # the integrators in the order the bench ran them
     methods = []
@@ -230,7 +251,7 @@ def stress_section(path):
                 continue
             h = r.get("largest_stable_step")
             rest = r.get("rest", {})
-            cell = "none" if h is None else f"{h:g}"
+            cell = "none" if h is None else f"{h:g}" + substeps_note(r)
             if h is not None and rest and not rest.get("pass"):
                 cell += " (rest: FAIL)"
             cells.append(cell)
@@ -244,32 +265,34 @@ def stress_section(path):
                        f"| {r.get('energy_growth', 0):.1e} |")
         out.append("")
     if j.get("long"):
-        out += ["Long runs (one that fails: the largest smaller step at which the same number of steps passes):", "", "| integrator | h | steps | result | energy growth | wall |", "|---|---|---|---|---|---|"]
+        out += ["Long runs (one that fails: the largest smaller step at which the same number of steps passes):", "", "| integrator | h | steps | result | energy growth | Newton corr./step | wall |", "|---|---|---|---|---|---|---|"]
         for r in j["long"]:
             out.append(f"| {r['method']} | {r['h']:g} | {r['steps']} | {'pass' if r['pass'] else 'FAIL: ' + r.get('reason', '') + passes_at(r, 'largest_passing_step')} "
-                       f"| {r.get('energy_growth', 0):.1e} | {fmt_t(r['wall_s'])} |")
+                       f"| {r.get('energy_growth', 0):.1e} | {corrections(r)} | {fmt_t(r['wall_s'])} |")
         out.append("")
     if j.get("soft_string"):
         out += ["A string too soft for its own weight (docs/bench/repro/soft_string_collapse.xml, E = 1e3 Pa, "
                 "L/r = 1000, stretching 6-8x), every integrator at 2 ms for 3 s (explicit ones that fail there: their "
                 "largest stable step below it; implicit ones that fail: the largest smaller step at which they pass):", "",
-                "| integrator | h | result | energy growth | wall |", "|---|---|---|---|---|"]
+                "| integrator | h | result | energy growth | Newton corr./step | wall |", "|---|---|---|---|---|---|"]
         for r in j["soft_string"]:
             res = 'pass' if r['pass'] else 'FAIL: ' + r.get('reason', '') + passes_at(r, 'largest_stable_step')
             if r.get("runs_below") is not None and r["method"] in ("euler", "rk4"):
                 hs = r.get("largest_stable_step")
                 res = f"unstable at 2 ms; largest stable step {hs if hs is not None else 'none'}"
-            out.append(f"| {r['method']} | {r['h']:g} | {res} | {r.get('energy_growth', 0):.1e} | {fmt_t(r['wall_s'])} |")
+            out.append(f"| {r['method']} | {r['h']:g} | {res} | {r.get('energy_growth', 0):.1e} | {corrections(r)} "
+                       f"| {fmt_t(r['wall_s'])} |")
         out.append("")
     if j.get("tipmass"):
         out += ["Heavy tip masses (largest stable step):", "", "| tip mass / rod mass | " + " | ".join(methods) + " |",
                 "|---|" + "---|" * len(methods)]
         by = {}
         for r in j["tipmass"]:
-            by.setdefault(r["tip_mass_ratio"], {})[r["method"]] = r.get("largest_stable_step")
+            by.setdefault(r["tip_mass_ratio"], {})[r["method"]] = r
         for ratio, d in sorted(by.items()):
-            out.append(f"| {ratio:g} | " + " | ".join("none" if d.get(m) is None else f"{d[m]:g}"
-                                                      for m in methods) + " |")
+            out.append(f"| {ratio:g} | " + " | ".join(
+                "none" if d.get(m, {}).get("largest_stable_step") is None
+                else f"{d[m]['largest_stable_step']:g}" + substeps_note(d[m]) for m in methods) + " |")
         out.append("")
     if j.get("contact"):
         out += ["Hard contact:", ""]

@@ -94,7 +94,19 @@ struct Result {
   bool unstable_equilibrium = false;
   long steps = 0;
   double wall = 0;
+  // Newton corrections per step and split steps (integrators with corrections; -1: none): a
+  // scheme whose iteration keeps failing sub-steps the run, and that cost belongs with its step
+  double newton_per_step = -1;
+  long newton_splits = -1;
 };
+
+// Newton statistics of a finished run into r (runs that made corrections only).
+void newton_stats(Sim& sim, Result& r) {
+  const mj::SceneData* sd = rod_scene_data(sim);
+  if (!sd || r.steps <= 0 || sd->newton_stats.iterations == 0) return;
+  r.newton_per_step = static_cast<double>(sd->newton_stats.iterations) / static_cast<double>(r.steps);
+  r.newton_splits = sd->newton_stats.splits;
+}
 
 // Runs `steps` steps from the scene's initial state (after `init`), checking finiteness and energy.
 Result energy_run(const std::string& xml, Method method, double h, long steps,
@@ -112,6 +124,7 @@ Result energy_run(const std::string& xml, Method method, double h, long steps,
   const Trajectory tr = run(*sim, steps * h, h, stride * h, {sim->site_id("rod/tip")}, {}, true);
   r.steps = tr.steps;
   r.wall = tr.wall;
+  newton_stats(*sim, r);
   if (tr.diverged) {
     r.reason = "diverged at step " + std::to_string(tr.steps);
     return r;
@@ -207,6 +220,10 @@ json result_json(const Result& r) {
   if (r.unstable_equilibrium) j["unstable_equilibrium"] = true;
   j["steps"] = r.steps;
   j["wall_s"] = r.wall;
+  if (r.newton_per_step >= 0) {
+    j["newton_corrections_per_step"] = r.newton_per_step;
+    j["newton_splits"] = r.newton_splits;
+  }
   return j;
 }
 
