@@ -90,7 +90,7 @@ struct Scene {
   // fluid) are the residual's, instead of kept from the step's start. On the undamped cantilever at
   // 5 ms that is a third fewer plain corrections (a fifth with Anderson acceleration), on the soft
   // string a third fewer and a tenth of the split steps. Not the default: where the start matrix's
-  // iteration fails and splits the step (heavy tip masses at 2-10 ms: 30-250 corrections per step),
+  // iteration fails and splits the step (heavy tip masses at 2-10 ms: up to 550 corrections per step),
   // the refreshed one converges at the full step, where the trapezoidal rule and the generalized
   // alpha method gain energy (bench_stress: a tip of 10x the rod's mass stable at 1 ms instead of
   // 10 ms). The midpoint rule always keeps its start matrix.
