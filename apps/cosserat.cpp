@@ -434,6 +434,22 @@ int cmd_run(int argc, char** argv) {
   if (f.is_open() && !f.flush()) fail("cannot write " + csv);
 
   std::vector<std::string> warnings = collect_warnings(s.scene(), s.data());
+  if (s.scene().newton_for(s.integrator()) > 0 && k > 0) {
+    // steps whose Newton corrections failed were split: the run took smaller steps than asked
+    const auto& ns = s.data().newton_stats;
+    char b[256];
+    if (ns.splits > k / 10) {
+      std::snprintf(b, sizeof b,
+                    "the Newton corrections failed to converge %ld times in %ld steps, each time splitting a step into "
+                    "halves (down to h/64): the run's steps were smaller, and its cost higher, than --timestep says",
+                    ns.splits, k);
+      warnings.push_back(b);
+    }
+    if (ns.unconverged > 0) {
+      std::snprintf(b, sizeof b, "%ld steps of h/64 were kept without converging", ns.unconverged);
+      warnings.push_back(b);
+    }
+  }
   if (diverged) warnings.insert(warnings.begin(), "diverged: " + s.data().warning);
   if (!json_path.empty()) {
     json j;
