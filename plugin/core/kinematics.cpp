@@ -331,8 +331,7 @@ double min_axial_stretch(const Model& m, const Data& d, int* section) {
   double smin = std::numeric_limits<double>::infinity();
   for (size_t i = 0; i < m.nodes.size(); ++i) {
     const Node& n = m.nodes[i];
-    if (n.ndof == 0 || n.section < 0 || n.h <= 0) continue;
-    if (m.sections[n.section].B.row(3).isZero()) continue;  // axial strain fixed
+    if (n.ndof == 0 || n.section < 0 || n.h <= 0 || !m.sections[n.section].axial_free()) continue;
     const double s = d.Omega[i](3) / n.h;
     if (s < smin) {
       smin = s;

@@ -122,6 +122,8 @@ struct Section {
   // Phi(X) x for the section's dof block x (strains, or strain rates), given the Legendre weights
   // P = [P_0 .. P_order]((X - X0)/length) (legendre01): no matrix is formed.
   Vec6 basis_apply(const double* P, const double* x) const;
+  // Whether the axial strain p_x is a dof of this section (it can stretch and collapse).
+  bool axial_free() const { return ndof > 0 && !B.row(3).isZero(); }
 };
 
 struct Rod {

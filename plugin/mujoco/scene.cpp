@@ -172,7 +172,8 @@ RodBinding bind_rod(const mjModel* m, const RodDecl& decl) {
   for (const auto& g : decl.geoms) rb.geom_id.push_back(require_id(m, mjOBJ_GEOM, g.name, decl));
   for (const auto& s : decl.sites) rb.site_id.push_back(require_id(m, mjOBJ_SITE, s.name, decl));
   fix_rigid_placements(rb);
-  for (const Section& sec : rb.model.sections) rb.extensible = rb.extensible || (sec.ndof > 0 && !sec.B.row(3).isZero());
+  rb.extensible = std::any_of(rb.model.sections.begin(), rb.model.sections.end(),
+                              [](const Section& sec) { return sec.axial_free(); });
   const int last = rb.proxy_body.back();
   rb.below_begin = last + 1;
   rb.below_end = rb.below_begin;
