@@ -305,6 +305,16 @@ int run_stress(int argc, char** argv) {
     return 0.0;
   };
   const auto fixed_steps = [&](double) { return nsteps; };
+  // A run that failed at step h: the largest smaller step of the grid, down to kSmallestStep, at
+  // which steps(h') steps pass (0: none); its trials go to row["runs_below"].
+  auto largest_below = [&](const std::string& xml, Method m, double h, const std::function<long(double)>& steps,
+                           json& row) {
+    json tried = json::array();
+    const double hp = largest_stable(
+        xml, m, [&](double hh) { return hh < h && hh >= kSmallestStep ? steps(hh) : 0L; }, tried);
+    row["runs_below"] = tried;
+    return hp;
+  };
 
   if (wanted("material")) {
     // ---- material x slenderness x integrator: largest stable step, then a resting run at it
@@ -423,10 +433,7 @@ int run_stress(int argc, char** argv) {
       if (!r.pass) {
         // the case fails at this step: the largest smaller step of the range at which the
         // same number of steps passes (the failure stays a failure; this says what step it needs)
-        json tried = json::array();
-        const double hp = largest_stable(
-            scene_xml(c), m, [&](double hh) { return hh < h && hh >= kSmallestStep ? nlong : 0L; }, tried);
-        row["runs_below"] = tried;
+        const double hp = largest_below(scene_xml(c), m, h, [&](double) { return nlong; }, row);
         row["largest_passing_step"] = hp > 0 ? json(hp) : json(nullptr);
         r.reason += passes_below(hp);
       }
@@ -454,11 +461,7 @@ int run_stress(int argc, char** argv) {
         // the largest smaller step at which the same 3 s pass. An explicit method (euler, rk4) is
         // not expected to take stiff steps: it passes when it has one. An implicit one stays failed
         // at 2 ms, with the step it needs noted.
-        json tried = json::array();
-        const double hmax = largest_stable(
-            soft_xml, m, [&](double hh) { return hh < h && hh >= kSmallestStep ? std::lround(soft_T / hh) : 0L; },
-            tried);
-        row["runs_below"] = tried;
+        const double hmax = largest_below(soft_xml, m, h, [&](double hh) { return std::lround(soft_T / hh); }, row);
         row["largest_stable_step"] = hmax > 0 ? json(hmax) : json(nullptr);
         if (m == Method::Euler || m == Method::RK4) {
           r.pass = hmax > 0;
