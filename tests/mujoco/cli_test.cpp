@@ -245,9 +245,12 @@ TEST_F(Cli, DemoStillWorks) {
   EXPECT_EQ(lines(read(dir / "demo.csv")).size(), 22u);  // header + steps 0..20
 }
 
-}  // namespace
-
-namespace {
+// `cosserat run <args>` on the shipped cantilever succeeds without any warning line.
+void expect_quiet_cantilever_run(const std::string& args) {
+  const Result r = cosserat("run '" + kCantilever + "' " + args);
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_EQ(r.out.find("warning:"), std::string::npos) << r.out;
+}
 
 // A rod section collapsing under a linear constitutive law is reported (warning line and JSON
 // "warnings"), with the rod, the section and the time: the soft string of
@@ -266,14 +269,8 @@ TEST_F(Cli, RunReportsACollapsedSection) {
   EXPECT_EQ(lin.status, 1);
   EXPECT_EQ(lines(lin.err).size(), 1u) << lin.err;
   EXPECT_NE(lin.err.find("after a rod section collapsed: section 3 of rod 'rod'"), std::string::npos) << lin.err;
-  const Result cant = cosserat("run '" + kCantilever + "' --duration 0.5");
-  ASSERT_EQ(cant.status, 0) << cant.err;
-  EXPECT_EQ(cant.out.find("warning:"), std::string::npos) << cant.out;
+  expect_quiet_cantilever_run("--duration 0.5");
 }
-
-}  // namespace
-
-namespace {
 
 // --newton-refresh reaches Scene::newton_refresh: on the undamped cantilever of the Newton tests
 // (E = 1e7, L/r = 100) at 5 ms over 20 s the trapezoidal rule needs at least a sixth fewer
@@ -296,10 +293,6 @@ TEST_F(Cli, NewtonRefreshCutsCorrections) {
   EXPECT_LT(refreshed, frozen * 5.0 / 6.0) << "frozen " << frozen << ", refreshed " << refreshed;
 }
 
-}  // namespace
-
-namespace {
-
 // A run whose Newton corrections keep failing says that its steps were split: the heavy tip of
 // docs/bench/repro/heavy_tip.xml (ten times the rod's mass) under the trapezoidal rule at 5 ms
 // (measured: 1323 splits in 400 steps over 2 s). The shipped cantilever under the same rule splits
@@ -316,14 +309,8 @@ TEST_F(Cli, RunReportsSplitSteps) {
   for (const auto& w : j["warnings"]) said = said || w.get<std::string>().find("splitting a step") != std::string::npos;
   EXPECT_TRUE(said) << j["warnings"].dump();
   EXPECT_NE(r.out.find("warning: the Newton corrections failed to converge"), std::string::npos) << r.out;
-  const Result c = cosserat("run '" + kCantilever + "' --integrator trapezoidal --duration 1");
-  ASSERT_EQ(c.status, 0) << c.err;
-  EXPECT_EQ(c.out.find("warning:"), std::string::npos) << c.out;
+  expect_quiet_cantilever_run("--integrator trapezoidal --duration 1");
 }
-
-}  // namespace
-
-namespace {
 
 // tools/newton_check: the trapezoidal rule's Newton matrix fits the shipped cantilever (spectral
 // radius of A_N^-1 (A_true - A_N) about 0.008 at 0.5 s) and not the whipping heavy tip of
