@@ -14,6 +14,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include "support/text_file.hpp"
+
 namespace fs = std::filesystem;
 using nlohmann::json;
 
@@ -23,12 +25,7 @@ const std::string kCantilever = COSSERAT_SOURCE_DIR "/models/cantilever.xml";
 
 fs::path tool() { return fs::read_symlink("/proc/self/exe").parent_path().parent_path() / "cosserat"; }
 
-std::string read(const fs::path& p) {
-  std::ifstream f(p);
-  std::stringstream s;
-  s << f.rdbuf();
-  return s.str();
-}
+using cosserat::testing::read_text;
 
 // A scratch directory per test.
 fs::path scratch() {
@@ -51,8 +48,8 @@ Result cosserat(const std::string& args) {
   const int raw = std::system(cmd.c_str());
   Result r;
   r.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
-  r.out = read(out);
-  r.err = read(err);
+  r.out = read_text(out);
+  r.err = read_text(err);
   return r;
 }
 
@@ -108,7 +105,7 @@ TEST_F(Cli, RunWritesCsvWithExactHeaderAndRows) {
   const fs::path csv = scratch() / "run.csv";
   const Result r = cosserat("run '" + kCantilever + "' --duration 0.05 --every 10 --csv '" + csv.string() + "'");
   ASSERT_EQ(r.status, 0) << r.err;
-  const auto rows = lines(read(csv));
+  const auto rows = lines(read_text(csv));
   ASSERT_EQ(rows.size(), 1u + 6u);  // header, steps 0, 10, ..., 50
   EXPECT_EQ(rows[0],
             "time,energy,beam/base.x,beam/base.y,beam/base.z,beam_mid.x,beam_mid.y,beam_mid.z,"
@@ -133,7 +130,7 @@ TEST_F(Cli, RunJsonHasRequiredKeys) {
   const Result r = cosserat("run '" + kCantilever + "' --duration 0.01 --integrator rk4 --timestep 0.0001 --json '" +
                             out.string() + "'");
   ASSERT_EQ(r.status, 0) << r.err;
-  const json j = json::parse(read(out));
+  const json j = json::parse(read_text(out));
   for (const char* k : {"steps", "sim_time", "wall_time", "energy", "sites", "bodies", "diverged", "warnings"})
     EXPECT_TRUE(j.contains(k)) << k;
   for (const char* k : {"initial", "final", "max_rel_drift"}) EXPECT_TRUE(j["energy"].contains(k)) << k;
@@ -156,7 +153,7 @@ TEST_F(Cli, RunMidpointKeepsTheEnergy) {
     const Result r = cosserat("run '" + kCantilever + "' --duration 3 --timestep 0.01 --integrator " + integrator +
                               " --every 1 --json '" + out.string() + "'");
     EXPECT_EQ(r.status, 0) << r.err;
-    const json j = json::parse(read(out));
+    const json j = json::parse(read_text(out));
     EXPECT_EQ(j["integrator"], integrator);
     EXPECT_EQ(j["steps"], 300);
     EXPECT_EQ(j["newton"]["unconverged"], 0);
@@ -175,7 +172,7 @@ TEST_F(Cli, CompareModelWithItselfHasZeroDeviation) {
   const fs::path out = scratch() / "compare.json";
   const Result r = cosserat("compare '" + kCantilever + "' '" + kCantilever + "' --duration 0.02 --json '" + out.string() + "'");
   ASSERT_EQ(r.status, 0) << r.err;
-  const json j = json::parse(read(out));
+  const json j = json::parse(read_text(out));
   ASSERT_TRUE(j["sites"].contains("beam/tip"));
   ASSERT_TRUE(j["bodies"].contains("weight"));
   for (const char* kind : {"sites", "bodies"})
@@ -190,7 +187,7 @@ TEST_F(Cli, EquilibriumAndLinearizeJson) {
   const fs::path eq = scratch() / "eq.json", lin = scratch() / "lin.json";
   Result r = cosserat("equilibrium '" + kCantilever + "' --json '" + eq.string() + "'");
   ASSERT_EQ(r.status, 0) << r.err;
-  const json je = json::parse(read(eq));
+  const json je = json::parse(read_text(eq));
   EXPECT_EQ(je["converged"], true);
   EXPECT_LE(je["residual"].get<double>(), 1e-10);
   EXPECT_GT(je["iterations"].get<int>(), 0);
@@ -199,7 +196,7 @@ TEST_F(Cli, EquilibriumAndLinearizeJson) {
 
   r = cosserat("linearize '" + kCantilever + "' --json '" + lin.string() + "'");
   ASSERT_EQ(r.status, 0) << r.err;
-  const json jl = json::parse(read(lin));
+  const json jl = json::parse(read_text(lin));
   const auto f = jl["frequencies_hz"].get<std::vector<double>>();
   ASSERT_EQ(f.size(), 32u);
   EXPECT_TRUE(std::is_sorted(f.begin(), f.end()));
@@ -223,7 +220,7 @@ TEST_F(Cli, EquilibriumWithKeyframeAndControls) {
   for (const auto& [args, u] : {std::pair<std::string, double>{"--key up", 0.7}, {"--key 0 --ctrl=1.2", 1.2}, {"", 0.0}}) {
     const Result r = cosserat("equilibrium '" + m.string() + "' " + args + " --json '" + out.string() + "'");
     ASSERT_EQ(r.status, 0) << args << ": " << r.err;
-    const json j = json::parse(read(out));
+    const json j = json::parse(read_text(out));
     EXPECT_NEAR(j["sites"]["end"][2].get<double>(), 0.25 * std::sin(theta(u)), 1e-9) << args;
   }
   EXPECT_EQ(cosserat("equilibrium '" + m.string() + "' --ctrl 1,2").status, 1);
@@ -242,7 +239,7 @@ TEST_F(Cli, DemoStillWorks) {
   const fs::path dir = scratch() / "demo";
   const Result r = cosserat("demo --duration 0.02 --out '" + dir.string() + "'");
   ASSERT_EQ(r.status, 0) << r.err;
-  EXPECT_EQ(lines(read(dir / "demo.csv")).size(), 22u);  // header + steps 0..20
+  EXPECT_EQ(lines(read_text(dir / "demo.csv")).size(), 22u);  // header + steps 0..20
 }
 
 // `cosserat run <args>` on the shipped cantilever succeeds without any warning line.
@@ -262,7 +259,7 @@ TEST_F(Cli, RunReportsACollapsedSection) {
   const Result r = cosserat("run '" + soft + "' --integrator midpoint --duration 2 --json '" + out.string() + "'");
   ASSERT_EQ(r.status, 0) << r.err;
   EXPECT_NE(r.out.find("warning: section 1 of rod 'rod' was compressed to"), std::string::npos) << r.out;
-  const json j = json::parse(read(out));
+  const json j = json::parse(read_text(out));
   ASSERT_FALSE(j["warnings"].empty());
   EXPECT_NE(j["warnings"][0].get<std::string>().find("not physical"), std::string::npos);
   const Result lin = cosserat("run '" + soft + "' --integrator implicit --timestep 0.002 --duration 3");
@@ -285,7 +282,7 @@ TEST_F(Cli, NewtonRefreshCutsCorrections) {
     const Result r = cosserat("run '" + model.string() + "' --integrator trapezoidal --duration 20 --json '" +
                               out.string() + "'" + extra);
     EXPECT_EQ(r.status, 0) << r.err;
-    const json j = json::parse(read(out));
+    const json j = json::parse(read_text(out));
     EXPECT_EQ(j["newton"]["unconverged"], 0);
     return j["newton"]["iterations"].get<double>() / j["steps"].get<double>();
   };
@@ -303,7 +300,7 @@ TEST_F(Cli, RunReportsSplitSteps) {
   const Result r = cosserat("run '" + model + "' --integrator trapezoidal --duration 2 --json '" +
                             out.string() + "'");
   ASSERT_EQ(r.status, 0) << r.err;
-  const json j = json::parse(read(out));
+  const json j = json::parse(read_text(out));
   ASSERT_GT(j["newton"]["splits"].get<long>(), j["steps"].get<long>() / 10);
   bool said = false;
   for (const auto& w : j["warnings"]) said = said || w.get<std::string>().find("splitting a step") != std::string::npos;
@@ -321,8 +318,8 @@ TEST_F(Cli, NewtonCheckSeparatesTheHeavyTip) {
   auto radius = [&](const std::string& args) {
     const fs::path out = scratch() / "check.txt";
     const std::string cmd = "'" + bin.string() + "' " + args + " > '" + out.string() + "' 2>&1";
-    EXPECT_EQ(std::system(cmd.c_str()), 0) << read(out);
-    const std::vector<std::string> ls = lines(read(out));
+    EXPECT_EQ(std::system(cmd.c_str()), 0) << read_text(out);
+    const std::vector<std::string> ls = lines(read_text(out));
     std::istringstream last(ls.empty() ? "" : ls.back());
     double t = 0, splits = 0, vmax = 0, r = -1;
     last >> t >> splits >> vmax >> r;

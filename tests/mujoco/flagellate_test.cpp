@@ -6,12 +6,11 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
-#include <fstream>
-#include <sstream>
 #include <string>
 
 #include "fluid.hpp"
 #include "scene.hpp"
+#include "support/text_file.hpp"
 
 using namespace cosserat;
 using namespace cosserat::mj;
@@ -20,12 +19,7 @@ namespace {
 
 const std::string kModels = std::string(COSSERAT_SOURCE_DIR) + "/models/";
 
-std::string read(const std::string& path) {
-  std::ifstream in(path);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
+using cosserat::testing::read_text;
 
 std::string fmt(double v) {
   char b[64];
@@ -133,7 +127,7 @@ TEST(Flagellate, RigidSpeedIsProportionalToFrequency) {
 // sections of flagellate_rigid.xml: the soft path (strain dofs, implicit stiffness, the fluid on
 // moving sections) against the rigid one.
 TEST(Flagellate, StiffSoftFlagellumMatchesTheRigidOne) {
-  const std::string soft = read(kModels + "flagellate.xml");
+  const std::string soft = read_text(kModels + "flagellate.xml");
   const std::string stiff = replace(soft, "young=\"1e6\"", "young=\"2.3e9\"");
   const double v_stiff = forward_speed(*load_scene_string(stiff, kModels + "x.xml"), 1.0, 1);
   const double v_rigid = forward_speed(*load_scene(kModels + "flagellate_rigid.xml"), 1.0, 1);
@@ -163,7 +157,7 @@ TEST(Flagellate, ReversingTheMotorReversesSwimming) {
 // bodies are not barred from that; thrust is the clean statement.) (2) soft, along the motor axis,
 // free: it spins about its own axis, stays straight and does not swim.
 TEST(Flagellate, StraightFlagellumGivesNoThrust) {
-  const std::string rigid = replace(read(kModels + "flagellate_rigid.xml"), "<freejoint name=\"head\"/>",
+  const std::string rigid = replace(read_text(kModels + "flagellate_rigid.xml"), "<freejoint name=\"head\"/>",
                                     "<joint name=\"rail\" type=\"slide\" axis=\"1 0 0\"/>");
   const double helix = forward_speed(*load_scene_string(rigid, kModels + "x.xml"), 1.0);
   EXPECT_GT(helix, 1e-3);
@@ -180,7 +174,7 @@ TEST(Flagellate, StraightFlagellumGivesNoThrust) {
   std::printf("on the rail at 1 Hz: helix %.4g m/s, straight tilted rod %.3g m/s\n", helix, v);
   EXPECT_LT(std::abs(v), 1e-3 * helix) << "straight " << v << " helix " << helix;
 
-  const std::string free = read(kModels + "flagellate_rigid.xml");
+  const std::string free = read_text(kModels + "flagellate_rigid.xml");
   const size_t fa = free.find("<geom name=\"crank\""), fb = free.find("</cosserat>") + 11;
   const std::string soft =
       free.substr(0, fa) +
@@ -197,7 +191,7 @@ TEST(Flagellate, StraightFlagellumGivesNoThrust) {
 // the rod's centreline (as tools/flagellate_native.py builds it), same motor, same fluid model.
 // The head trajectories deviate by the capsule chain's discretisation error, O(N^-2).
 TEST(Flagellate, NativeCapsuleChainConvergesToTheRod) {
-  const std::string rigid_xml = read(kModels + "flagellate_rigid.xml");
+  const std::string rigid_xml = read_text(kModels + "flagellate_rigid.xml");
   auto rigid = load_scene_string(rigid_xml, kModels + "x.xml");
   SceneData sr(*rigid);
   forward(*rigid, sr);

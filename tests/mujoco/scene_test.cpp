@@ -7,13 +7,12 @@
 
 #include <cmath>
 #include <cstring>
-#include <fstream>
-#include <sstream>
 #include <string>
 
 #include "dynamics.hpp"
 #include "integrators.hpp"
 #include "kinematics.hpp"
+#include "support/text_file.hpp"
 
 using namespace cosserat;
 using namespace cosserat::mj;
@@ -579,13 +578,6 @@ TEST(Scene, StepsWithoutAccelerationsEqualTheFullPipeline) {
 
 namespace {
 
-std::string read_text(const std::string& path) {
-  std::ifstream f(path);
-  std::stringstream ss;
-  ss << f.rdbuf();
-  return ss.str();
-}
-
 // SceneData::compression records the smallest axial stretch the steps saw. The string of
 // docs/bench/repro/soft_string_collapse.xml (E = 1e3 Pa, stretching 6-8x under its own weight) run
 // accurately (the energy-keeping midpoint rule at 2 ms; the linearised implicit step at 0.2 ms
@@ -593,7 +585,7 @@ std::string read_text(const std::string& path) {
 // The same string a hundred times stiffer, and an extensible arm swinging under gravity, stay
 // near 1; an inextensible rod has nothing to record; reset() clears the record.
 TEST(Scene, CompressionRecordsTheMostCompressedSection) {
-  const std::string soft = read_text(COSSERAT_SOURCE_DIR "/docs/bench/repro/soft_string_collapse.xml");
+  const std::string soft = cosserat::testing::read_text(COSSERAT_SOURCE_DIR "/docs/bench/repro/soft_string_collapse.xml");
   ASSERT_FALSE(soft.empty());
   auto run = [](const std::string& xml, Integrator in, double T) {
     auto s = load_scene_string(xml, kPath);
