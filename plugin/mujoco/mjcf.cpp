@@ -257,6 +257,11 @@ StrainMask read_strain_mask(const Reader& r, const StrainMask& fallback) {
   return fallback;
 }
 
+// Upper bounds of counts that would otherwise only exhaust memory: Gauss points per section (the
+// mass quadrature of order 20 GVS needs 22) and collision capsules per section.
+constexpr int kMaxQuadrature = 64;
+constexpr int kMaxCapsules = 100;
+
 // Strain and material attributes shared by <cosserat> and <section>: each overrides `base`.
 SectionSpec read_section_spec(const Reader& r, SectionSpec s) {
   s.dofs = read_strain_mask(r, s.dofs);
@@ -276,6 +281,9 @@ SectionSpec read_section_spec(const Reader& r, SectionSpec s) {
     s.quadrature = 0;
   } else if (r.has("quadrature")) {
     s.quadrature = r.integer("quadrature", s.quadrature, 1);
+    r.check(s.quadrature <= kMaxQuadrature, "quadrature",
+            "must be <= " + std::to_string(kMaxQuadrature) + " Gauss points (exact for polynomials of degree " +
+                std::to_string(2 * kMaxQuadrature - 1) + "), got " + r.text("quadrature"));
     s.lobatto = false;
   }
   if (s.lobatto && s.order > 0) {  // on this element's quadrature, or inherited by a GVS section
@@ -508,6 +516,8 @@ RodInput Preprocessor::read_rod(XMLElement* cosserat, const std::string& parent_
 
   // capsules and collision options
   rod.capsules = r.integer("capsules", 2, 1);
+  r.check(rod.capsules <= kMaxCapsules, "capsules",
+          "must be <= " + std::to_string(kMaxCapsules) + " per section, got " + r.text("capsules"));
   rod.selfcollide = r.boolean("selfcollide", false);
   for (auto [attr, lo, hi] : {std::tuple{"contype", 1, 1}, {"conaffinity", 1, 1}, {"condim", 1, 1},
                               {"friction", 1, 3}, {"solref", 2, 2}, {"solimp", 3, 5}, {"margin", 1, 1},
@@ -554,6 +564,17 @@ void Preprocessor::read_sections(const Reader& r, RodInput& rod) {
                                 " <section> children");
   }
   spec.sections = static_cast<int>(secs.size());
+  // each section nests one body: a rod of twice the parser's depth limit is refused here, before
+  // generating its O(sections^2) collision exclusions (check_depth, after the rewrite, gives the
+  // exact limit of the rods that come closer)
+  constexpr int kDepthLimit = TINYXML2_MAX_ELEMENT_DEPTH - 1;
+  if (spec.sections >= 2 * kDepthLimit) {
+    const std::string why = ", but each section nests one body and MuJoCo 2.2.2's XML parser stops at " +
+                            std::to_string(kDepthLimit) + " nested elements: use at most about " +
+                            std::to_string(kDepthLimit - 4) + " sections (fewer inside nested bodies)";
+    if (elements.empty()) r.fail_attr("sections", "is " + std::to_string(spec.sections) + why);
+    r.fail("the rod has " + std::to_string(spec.sections) + " <section> children" + why);
+  }
 
   // lengths: the given ones, the rest shared evenly; they must add up to the rod length
   double given = 0.0;

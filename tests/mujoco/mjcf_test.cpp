@@ -83,6 +83,12 @@ struct BadCase {
   std::string file = "inline.xml";    // suffix of LoadError::file
 };
 
+std::string repeat(const std::string& text, int n) {
+  std::string out;
+  for (int i = 0; i < n; ++i) out += text;
+  return out;
+}
+
 std::vector<BadCase> bad_cases() {
   const std::string rod = R"(<cosserat name="a" length="1")";  // + attributes + "/>"
   return {
@@ -117,6 +123,13 @@ std::vector<BadCase> bad_cases() {
       {"lobatto rod, GVS section", in_world(rod + " quadrature=\"lobatto\">\n<section order=\"1\"/>\n</cosserat>"), 4,
        "'order' must be 0 under quadrature=\"lobatto\""},
       {"zero capsules", in_world(rod + R"( capsules="0"/>)"), 3, "'capsules' must be >= 1"},
+      {"too many capsules", in_world(rod + R"( capsules="1000000"/>)"), 3, "'capsules' must be <= 100 per section"},
+      {"too many Gauss points", in_world(rod + R"( quadrature="1000000"/>)"), 3, "'quadrature' must be <= 64 Gauss points"},
+      // refused before the rewrite (which would first build O(sections^2) collision exclusions)
+      {"sections beyond the parser's depth", in_world(rod + R"( sections="1000000"/>)"), 3,
+       "'sections' is 1000000, but each section nests one body and MuJoCo 2.2.2's XML parser stops at 99"},
+      {"section children beyond the parser's depth", in_world(rod + ">\n" + repeat("<section/>", 198) + "\n</cosserat>"), 3,
+       "the rod has 198 <section> children, but each section nests one body"},
       {"bad selfcollide", in_world(rod + R"( selfcollide="yes"/>)"), 3, "'selfcollide' must be 'true' or 'false'"},
       {"bad rgba count", in_world(rod + R"( rgba="1 0 0"/>)"), 3, "'rgba' needs 4"},
       {"two orientations", in_world(rod + R"( quat="1 0 0 0" euler="0 0 1"/>)"), 3, "'euler' conflicts"},
