@@ -195,6 +195,7 @@ struct SimOptions {
   double newton_tol = 1e-6;
   int newton_memory = 3;
   bool newton_refresh = false;
+  double step_tol = 0.0;
   std::optional<double> rho;
 
   void add_to(CommandLine& c) {
@@ -224,6 +225,15 @@ struct SimOptions {
                                     "the first iterate (fewer corrections on smooth motion; at steps where the default "
                                     "iteration fails and splits, the scheme's full step is taken instead)",
                                     newton_refresh));
+    c.options.push_back(positive_option(
+        "--step-tol", "TOL",
+        "implicit, trapezoidal, genalpha, midpoint: adaptive substeps. Each step is taken as substeps of h/2^k "
+        "(k <= 10, carried from step to step), halved where the mean acceleration changed from the previous "
+        "substep's by more than TOL of the velocity scale (h_s |abar - abar_prev| <= TOL (|v| + h_s |abar|) in "
+        "the kinetic-energy norm) or the Newton iteration failed, doubled where the change fell below TOL/8 "
+        "(default: off, fixed steps; 1e-2 keeps the energy of a whipping heavy-tipped rod to 0.1%, 1e-3 is "
+        "about 10 times more accurate)",
+        step_tol));
     c.options.push_back({"--rho", "R",
                          "genalpha: spectral radius at infinite frequency, 0 <= R <= 1 (default 0.8; 1: no damping of "
                          "stiff modes, the trapezoidal rule; 0: the most damping)",
@@ -273,6 +283,10 @@ class Simulation {
     scene_->newton_tol = o.newton_tol;
     scene_->newton_memory = o.newton_memory;
     scene_->newton_refresh = o.newton_refresh;
+    scene_->step_tol = o.step_tol;
+    if (o.step_tol > 0 && (integrator_ == Integrator::Euler || integrator_ == Integrator::RK4))
+      fail(std::string("--step-tol: adaptive substeps are for implicit, trapezoidal, genalpha and midpoint, not ") +
+           integrator_name(integrator_));
     if (o.rho) scene_->rho_inf = *o.rho;
     data_ = std::make_unique<mj::SceneData>(*scene_);
     state.apply(*scene_, *data_);
@@ -456,6 +470,16 @@ int cmd_run(int argc, char** argv) {
       warnings.push_back(b);
     }
   }
+  const auto& as = s.data().adapt_stats;
+  const bool adaptive = s.scene().step_tol > 0 && as.steps > 0;
+  if (adaptive && as.kept_at_min > 0) {
+    char b[256];
+    std::snprintf(b, sizeof b,
+                  "%ld substeps of h/%d were kept above --step-tol or without converging: the run is less accurate "
+                  "than asked; a smaller --timestep resolves it",
+                  as.kept_at_min, 1 << mj::kMaxSubstepLevel);
+    warnings.push_back(b);
+  }
   if (diverged) warnings.insert(warnings.begin(), "diverged: " + s.data().warning);
   if (!json_path.empty()) {
     json j;
@@ -469,6 +493,9 @@ int cmd_run(int argc, char** argv) {
     add_positions(j, out, s.data());
     j["diverged"] = diverged;
     j["warnings"] = warnings;
+    if (adaptive)
+      j["adaptive"] = {{"step_tol", s.scene().step_tol}, {"substeps", as.substeps}, {"rejected", as.rejected},
+                       {"kept_at_min", as.kept_at_min}, {"finest_step", s.timestep() / (1 << as.finest)}};
     if (s.scene().newton_for(s.integrator()) > 0) {
       const auto& ns = s.data().newton_stats;
       j["newton"] = {{"iterations", ns.iterations}, {"splits", ns.splits}, {"unconverged", ns.unconverged}};
@@ -484,6 +511,10 @@ int cmd_run(int argc, char** argv) {
       std::printf("newton: %.2f corrections per step, %ld steps split, %ld unconverged\n",
                   k > 0 ? double(ns.iterations) / double(k) : 0.0, ns.splits, ns.unconverged);
     }
+    if (adaptive)
+      std::printf("adaptive: %.2f substeps per step (finest h/%d), %ld rejected, %ld kept at h/%d above the tolerance\n",
+                  double(as.substeps) / double(as.steps), 1 << as.finest, as.rejected, as.kept_at_min,
+                  1 << mj::kMaxSubstepLevel);
     print_positions(out, s.data());
     for (const auto& w : warnings) std::printf("warning: %s\n", w.c_str());
   }

@@ -279,6 +279,8 @@ class RodSim : public Sim {
       case Method::GeneralizedAlpha: integ_ = Integrator::GeneralizedAlpha; break;
       case Method::Midpoint: integ_ = Integrator::Midpoint; break;
     }
+    scene_->step_tol = rod_sim_options().step_tol;
+    scene_->newton_refresh = rod_sim_options().newton_refresh;
   }
   const mjModel* m() const override { return scene_->m; }
   mjData* d() override { return data_.d; }
@@ -337,6 +339,11 @@ class MujocoSim : public Sim {
 };
 
 }  // namespace
+
+RodSimOptions& rod_sim_options() {
+  static RodSimOptions options;
+  return options;
+}
 
 std::unique_ptr<Sim> make_rod_sim(const std::string& xml, const std::string& path, Method method, double h) {
   return std::make_unique<RodSim>(xml, path, method, h);

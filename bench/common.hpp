@@ -98,6 +98,13 @@ std::unique_ptr<Sim> make_rod_sim(const std::string& xml, const std::string& pat
 std::unique_ptr<Sim> make_mujoco_sim(const std::string& xml, const std::string& path, Method method, double h);
 
 // Access to the coupled scene behind a rod Sim (nullptr for a MuJoCo Sim).
+// Solver options every rod simulation made by make_rod_sim takes (after the method's own
+// newton_iterations): the stress sweep's --step-tol and --newton-refresh.
+struct RodSimOptions {
+  double step_tol = 0.0;        // mj::Scene::step_tol
+  bool newton_refresh = false;  // mj::Scene::newton_refresh
+};
+RodSimOptions& rod_sim_options();
 const mj::Scene* rod_scene(Sim& s);
 mj::SceneData* rod_scene_data(Sim& s);
 

@@ -20,7 +20,8 @@
 //   contact    a 1 kg sphere dropped on a clamped rod (stiff contact), and a rod resting on the
 //              floor (drift).
 // Usage: stress [--quick] [--out DIR] [--only PART]... (PART: material, turns, long, soft, tipmass,
-// contact; repeatable; default all). Writes DIR/stress.json.
+// contact; repeatable; default all) [--rod-attr NAME=VALUE]... [--step-tol TOL] [--newton-refresh].
+// Writes DIR/stress.json.
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -98,11 +99,20 @@ struct Result {
   // scheme whose iteration keeps failing sub-steps the run, and that cost belongs with its step
   double newton_per_step = -1;
   long newton_splits = -1;
+  // adaptive runs (--step-tol): accepted substeps per step, and substeps kept at h/64 above the
+  // tolerance (-1: fixed steps)
+  double substeps_per_step = -1;
+  long kept_at_min = -1;
 };
 
-// Newton statistics of a finished run into r (runs that made corrections only).
+// Newton statistics of a finished run into r (runs that made corrections only), and the adaptive
+// substeps' (--step-tol).
 void newton_stats(Sim& sim, Result& r) {
   const mj::SceneData* sd = rod_scene_data(sim);
+  if (sd && sd->adapt_stats.steps > 0) {
+    r.substeps_per_step = static_cast<double>(sd->adapt_stats.substeps) / static_cast<double>(sd->adapt_stats.steps);
+    r.kept_at_min = sd->adapt_stats.kept_at_min;
+  }
   if (!sd || r.steps <= 0 || sd->newton_stats.iterations == 0) return;
   r.newton_per_step = static_cast<double>(sd->newton_stats.iterations) / static_cast<double>(r.steps);
   r.newton_splits = sd->newton_stats.splits;
@@ -224,6 +234,10 @@ json result_json(const Result& r) {
     j["newton_corrections_per_step"] = r.newton_per_step;
     j["newton_splits"] = r.newton_splits;
   }
+  if (r.substeps_per_step >= 0) {
+    j["substeps_per_step"] = r.substeps_per_step;
+    j["substeps_kept_at_min"] = r.kept_at_min;
+  }
   return j;
 }
 
@@ -250,6 +264,13 @@ int run_stress(int argc, char** argv) {
                             cli::fail("--rod-attr: expected NAME=VALUE, got '" + v + "'");
                           g_rod_attrs.emplace_back(v.substr(0, eq), v.substr(eq + 1));
                         }},
+                       cli::positive_option("--step-tol", "TOL",
+                                            "run every integrator but euler and rk4 with adaptive substeps to this "
+                                            "tolerance (mj::Scene::step_tol; default: fixed steps)",
+                                            rod_sim_options().step_tol),
+                       cli::flag_option("--newton-refresh", "refactorise the Newton matrix at the first iterate "
+                                                            "(mj::Scene::newton_refresh)",
+                                        rod_sim_options().newton_refresh),
                        {"--only", "PART",
                         "run only this part (repeatable): material, turns, long, soft, tipmass or contact (default: all)",
                         [&](const std::string& v) {
@@ -268,6 +289,8 @@ int run_stress(int argc, char** argv) {
   report["machine"] = machine_info();
   report["quick"] = quick;
   for (const auto& [name, value] : g_rod_attrs) report["rod_attributes"][name] = value;
+  if (rod_sim_options().step_tol > 0) report["step_tol"] = rod_sim_options().step_tol;
+  if (rod_sim_options().newton_refresh) report["newton_refresh"] = true;
   int failures = 0;
   std::vector<std::string> failure_list;
   auto note = [&](const std::string& what, const Result& r) {

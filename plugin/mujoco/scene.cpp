@@ -634,6 +634,11 @@ SceneData::SceneData(const Scene& s) {
   newton.dF.assign(static_cast<size_t>(nv) * kMaxNewtonMemory, 0);
   newton.act0.assign(na, 0);
   newton.act_dot0.assign(na, 0);
+  for (auto* v : {&adapt.v0, &adapt.a_prev, &adapt.v_end}) v->assign(nv, 0);
+  adapt.q0.assign(nq, 0);
+  adapt.q_end.assign(nq, 0);
+  adapt.act0.assign(na, 0);
+  adapt.act_dot0.assign(na, 0);
   fluid_qD.assign(s.fluid.active ? s.m->nM : 0, 0);
   fluid_f.assign(s.fluid.active ? nv : 0, 0);
   fluid_cols.setZero(6, s.fluid.max_chain);
@@ -913,6 +918,8 @@ void reset(const Scene& s, SceneData& sd) {
   sd.status = Status::Ok;
   sd.warning.clear();
   sd.compression = {};
+  sd.adapt.valid = false;
+  sd.adapt.level = 0;
 }
 
 // ------------------------------------------------------------------------------ integrators --
@@ -1376,6 +1383,104 @@ void newton_step_split(const Scene& s, SceneData& sd, const Scheme& sc, int iter
   s.m->opt.timestep = h;
 }
 
+// One step of `method` (implicit, trapezoidal, genalpha or midpoint) at m->opt.timestep, without
+// splitting: whether its Newton iteration converged (true for the linearised steps and for one
+// correction per step, which are kept by choice).
+bool single_step(const Scene& s, SceneData& sd, Integrator method) {
+  const int n = s.newton_for(method);
+  switch (method) {
+    case Integrator::Implicit:
+      if (n > 0) return newton_step(s, sd, backward_euler(), n) || n == 1;
+      forward(s, sd, Need::Forces);
+      implicit_step(s, sd);
+      return true;
+    case Integrator::Trapezoidal:
+      if (n > 0) return newton_step(s, sd, trapezoidal_rule(), n) || n == 1;
+      forward(s, sd, Need::Forces);
+      implicit_step(s, sd, true, 0.5);
+      return true;
+    case Integrator::GeneralizedAlpha: return newton_step(s, sd, generalized_alpha(s.rho_inf), std::max(1, n)) || n <= 1;
+    case Integrator::Midpoint: return midpoint_step(s, sd, std::max(1, n)) || n <= 1;
+    default: return false;
+  }
+}
+
+// A step of m->opt.timestep h as adaptive substeps h / 2^k (Scene::step_tol). Levels only refine
+// where the substeps are aligned, so the substeps tile the step exactly: positions are counted in
+// units of h / 2^kMaxLevel.
+void adaptive_step(const Scene& s, SceneData& sd, Integrator method) {
+  constexpr int kMaxLevel = kMaxSubstepLevel;
+  constexpr int kUnits = 1 << kMaxLevel;
+  mjModel* m = s.m;
+  mjData* d = sd.d;
+  const int nq = m->nq, nv = m->nv, na = m->na;
+  const double H = m->opt.timestep, t_start = d->time;
+  SceneData::Adaptive& a = sd.adapt;
+  // the previous substep's acceleration counts only if this step starts where it ended
+  bool history = a.valid && a.t_end == d->time && std::equal(a.q_end.begin(), a.q_end.end(), d->qpos) &&
+                 std::equal(a.v_end.begin(), a.v_end.end(), d->qvel);
+  int level = std::clamp(a.level, 0, kMaxLevel);
+  int done = 0;  // units of H / kUnits
+  ++sd.adapt_stats.steps;
+  while (done < kUnits) {
+    while (done % (kUnits >> level) != 0) ++level;  // (not reached: levels coarsen only when aligned)
+    const double h = H / (1 << level);
+    std::copy(d->qpos, d->qpos + nq, a.q0.begin());
+    std::copy(d->qvel, d->qvel + nv, a.v0.begin());
+    std::copy(d->act, d->act + na, a.act0.begin());
+    std::copy(d->act_dot, d->act_dot + na, a.act_dot0.begin());
+    a.t0 = d->time;
+    m->opt.timestep = h;
+    const bool converged = single_step(s, sd, method);
+    m->opt.timestep = H;
+    // the change of the mean acceleration against the velocity scale, in the kinetic-energy norm
+    // |x|_M = sqrt(x' M x) (M of the substep's last forward evaluation; NaN rejects)
+    double err = 0.0;
+    if (history) {
+      SceneData::NewtonScratch& w = sd.newton;  // r, y, delta: free between steps
+      for (int i = 0; i < nv; ++i) {
+        w.r[i] = (d->qvel[i] - a.v0[i]) / h;  // abar
+        w.y[i] = w.r[i] - a.a_prev[i];
+      }
+      mj_mulM(m, d, w.delta.data(), w.y.data());
+      const double change = std::sqrt(std::max(0.0, mju_dot(w.y.data(), w.delta.data(), nv)));
+      mj_mulM(m, d, w.delta.data(), w.r.data());
+      const double accel = std::sqrt(std::max(0.0, mju_dot(w.r.data(), w.delta.data(), nv)));
+      mj_mulM(m, d, w.delta.data(), d->qvel);
+      const double vel = std::sqrt(std::max(0.0, mju_dot(d->qvel, w.delta.data(), nv)));
+      err = h * change / (vel + h * accel + 1e-300);
+      if (!std::isfinite(err)) err = std::numeric_limits<double>::infinity();
+    }
+    const bool ok = converged && err <= s.step_tol;
+    if (!ok && level < kMaxLevel) {  // redo as two halves
+      std::copy(a.q0.begin(), a.q0.end(), d->qpos);
+      std::copy(a.v0.begin(), a.v0.end(), d->qvel);
+      std::copy(a.act0.begin(), a.act0.end(), d->act);
+      std::copy(a.act_dot0.begin(), a.act_dot0.end(), d->act_dot);
+      d->time = a.t0;
+      sd.newton.carry_valid = false;
+      ++level;
+      ++sd.adapt_stats.rejected;
+      continue;
+    }
+    if (!ok) ++sd.adapt_stats.kept_at_min;
+    for (int i = 0; i < nv; ++i) a.a_prev[i] = (d->qvel[i] - a.v0[i]) / h;
+    history = true;
+    ++sd.adapt_stats.substeps;
+    sd.adapt_stats.finest = std::max(sd.adapt_stats.finest, level);
+    done += kUnits >> level;
+    // coarsen where the change is well within the tolerance (it grows about fourfold with a doubled
+    // substep) and the next substep of twice the size stays aligned
+    if (ok && err < s.step_tol / 8 && level > 0 && done % (kUnits >> (level - 1)) == 0) --level;
+  }
+  d->time = t_start + H;
+  a.level = level;
+  a.valid = true;
+  a.t_end = d->time;
+  std::copy(d->qpos, d->qpos + nq, a.q_end.begin());
+  std::copy(d->qvel, d->qvel + nv, a.v_end.begin());
+}
+
 // Classic RK4 on (qpos, qvel, act) with our forward at every stage (MuJoCo's mj_RungeKutta calls
 // mj_forward and would lose the rod patches). Positions are integrated with mj_integratePos.
 void rk4_step(const Scene& s, SceneData& sd) {
@@ -1439,7 +1544,9 @@ Status step(const Scene& s, SceneData& sd, Integrator method) {
   mju_copy(sd.qpos_save.data(), d->qpos, m->nq);
   mju_copy(sd.qvel_save.data(), d->qvel, m->nv);
   const double t = d->time;
-  switch (method) {
+  const bool adaptive = s.step_tol > 0 && method != Integrator::Euler && method != Integrator::RK4;
+  if (adaptive) adaptive_step(s, sd, method);
+  else switch (method) {
     case Integrator::Euler:
       if (s.fluid.active) {
         forward(s, sd, Need::Forces);

@@ -95,6 +95,17 @@ struct Scene {
   // alpha method gain energy (bench_stress: a tip of 10x the rod's mass stable at 1 ms instead of
   // 10 ms). The midpoint rule always keeps its start matrix.
   bool newton_refresh = false;
+  // > 0: adaptive substeps (implicit, trapezoidal, genalpha, midpoint; see step()). Each step of
+  // m->opt.timestep h is taken as substeps of h / 2^k (k <= kMaxSubstepLevel), refined where the
+  // substep's mean acceleration abar = (v+ - v) / h_s changed from the previous substep's by more
+  // than
+  //   h_s |abar - abar_prev|_M <= step_tol (|v+|_M + h_s |abar|_M),   |x|_M = sqrt(x' M x)
+  // (the kinetic-energy norm, which weighs dofs of any unit by their inertia: a substep that
+  // under-resolves how the motion changes) or where the Newton iteration failed, and coarsened
+  // again where the change fell below step_tol / 8; k carries over to the next step. A substep of
+  // h / 2^kMaxSubstepLevel is kept even above the tolerance (counted in adapt_stats.kept_at_min).
+  // 0 (default): fixed steps (the Newton schemes split a step only when their iteration fails).
+  double step_tol = 0.0;
   double rho_inf = 0.8;  // generalized alpha: spectral radius at infinite frequency, in [0, 1]
   int newton_for(Integrator method) const {
     if (newton_iterations >= 0) return newton_iterations;
@@ -104,6 +115,9 @@ struct Scene {
   }
   SceneFluid fluid;               // low-Reynolds fluid (scene_fluid.hpp); inactive without viscosity
 };
+
+// Scene::step_tol: the finest adaptive substep is h / 2^kMaxSubstepLevel.
+constexpr int kMaxSubstepLevel = 10;
 
 struct SceneData {
   explicit SceneData(const Scene& s);
@@ -151,6 +165,22 @@ struct SceneData {
     // iterates and corrections (columns of nv, ring buffers of Scene::newton_memory columns)
     std::vector<mjtNum> x_prev, F_prev, dX, dF;
   } newton;
+  // Scene::step_tol > 0: the adaptive substeps' state. The substep's start (restored when it is
+  // rejected), the last accepted substep's mean acceleration and the state it ended in (the
+  // history is used only if the next step starts there), and the level k of substeps h / 2^k.
+  struct Adaptive {
+    std::vector<mjtNum> q0, v0, act0, act_dot0, a_prev, q_end, v_end;
+    double t0 = 0.0, t_end = 0.0;
+    bool valid = false;
+    int level = 0;
+  } adapt;
+  struct AdaptiveStats {  // totals since construction (Scene::step_tol > 0)
+    long steps = 0;       // steps of m->opt.timestep
+    long substeps = 0;    // accepted substeps
+    long rejected = 0;    // substeps redone as two halves (error or Newton failure)
+    long kept_at_min = 0; // substeps of h / 2^kMaxSubstepLevel kept above the tolerance or unconverged
+    int finest = 0;       // the largest level k used
+  } adapt_stats;
   struct NewtonStats {  // totals since construction (Scene::newton_iterations > 0)
     long iterations = 0;   // corrections (each one forward evaluation)
     long splits = 0;       // steps redone as two half steps
