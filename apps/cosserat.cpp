@@ -740,6 +740,12 @@ int cmd_compare(int argc, char** argv) {
   const long n = std::max(1L, static_cast<long>(std::llround(sim.duration / dt)));
   const long half = n / 2;
   const std::vector<int> fa = free_bodies(a.sim), fb = free_bodies(b.sim);
+  std::vector<std::string> warnings;
+  if (pairs.empty()) {
+    const std::string none = (*pos)[0] + " and " + (*pos)[1] + " share no named site or body";
+    if (fa.empty() && fb.empty()) fail(none + " and have no free body to give a swimming speed: nothing to compare");
+    warnings.push_back(none + ": only the free bodies' swimming speeds are compared");
+  }
   std::vector<Vec3> half_a, half_b, pa, pb;
   Progress progress("compare", n);
   for (long k = 0; k <= n && !a.diverged && !b.diverged; ++k) {
@@ -774,7 +780,6 @@ int cmd_compare(int argc, char** argv) {
   j["swimming_speed"] = {{"a", speeds(a, fa, half_a, pa)}, {"b", speeds(b, fb, half_b, pb)}};
   j["unmatched"] = unmatched;
   j["diverged"] = diverged;
-  std::vector<std::string> warnings;
   for (const auto& w : collect_warnings(a.sim.scene(), a.sim.data())) warnings.push_back("A: " + w);
   for (const auto& w : collect_warnings(b.sim.scene(), b.sim.data())) warnings.push_back("B: " + w);
   j["warnings"] = warnings;

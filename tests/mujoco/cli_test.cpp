@@ -206,6 +206,24 @@ TEST_F(Cli, CompareModelWithItselfHasZeroDeviation) {
   EXPECT_TRUE(j["swimming_speed"]["a"].empty());  // no free bodies
 }
 
+// Two models with no name in common: nothing to compare is an error (before simulating), unless a
+// free body gives a swimming speed, which is then compared with a warning.
+TEST_F(Cli, CompareNeedsSomethingInCommon) {
+  const std::string arm = COSSERAT_SOURCE_DIR "/models/hybrid_arm.xml";
+  const std::string swimmer = COSSERAT_SOURCE_DIR "/models/flagellate.xml";
+  const Result none = cosserat("compare '" + kCantilever + "' '" + arm + "' --duration 0.02");
+  EXPECT_EQ(none.status, 1);
+  EXPECT_EQ(lines(none.err).size(), 1u) << none.err;
+  EXPECT_NE(none.err.find("share no named site or body"), std::string::npos) << none.err;
+  const fs::path out = scratch() / "compare_swim.json";
+  const Result speed = cosserat("compare '" + swimmer + "' '" + kCantilever + "' --duration 0.02 --json '" + out.string() + "'");
+  ASSERT_EQ(speed.status, 0) << speed.err;
+  const json j = json::parse(read_text(out));
+  EXPECT_TRUE(j["swimming_speed"]["a"].contains("head")) << j.dump();
+  ASSERT_FALSE(j["warnings"].empty());
+  EXPECT_NE(j["warnings"][0].get<std::string>().find("only the free bodies' swimming speeds"), std::string::npos);
+}
+
 TEST_F(Cli, EquilibriumAndLinearizeJson) {
   const fs::path eq = scratch() / "eq.json", lin = scratch() / "lin.json";
   Result r = cosserat("equilibrium '" + kCantilever + "' --json '" + eq.string() + "'");
