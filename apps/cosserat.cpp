@@ -195,7 +195,7 @@ struct SimOptions {
   double newton_tol = 1e-6;
   int newton_memory = 3;
   bool newton_refresh = false;
-  double step_tol = 0.0;
+  std::optional<double> step_tol;
   std::optional<double> rho;
 
   void add_to(CommandLine& c) {
@@ -225,13 +225,13 @@ struct SimOptions {
                                     "the first iterate (fewer corrections on smooth motion; at steps where the default "
                                     "iteration fails and splits, the scheme's full step is taken instead)",
                                     newton_refresh));
-    c.options.push_back(positive_option(
+    c.options.push_back(optional_positive_option(
         "--step-tol", "TOL",
         "implicit, trapezoidal, genalpha, midpoint: adaptive substeps. Each step is taken as substeps of h/2^k "
         "(k <= 10, carried from step to step), halved where the mean acceleration changed from the previous "
         "substep's by more than TOL of the velocity scale (h_s |abar - abar_prev| <= TOL (|v| + h_s |abar|) in "
         "the kinetic-energy norm) or the Newton iteration failed, doubled where the change fell below TOL/8 "
-        "(default: off, fixed steps; 1e-2 keeps the energy of a whipping heavy-tipped rod to 0.1%, 1e-3 is "
+        "(default: the model's <custom><numeric name=\"cosserat:step_tol\">, else off: fixed steps; 1e-2 keeps the energy of a whipping heavy-tipped rod to 0.1%, 1e-3 is "
         "about 10 times more accurate)",
         step_tol));
     c.options.push_back({"--rho", "R",
@@ -283,10 +283,16 @@ class Simulation {
     scene_->newton_tol = o.newton_tol;
     scene_->newton_memory = o.newton_memory;
     scene_->newton_refresh = o.newton_refresh;
-    scene_->step_tol = o.step_tol;
-    if (o.step_tol > 0 && (integrator_ == Integrator::Euler || integrator_ == Integrator::RK4))
-      fail(std::string("--step-tol: adaptive substeps are for implicit, trapezoidal, genalpha and midpoint, not ") +
-           integrator_name(integrator_));
+    const bool fixed_only = integrator_ == Integrator::Euler || integrator_ == Integrator::RK4;
+    if (o.step_tol) {
+      if (fixed_only)
+        fail(std::string("--step-tol: adaptive substeps are for implicit, trapezoidal, genalpha and midpoint, not ") +
+             integrator_name(integrator_));
+      scene_->step_tol = *o.step_tol;
+    } else if (scene_->step_tol > 0 && fixed_only) {
+      std::fprintf(stderr, "warning: the model's cosserat:step_tol (adaptive substeps) does not apply to %s: fixed steps\n",
+                   integrator_name(integrator_));
+    }
     if (o.rho) scene_->rho_inf = *o.rho;
     data_ = std::make_unique<mj::SceneData>(*scene_);
     state.apply(*scene_, *data_);

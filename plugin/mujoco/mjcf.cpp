@@ -883,7 +883,8 @@ Preprocessed Preprocessor::run(const std::string& text, const std::string& path)
 // The plugin's <custom> fields, checked here where their file and line are known: the fluid's
 // (plugin/mujoco/scene_fluid.hpp) <text name="cosserat:fluid" data="gray-hancock|lighthill|mujoco">
 // and <numeric name="cosserat:drag:NAME" data="c_t c_n [c_rot]" or "0">, NAME a geom or a body;
-// the scene's integrator <text name="cosserat:integrator" data="euler|implicit|...">.
+// the scene's integrator <text name="cosserat:integrator" data="euler|implicit|..."> and adaptive
+// substeps <numeric name="cosserat:step_tol" data="TOL">.
 void Preprocessor::check_custom_fields(const XMLElement* root) const {
   for (const XMLElement* custom = root->FirstChildElement("custom"); custom;
        custom = custom->NextSiblingElement("custom"))
@@ -895,6 +896,9 @@ void Preprocessor::check_custom_fields(const XMLElement* root) const {
         const std::string v = r.text("data");
         r.check(integrator_from_name(v).has_value(), "data",
                 "of '" + name + "' must name an integrator (" + kIntegratorNames + "), got '" + v + "'");
+      } else if (is(c, "numeric") && name == "cosserat:step_tol") {
+        const auto v = r.numbers("data", 1, 1);
+        r.check(v.has_value() && (*v)[0] > 0, "data", "of '" + name + "' must be one positive number, got '" + r.text("data") + "'");
       } else if (is(c, "text") && name == "cosserat:fluid") {
         const std::string v = r.text("data");
         r.check(v == "gray-hancock" || v == "lighthill" || v == "mujoco", "data",
@@ -912,7 +916,8 @@ void Preprocessor::check_custom_fields(const XMLElement* root) const {
         r.check(!r.has("size") || r.integer("size", 0, 1) == static_cast<int>(v->size()), "size", "differs from the number of values in 'data'");
       } else {
         r.fail_attr("name", "'" + name + "': unknown cosserat field (known: <text name=\"cosserat:integrator\">, "
-                            "<text name=\"cosserat:fluid\">, <numeric name=\"cosserat:drag:NAME\">)");
+                            "<numeric name=\"cosserat:step_tol\">, <text name=\"cosserat:fluid\">, "
+                            "<numeric name=\"cosserat:drag:NAME\">)");
       }
     }
 }

@@ -890,6 +890,9 @@ std::unique_ptr<Scene> compile(const Preprocessed& pre) {
   // <custom><text name="cosserat:integrator" data="NAME"/> (a known name: the preprocessor checked)
   if (const int t = mj_name2id(s->m, mjOBJ_TEXT, "cosserat:integrator"); t >= 0)
     if (const auto in = integrator_from_name(s->m->text_data + s->m->text_adr[t])) s->integrator = *in;
+  // <custom><numeric name="cosserat:step_tol" data="TOL"/> (one positive number: checked)
+  if (const int n = mj_name2id(s->m, mjOBJ_NUMERIC, "cosserat:step_tol"); n >= 0)
+    s->step_tol = s->m->numeric_data[s->m->numeric_adr[n]];
   return s;
 }
 

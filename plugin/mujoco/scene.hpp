@@ -105,6 +105,7 @@ struct Scene {
   // again where the change fell below step_tol / 8; k carries over to the next step. A substep of
   // h / 2^kMaxSubstepLevel is kept even above the tolerance (counted in adapt_stats.kept_at_min).
   // 0 (default): fixed steps (the Newton schemes split a step only when their iteration fails).
+  // A model sets it with <custom><numeric name="cosserat:step_tol" data="TOL"/>.
   double step_tol = 0.0;
   double rho_inf = 0.8;  // generalized alpha: spectral radius at infinite frequency, in [0, 1]
   int newton_for(Integrator method) const {

@@ -111,3 +111,19 @@ TEST(Adaptive, SmoothMotionKeepsTheFullStep) {
   EXPECT_FALSE(sd.adapt.valid);
   EXPECT_EQ(sd.adapt.level, 0);
 }
+
+// A model asks for adaptive substeps with <custom><numeric name="cosserat:step_tol" data="TOL"/>:
+// the scene loads with it, and its steps take substeps (a rod released straight refines at first).
+TEST(Adaptive, ModelSetsTheTolerance) {
+  auto s = load_scene_string(R"(<mujoco><custom><numeric name="cosserat:step_tol" data="0.001"/></custom>
+  <worldbody><cosserat name="q" length="0.3" radius="0.01" sections="2"/></worldbody></mujoco>)",
+                             "/tmp/cosserat_adaptive_test.xml");
+  EXPECT_EQ(s->step_tol, 1e-3);
+  SceneData sd(*s);
+  for (int k = 0; k < 50; ++k) ASSERT_EQ(step(*s, sd), Status::Ok);
+  EXPECT_EQ(sd.adapt_stats.steps, 50);
+  EXPECT_GT(sd.adapt_stats.substeps, 50);
+  auto plain = load_scene_string(R"(<mujoco><worldbody><cosserat name="q" length="0.3" radius="0.01"/></worldbody></mujoco>)",
+                                 "/tmp/cosserat_adaptive_test.xml");
+  EXPECT_EQ(plain->step_tol, 0.0);
+}

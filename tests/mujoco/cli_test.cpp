@@ -369,6 +369,16 @@ TEST_F(Cli, RunTakesAdaptiveSubsteps) {
   EXPECT_TRUE(j["warnings"].empty()) << j["warnings"].dump();
   EXPECT_LT(j["energy"]["max_rel_drift"].get<double>(), 1e-2);
   EXPECT_NE(r.out.find("adaptive: "), std::string::npos) << r.out;
+  // a model's own tolerance does not apply to euler: said, not silently dropped
+  const fs::path own = scratch() / "own_tol.xml";
+  std::ofstream(own) << R"(<mujoco><custom><numeric name="cosserat:step_tol" data="0.01"/></custom>
+<worldbody><cosserat name="q" length="0.3" radius="0.01"/></worldbody></mujoco>)";
+  const Result adaptive = cosserat("run '" + own.string() + "' --duration 0.02");
+  ASSERT_EQ(adaptive.status, 0) << adaptive.err;
+  EXPECT_NE(adaptive.out.find("adaptive: "), std::string::npos) << adaptive.out;
+  const Result euler = cosserat("run '" + own.string() + "' --duration 0.001 --timestep 1e-5 --integrator euler");
+  ASSERT_EQ(euler.status, 0) << euler.err;
+  EXPECT_NE(euler.err.find("cosserat:step_tol (adaptive substeps) does not apply to euler"), std::string::npos) << euler.err;
   for (const char* integrator : {"euler", "rk4"}) {
     const Result bad = cosserat("run '" + model + "' --integrator " + integrator + " --step-tol 1e-2 --duration 0.01");
     EXPECT_EQ(bad.status, 1);

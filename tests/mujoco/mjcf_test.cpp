@@ -171,6 +171,10 @@ std::vector<BadCase> bad_cases() {
       {"site with an unknown class", in_world(rod + ">\n<site name=\"s\" at=\"0\" class=\"nosuch\"/>\n</cosserat>"), 4, "'class' names no"},
       {"too many sections for MuJoCo's XML depth", in_world("<body name=\"b\">\n" + rod + R"( sections="120"/>)" "\n</body>"), 4, "use at most about 94 sections"},
       {"generated body name taken", in_world("<body name=\"a/s0\"/>\n" + rod + "/>"), 4, "generated body name 'a/s0'"},
+      {"step_tol not positive", "<mujoco>\n<custom>\n<numeric name=\"cosserat:step_tol\" data=\"0\"/>\n</custom>\n</mujoco>\n",
+       3, "'data' of 'cosserat:step_tol' must be one positive number, got '0'"},
+      {"step_tol with two numbers", "<mujoco>\n<custom>\n<numeric name=\"cosserat:step_tol\" data=\"1 2\"/>\n</custom>\n</mujoco>\n",
+       3, "'data' needs 1 number, got 2"},
       {"unknown integrator", "<mujoco>\n<custom>\n<text name=\"cosserat:integrator\" data=\"leapfrog\"/>\n</custom>\n</mujoco>\n",
        3, "must name an integrator (euler, implicit, trapezoidal, genalpha, midpoint, rk4), got 'leapfrog'"},
   };
