@@ -223,7 +223,8 @@ struct SimOptions {
     c.options.push_back(flag_option("--newton-refresh",
                                     "trapezoidal, genalpha, implicit with --newton: factorise the Newton matrix again at "
                                     "the first iterate (fewer corrections on smooth motion; at steps where the default "
-                                    "iteration fails and splits, the scheme's full step is taken instead)",
+                                    "iteration fails and splits, the scheme's full step is taken instead; always on "
+                                    "with --step-tol)",
                                     newton_refresh));
     c.options.push_back(optional_positive_option(
         "--step-tol", "TOL",

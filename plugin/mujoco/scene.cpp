@@ -1193,7 +1193,7 @@ Iterate apply_correction(const Scene& s, SceneData& sd, const Scheme& sc, int k,
 // step, each correction solves A_N delta = M r with the matrix
 //   A_N = M + c (cv1 h D + cq1 h^2 K),  c = (1 - af) / (1 - am),
 // M and the state-dependent parts of D (actuators, fluid) taken at the step's start (with
-// Scene::newton_refresh: at the first iterate (q+, v+)),
+// Scene::newton_refresh, or with adaptive substeps: at the first iterate (q+, v+)),
 // and the residual r = ((1 - af) f(q+, v+) + af f(q, v) - am A0) / (1 - am) - A. Returns whether the
 // velocity correction h cv1 |delta| fell below newton_tol (|v+| + h |a_v|) (absolute 1e-12) before
 // the iterations ran out or stopped contracting; either way the state is the last iterate's.
@@ -1221,7 +1221,9 @@ bool newton_step(const Scene& s, SceneData& sd, const Scheme& sc, int iterations
   implicit_step(s, sd, true, be ? 1.0 : 0.5);
   for (int i = 0; i < nv; ++i) w.A[i] = be ? d->qacc[i] : 2.0 * d->qacc[i] - w.f0[i];
   const double c = (1.0 - sc.af) / (1.0 - sc.am);
-  if (!s.newton_refresh && !be && (c * sc.cv1 != 0.5 || c * sc.cq1 != 0.25))
+  // adaptive substeps control what the refreshed matrix's full steps would risk (Scene::step_tol)
+  const bool refresh = s.newton_refresh || s.step_tol > 0;
+  if (!refresh && !be && (c * sc.cv1 != 0.5 || c * sc.cq1 != 0.25))
     factor_implicit(s, sd, true, c * sc.cv1, c * sc.cq1);  // the start state's, the scheme's coefficients
   if (!be) set_end_state(s, sd, sc);
   bool converged = false;
@@ -1231,7 +1233,7 @@ bool newton_step(const Scene& s, SceneData& sd, const Scheme& sc, int iterations
     forward(s, sd, Need::Forces);  // at (q+, v+)
     // the iteration matrix at the first iterate's state (Scene::newton_refresh; the rods' D and K
     // are constant)
-    if (k == 0 && s.newton_refresh) factor_implicit(s, sd, true, be ? 1.0 : c * sc.cv1, be ? 1.0 : c * sc.cq1);
+    if (k == 0 && refresh) factor_implicit(s, sd, true, be ? 1.0 : c * sc.cv1, be ? 1.0 : c * sc.cq1);
     ++sd.newton_stats.iterations;
     // y = M r, M at (q+, v+), r = c f(q+, v+) + z; when forward skipped the accelerations (no
     // constraints), M f(q+, v+) = qfrc_smooth: y = M z + c qfrc_smooth
