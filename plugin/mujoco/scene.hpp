@@ -103,7 +103,9 @@ struct Scene {
   //   h_s |abar - abar_prev|_M <= step_tol (|v+|_M + h_s |abar|_M),   |x|_M = sqrt(x' M x)
   // (the kinetic-energy norm, which weighs dofs of any unit by their inertia: a substep that
   // under-resolves how the motion changes) or where the Newton iteration failed, and coarsened
-  // again where the change fell below step_tol / 8; k carries over to the next step. A substep of
+  // again where the change fell below step_tol / 8; k carries over to the next step (the first
+  // substep after construction, reset() or a state set between steps has no previous substep to
+  // compare with: only its Newton convergence is checked). A substep of
   // h / 2^kMaxSubstepLevel is kept even above the tolerance (counted in adapt_stats.kept_at_min).
   // 0 (default): fixed steps (the Newton schemes split a step only when their iteration fails).
   // A model sets it with <custom><numeric name="cosserat:step_tol" data="TOL"/>.
