@@ -367,7 +367,9 @@ int cmd_check(int argc, char** argv) {
                 r.model.nv, r.model.rods[0].length);
   std::printf("nq: %d  nv: %d  nbody: %d  ngeom: %d  nsite: %d  nu: %d\n", m->nq, m->nv, m->nbody, m->ngeom, m->nsite,
               m->nu);
-  std::printf("timestep: %g s  integrator: %s\n", m->opt.timestep, integrator_name(s->integrator));
+  std::printf("timestep: %g s  integrator: %s", m->opt.timestep, integrator_name(s->integrator));
+  if (s->step_tol > 0) std::printf("  adaptive substeps: step_tol %g", s->step_tol);
+  std::printf("\n");
   for (int i = 0; i < m->nv; ++i)
     if (!std::isfinite(sd.d->qacc[i])) fail("the model's accelerations at qpos0 are not finite");
   return 0;

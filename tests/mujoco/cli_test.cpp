@@ -373,6 +373,8 @@ TEST_F(Cli, RunTakesAdaptiveSubsteps) {
   const fs::path own = scratch() / "own_tol.xml";
   std::ofstream(own) << R"(<mujoco><custom><numeric name="cosserat:step_tol" data="0.01"/></custom>
 <worldbody><cosserat name="q" length="0.3" radius="0.01"/></worldbody></mujoco>)";
+  const Result summary = cosserat("check '" + own.string() + "'");
+  EXPECT_NE(summary.out.find("adaptive substeps: step_tol 0.01"), std::string::npos) << summary.out;
   const Result adaptive = cosserat("run '" + own.string() + "' --duration 0.02");
   ASSERT_EQ(adaptive.status, 0) << adaptive.err;
   EXPECT_NE(adaptive.out.find("adaptive: "), std::string::npos) << adaptive.out;
