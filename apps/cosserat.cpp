@@ -25,6 +25,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "adaptive_option.hpp"
 #include "dynamics.hpp"
 #include "integrators.hpp"
 #include "kinematics.hpp"
@@ -59,18 +60,6 @@ Integrator parse_integrator(const std::string& flag, const std::string& text) {
   const auto in = cosserat::integrator_from_name(text);
   if (!in) fail(flag + ": unknown integrator '" + text + "' (" + cosserat::kIntegratorNames + ")");
   return *in;
-}
-
-const char* integrator_name(Integrator in) {
-  switch (in) {
-    case Integrator::Euler: return "euler";
-    case Integrator::Implicit: return "implicit";
-    case Integrator::RK4: return "rk4";
-    case Integrator::Trapezoidal: return "trapezoidal";
-    case Integrator::GeneralizedAlpha: return "genalpha";
-    case Integrator::Midpoint: return "midpoint";
-  }
-  return "?";
 }
 
 Option integrator_option(std::optional<Integrator>& target) {
@@ -284,16 +273,7 @@ class Simulation {
     scene_->newton_tol = o.newton_tol;
     scene_->newton_memory = o.newton_memory;
     scene_->newton_refresh = o.newton_refresh;
-    const bool fixed_only = integrator_ == Integrator::Euler || integrator_ == Integrator::RK4;
-    if (o.step_tol) {
-      if (fixed_only)
-        fail(std::string("--step-tol: adaptive substeps are for implicit, trapezoidal, genalpha and midpoint, not ") +
-             integrator_name(integrator_));
-      scene_->step_tol = *o.step_tol;
-    } else if (scene_->step_tol > 0 && fixed_only) {
-      std::fprintf(stderr, "warning: the model's cosserat:step_tol (adaptive substeps) does not apply to %s: fixed steps\n",
-                   integrator_name(integrator_));
-    }
+    apply_step_tol(*scene_, integrator_, o.step_tol);
     if (o.rho) scene_->rho_inf = *o.rho;
     data_ = std::make_unique<mj::SceneData>(*scene_);
     state.apply(*scene_, *data_);

@@ -16,6 +16,7 @@
 #include <string>
 #include <vector>
 
+#include "adaptive_option.hpp"
 #include "cli.hpp"
 #include "integrators.hpp"
 #include "png_io.hpp"
@@ -56,7 +57,7 @@ struct PictureOptions {
   std::string key, ctrl;
   double timestep = 0;  // 0: the model's
   std::string integrator;
-  double step_tol = 0;  // mj::Scene::step_tol (0: the model's)
+  std::optional<double> step_tol;  // mj::Scene::step_tol (none: the model's)
 
   void add_to(CommandLine& c) {
     rd::RenderOptions& r = render;
@@ -77,7 +78,7 @@ struct PictureOptions {
     c.options.push_back(text_option("--ctrl", "U", "actuator controls: nu numbers separated by commas (after --key)", ctrl));
     c.options.push_back(positive_option("--timestep", "h", "time step [s] (default: the model's <option timestep>)", timestep));
     c.options.push_back(text_option("--integrator", "NAME", "euler | implicit | trapezoidal | genalpha | midpoint | rk4 (default: implicit with rods, euler without; see 'cosserat run --help')", integrator));
-    c.options.push_back(positive_option("--step-tol", "TOL", "adaptive substeps to this tolerance (implicit, trapezoidal, genalpha, midpoint; default: the model's cosserat:step_tol, else fixed steps; see 'cosserat run --help')", step_tol));
+    c.options.push_back(optional_positive_option("--step-tol", "TOL", "adaptive substeps to this tolerance (implicit, trapezoidal, genalpha, midpoint; default: the model's cosserat:step_tol, else fixed steps; see 'cosserat run --help')", step_tol));
   }
 
   void finish() {
@@ -103,16 +104,7 @@ struct Simulation {
       if (!in) fail("--integrator: unknown integrator '" + o.integrator + "' (" + cosserat::kIntegratorNames + ")");
       integrator = *in;
     }
-    const bool fixed_only = integrator == Integrator::Euler || integrator == Integrator::RK4;
-    const std::string fixed_name = integrator == Integrator::Euler ? "euler" : "rk4";
-    if (o.step_tol > 0) {
-      if (fixed_only)
-        fail("--step-tol: adaptive substeps are for implicit, trapezoidal, genalpha and midpoint, not " + fixed_name);
-      scene->step_tol = o.step_tol;
-    } else if (scene->step_tol > 0 && fixed_only) {
-      std::fprintf(stderr, "warning: the model's cosserat:step_tol (adaptive substeps) does not apply to %s: fixed steps\n",
-                   fixed_name.c_str());
-    }
+    apply_step_tol(*scene, integrator, o.step_tol);
     data = std::make_unique<mj::SceneData>(*scene);
     if (!o.key.empty()) {
       int id = mj_name2id(m, mjOBJ_KEY, o.key.c_str());

@@ -17,6 +17,18 @@ std::optional<Integrator> integrator_from_name(std::string_view n) {
   return std::nullopt;
 }
 
+const char* integrator_name(Integrator method) {
+  switch (method) {
+    case Integrator::Euler: return "euler";
+    case Integrator::Implicit: return "implicit";
+    case Integrator::RK4: return "rk4";
+    case Integrator::Trapezoidal: return "trapezoidal";
+    case Integrator::GeneralizedAlpha: return "genalpha";
+    case Integrator::Midpoint: return "midpoint";
+  }
+  return "?";
+}
+
 namespace {
 // Semi-implicit step; `stiffness_implicit` selects Implicit (theta = 1) or Trapezoidal
 // (theta = 1/2) over Euler (damping implicit, stiffness explicit). With v+ = v + dv:

@@ -27,6 +27,8 @@ namespace cosserat {
 
 enum class Integrator { Euler, Implicit, RK4, Trapezoidal, GeneralizedAlpha, Midpoint };
 std::optional<Integrator> integrator_from_name(std::string_view name);
+// The name integrator_from_name takes for `method`.
+const char* integrator_name(Integrator method);
 // The names integrator_from_name knows, for messages.
 constexpr const char* kIntegratorNames = "euler, implicit, trapezoidal, genalpha, midpoint, rk4";
 

@@ -1076,27 +1076,42 @@ Scheme generalized_alpha(double rho) {
   return {0.5 - beta, beta, 1 - gamma, gamma, am, af, true};
 }
 
-// Back to the start state newton_step saved (qpos, qvel, act, act_dot, time).
-void restore_start(SceneData& sd) {
-  mjData* d = sd.d;
-  const SceneData::NewtonScratch& w = sd.newton;
-  std::copy(w.q0.begin(), w.q0.end(), d->qpos);
-  std::copy(w.v0.begin(), w.v0.end(), d->qvel);
-  std::copy(w.act0.begin(), w.act0.end(), d->act);
-  std::copy(w.act_dot0.begin(), w.act_dot0.end(), d->act_dot);
-  d->time = w.t0;
+// A step's start state (qpos, qvel, act, act_dot, time) into st.q0, v0, act0, act_dot0, t0, and
+// back; and its end state (qpos, qvel, time) into st.q_end, v_end, t_end, with the test whether
+// the next step starts there. `St`: SceneData::NewtonScratch or SceneData::Adaptive.
+template <class St>
+void save_state(St& st, const mjModel* m, const mjData* d) {
+  std::copy(d->qpos, d->qpos + m->nq, st.q0.begin());
+  std::copy(d->qvel, d->qvel + m->nv, st.v0.begin());
+  std::copy(d->act, d->act + m->na, st.act0.begin());
+  std::copy(d->act_dot, d->act_dot + m->na, st.act_dot0.begin());
+  st.t0 = d->time;
+}
+template <class St>
+void restore_state(const St& st, mjData* d) {
+  std::copy(st.q0.begin(), st.q0.end(), d->qpos);
+  std::copy(st.v0.begin(), st.v0.end(), d->qvel);
+  std::copy(st.act0.begin(), st.act0.end(), d->act);
+  std::copy(st.act_dot0.begin(), st.act_dot0.end(), d->act_dot);
+  d->time = st.t0;
+}
+template <class St>
+void record_end(St& st, const mjData* d) {
+  std::copy(d->qpos, d->qpos + st.q_end.size(), st.q_end.begin());
+  std::copy(d->qvel, d->qvel + st.v_end.size(), st.v_end.begin());
+  st.t_end = d->time;
+}
+template <class St>
+bool starts_at_end(const St& st, const mjData* d) {
+  return st.t_end == d->time && std::equal(st.q_end.begin(), st.q_end.end(), d->qpos) &&
+         std::equal(st.v_end.begin(), st.v_end.end(), d->qvel);
 }
 
-// Saves the start state (qpos, qvel, act, act_dot, time) for restore_start.
-void save_start(SceneData& sd, const mjModel* m) {
-  const mjData* d = sd.d;
-  SceneData::NewtonScratch& w = sd.newton;
-  std::copy(d->qpos, d->qpos + m->nq, w.q0.begin());
-  std::copy(d->qvel, d->qvel + m->nv, w.v0.begin());
-  std::copy(d->act, d->act + m->na, w.act0.begin());
-  std::copy(d->act_dot, d->act_dot + m->na, w.act_dot0.begin());
-  w.t0 = d->time;
-}
+// Back to the start state newton_step saved.
+void restore_start(SceneData& sd) { restore_state(sd.newton, sd.d); }
+
+// Saves the start state for restore_start.
+void save_start(SceneData& sd, const mjModel* m) { save_state(sd.newton, m, sd.d); }
 
 // The state (q+, v+) of the scheme for the end acceleration w.A (from the saved start state).
 void set_end_state(const Scene& s, SceneData& sd, const Scheme& sc) {
@@ -1200,16 +1215,14 @@ Iterate apply_correction(const Scene& s, SceneData& sd, const Scheme& sc, int k,
 bool newton_step(const Scene& s, SceneData& sd, const Scheme& sc, int iterations) {
   const mjModel* m = s.m;
   mjData* d = sd.d;
-  const int nq = m->nq, nv = m->nv;
+  const int nv = m->nv;
   SceneData::NewtonScratch& w = sd.newton;
   // backward Euler needs no acceleration at the start (only the other schemes' f(q, v) terms do).
   // (cq1 = 1 alone does not tell: the generalized alpha with rho = 0 has it too.)
   const bool be = sc.cq0 == 0.0 && sc.cq1 == 1.0 && sc.cv0 == 0.0 && sc.cv1 == 1.0 && sc.am == 0.0 && sc.af == 0.0;
   forward(s, sd, be ? Need::Forces : Need::Acceleration);
   // the carried A0 is valid if the state is the one the previous step ended with
-  const bool carried = sc.carry && w.carry_valid && w.t_end == d->time &&
-                       std::equal(w.q_end.begin(), w.q_end.end(), d->qpos) &&
-                       std::equal(w.v_end.begin(), w.v_end.end(), d->qvel);
+  const bool carried = sc.carry && w.carry_valid && starts_at_end(w, d);
   save_start(sd, m);
   if (sd.forces_only)  // backward Euler without constraints: f(q, v) is not needed (af = am = 0)
     std::fill(w.f0.begin(), w.f0.end(), 0.0);
@@ -1251,9 +1264,7 @@ bool newton_step(const Scene& s, SceneData& sd, const Scheme& sc, int iterations
   }
   w.carry_valid = sc.carry;
   std::copy(w.A.begin(), w.A.end(), w.A0.begin());
-  std::copy(d->qpos, d->qpos + nq, w.q_end.begin());
-  std::copy(d->qvel, d->qvel + nv, w.v_end.begin());
-  w.t_end = d->time;
+  record_end(w, d);
   return converged;
 }
 
@@ -1364,30 +1375,6 @@ bool midpoint_step(const Scene& s, SceneData& sd, int iterations) {
   return converged;
 }
 
-// newton_step, with a step whose iterations do not converge redone as two half steps (down to
-// h / 2^kMaxSplit; below that the last iterate is kept and counted as unconverged).
-void newton_step_split(const Scene& s, SceneData& sd, const Scheme& sc, int iterations, int depth = 0) {
-  constexpr int kMaxSplit = 6;
-  SceneData::NewtonScratch& w = sd.newton;
-  const bool converged = sc.midpoint ? midpoint_step(s, sd, iterations) : newton_step(s, sd, sc, iterations);
-  // one correction per step (--newton 1) is a linearly implicit step of the scheme, by choice: it is
-  // kept without a convergence test (splitting would chase a tolerance one correction cannot meet,
-  // down to h/64 on every step)
-  if (converged || iterations == 1) return;
-  if (depth == kMaxSplit) {
-    ++sd.newton_stats.unconverged;
-    return;
-  }
-  restore_start(sd);
-  w.carry_valid = false;  // the half steps start from A0 = f(q, v)
-  ++sd.newton_stats.splits;
-  const double h = s.m->opt.timestep;
-  s.m->opt.timestep = 0.5 * h;
-  newton_step_split(s, sd, sc, iterations, depth + 1);
-  newton_step_split(s, sd, sc, iterations, depth + 1);
-  s.m->opt.timestep = h;
-}
-
 // One step of `method` (implicit, trapezoidal, genalpha or midpoint) at m->opt.timestep, without
 // splitting: whether its Newton iteration converged (true for the linearised steps and for one
 // correction per step, which are kept by choice).
@@ -1410,6 +1397,28 @@ bool single_step(const Scene& s, SceneData& sd, Integrator method) {
   }
 }
 
+// single_step, with a step whose Newton iterations do not converge redone as two half steps (down
+// to h / 2^kMaxSplit; below that the last iterate is kept and counted as unconverged). One
+// correction per step (--newton 1) is a linearly implicit step of the scheme, by choice: it is
+// kept without a convergence test (splitting would chase a tolerance one correction cannot meet,
+// down to h/64 on every step).
+void newton_step_split(const Scene& s, SceneData& sd, Integrator method, int depth = 0) {
+  constexpr int kMaxSplit = 6;
+  if (single_step(s, sd, method)) return;
+  if (depth == kMaxSplit) {
+    ++sd.newton_stats.unconverged;
+    return;
+  }
+  restore_start(sd);
+  sd.newton.carry_valid = false;  // the half steps start from A0 = f(q, v)
+  ++sd.newton_stats.splits;
+  const double h = s.m->opt.timestep;
+  s.m->opt.timestep = 0.5 * h;
+  newton_step_split(s, sd, method, depth + 1);
+  newton_step_split(s, sd, method, depth + 1);
+  s.m->opt.timestep = h;
+}
+
 // A step of m->opt.timestep h as adaptive substeps h / 2^k (Scene::step_tol). Levels only refine
 // where the substeps are aligned, so the substeps tile the step exactly: positions are counted in
 // units of h / 2^kMaxLevel.
@@ -1418,23 +1427,18 @@ void adaptive_step(const Scene& s, SceneData& sd, Integrator method) {
   constexpr int kUnits = 1 << kMaxLevel;
   mjModel* m = s.m;
   mjData* d = sd.d;
-  const int nq = m->nq, nv = m->nv, na = m->na;
+  const int nv = m->nv;
   const double H = m->opt.timestep, t_start = d->time;
   SceneData::Adaptive& a = sd.adapt;
   // the previous substep's acceleration counts only if this step starts where it ended
-  bool history = a.valid && a.t_end == d->time && std::equal(a.q_end.begin(), a.q_end.end(), d->qpos) &&
-                 std::equal(a.v_end.begin(), a.v_end.end(), d->qvel);
+  bool history = a.valid && starts_at_end(a, d);
   int level = std::clamp(a.level, 0, kMaxLevel);
   int done = 0;  // units of H / kUnits
   ++sd.adapt_stats.steps;
   while (done < kUnits) {
     while (done % (kUnits >> level) != 0) ++level;  // (not reached: levels coarsen only when aligned)
     const double h = H / (1 << level);
-    std::copy(d->qpos, d->qpos + nq, a.q0.begin());
-    std::copy(d->qvel, d->qvel + nv, a.v0.begin());
-    std::copy(d->act, d->act + na, a.act0.begin());
-    std::copy(d->act_dot, d->act_dot + na, a.act_dot0.begin());
-    a.t0 = d->time;
+    save_state(a, m, d);
     m->opt.timestep = h;
     const bool converged = single_step(s, sd, method);
     m->opt.timestep = H;
@@ -1458,11 +1462,7 @@ void adaptive_step(const Scene& s, SceneData& sd, Integrator method) {
     }
     const bool ok = converged && err <= s.step_tol;
     if (!ok && level < kMaxLevel) {  // redo as two halves
-      std::copy(a.q0.begin(), a.q0.end(), d->qpos);
-      std::copy(a.v0.begin(), a.v0.end(), d->qvel);
-      std::copy(a.act0.begin(), a.act0.end(), d->act);
-      std::copy(a.act_dot0.begin(), a.act_dot0.end(), d->act_dot);
-      d->time = a.t0;
+      restore_state(a, d);
       sd.newton.carry_valid = false;
       ++level;
       ++sd.adapt_stats.rejected;
@@ -1481,9 +1481,7 @@ void adaptive_step(const Scene& s, SceneData& sd, Integrator method) {
   d->time = t_start + H;
   a.level = level;
   a.valid = true;
-  a.t_end = d->time;
-  std::copy(d->qpos, d->qpos + nq, a.q_end.begin());
-  std::copy(d->qvel, d->qvel + nv, a.v_end.begin());
+  record_end(a, d);
 }
 
 // Classic RK4 on (qpos, qvel, act) with our forward at every stage (MuJoCo's mj_RungeKutta calls
@@ -1549,9 +1547,7 @@ Status step(const Scene& s, SceneData& sd, Integrator method) {
   mju_copy(sd.qpos_save.data(), d->qpos, m->nq);
   mju_copy(sd.qvel_save.data(), d->qvel, m->nv);
   const double t = d->time;
-  const bool adaptive = s.step_tol > 0 && method != Integrator::Euler && method != Integrator::RK4;
-  if (adaptive) adaptive_step(s, sd, method);
-  else switch (method) {
+  switch (method) {
     case Integrator::Euler:
       if (s.fluid.active) {
         forward(s, sd, Need::Forces);
@@ -1561,28 +1557,10 @@ Status step(const Scene& s, SceneData& sd, Integrator method) {
         mj_Euler(m, d);
       }
       break;
-    case Integrator::Implicit:
-      if (const int n = s.newton_for(method); n > 0) {
-        newton_step_split(s, sd, backward_euler(), n);
-        break;
-      }
-      forward(s, sd, Need::Forces);
-      implicit_step(s, sd);
-      break;
     case Integrator::RK4: rk4_step(s, sd); break;
-    case Integrator::Trapezoidal:
-      if (const int n = s.newton_for(method); n > 0) {
-        newton_step_split(s, sd, trapezoidal_rule(), n);
-        break;
-      }
-      forward(s, sd, Need::Forces);
-      implicit_step(s, sd, true, 0.5);
-      break;
-    case Integrator::GeneralizedAlpha:
-      newton_step_split(s, sd, generalized_alpha(s.rho_inf), std::max(1, s.newton_for(method)));
-      break;
-    case Integrator::Midpoint:
-      newton_step_split(s, sd, midpoint_rule(), std::max(1, s.newton_for(method)));
+    default:  // implicit, trapezoidal, genalpha, midpoint (single_step)
+      if (s.step_tol > 0) adaptive_step(s, sd, method);
+      else newton_step_split(s, sd, method);
       break;
   }
   if (!state_finite(m, d)) {

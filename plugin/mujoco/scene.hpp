@@ -122,6 +122,8 @@ struct Scene {
 
 // Scene::step_tol: the finest adaptive substep is h / 2^kMaxSubstepLevel.
 constexpr int kMaxSubstepLevel = 10;
+// Whether `method` takes adaptive substeps under Scene::step_tol (euler and rk4 keep fixed steps).
+inline bool takes_substeps(Integrator method) { return method != Integrator::Euler && method != Integrator::RK4; }
 
 struct SceneData {
   explicit SceneData(const Scene& s);
