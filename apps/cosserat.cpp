@@ -350,6 +350,9 @@ int cmd_check(int argc, char** argv) {
   std::printf("timestep: %g s  integrator: %s", m->opt.timestep, integrator_name(s->integrator));
   if (s->step_tol > 0) std::printf("  adaptive substeps: step_tol %g", s->step_tol);
   std::printf("\n");
+  if (!s->may_collide)
+    std::printf("contacts: none possible (no two geoms pass the contype/conaffinity filters, no <pair>): "
+                "collision detection skipped\n");
   for (int i = 0; i < m->nv; ++i)
     if (!std::isfinite(sd.d->qacc[i])) fail("the model's accelerations at qpos0 are not finite");
   return 0;

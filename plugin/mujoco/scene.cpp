@@ -699,7 +699,10 @@ void fwd_position(const Scene& s, SceneData& sd, Need need) {
   fluid_damping(s, sd);  // fluid hook: damping matrix (scene_fluid.hpp); no-op without the fluid
   // (MuJoCo factorises M before the collisions; nothing up to the constraint projection reads
   // the factor, so it waits until the constraint rows tell whether it is needed)
-  mj_collision(m, d);
+  if (s.may_collide)
+    mj_collision(m, d);
+  else
+    d->ncon = 0;  // what mj_collision finds when no geom pair passes its filters
   mj_makeConstraint(m, d);
   if (d->ncon && !s.rods.empty()) patch_contacts(s, sd);
   mj_transmission(m, d);
@@ -853,6 +856,30 @@ void recompute_invweight0(Scene& s) {
   }
 }
 
+// Whether mj_collision (MuJoCo 2.2.2) can ever report a contact in model m, whatever its contact
+// flags (they may change between steps; mj_collision reads them itself): an explicit <pair>, or
+// two geoms on bodies of different weld groups (same weld group: never tested) whose masks pass
+// (contype1 & conaffinity2) || (contype2 & conaffinity1), on a body pair that no <exclude> names.
+// Conservative: MuJoCo's parent-child filter is not applied (a pair it drops still counts).
+bool scene_may_collide(const mjModel* m) {
+  if (m->npair > 0) return true;
+  auto excluded = [m](int b1, int b2) {  // exclude_signature: (body1 + 1) << 16 + body2 + 1
+    const int sig12 = ((b1 + 1) << 16) + b2 + 1, sig21 = ((b2 + 1) << 16) + b1 + 1;
+    for (int e = 0; e < m->nexclude; ++e)
+      if (m->exclude_signature[e] == sig12 || m->exclude_signature[e] == sig21) return true;
+    return false;
+  };
+  for (int g1 = 0; g1 < m->ngeom; ++g1)
+    for (int g2 = g1 + 1; g2 < m->ngeom; ++g2) {
+      if (!((m->geom_contype[g1] & m->geom_conaffinity[g2]) || (m->geom_contype[g2] & m->geom_conaffinity[g1])))
+        continue;
+      const int b1 = m->geom_bodyid[g1], b2 = m->geom_bodyid[g2];
+      if (m->body_weldid[b1] == m->body_weldid[b2]) continue;
+      if (!excluded(b1, b2)) return true;
+    }
+  return false;
+}
+
 namespace {
 
 std::unique_ptr<Scene> compile(const Preprocessed& pre) {
@@ -883,6 +910,7 @@ std::unique_ptr<Scene> compile(const Preprocessed& pre) {
       s->geom_rod[s->rods[r].geom_id[k]] = static_cast<int>(r);
       s->geom_index[s->rods[r].geom_id[k]] = static_cast<int>(k);
     }
+  s->may_collide = scene_may_collide(s->m);
   setup_fluid(*s);  // fluid hook: may switch MuJoCo's own fluid off (scene_fluid.hpp)
   if (!s->rods.empty()) recompute_invweight0(*s);
   s->integrator = s->rods.empty() ? Integrator::Euler : Integrator::Implicit;

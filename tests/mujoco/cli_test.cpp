@@ -71,6 +71,11 @@ TEST_F(Cli, CheckPrintsSummary) {
   EXPECT_NE(r.out.find("nv: 32"), std::string::npos) << r.out;  // 8 Kirchhoff-Love sections
   EXPECT_NE(r.out.find("beam: 8 sections, 32 strain dofs"), std::string::npos) << r.out;
   EXPECT_TRUE(r.err.empty()) << r.err;
+  // the cantilever's rod and weight can touch its floor; the flagellate's geoms collide with nothing
+  EXPECT_EQ(r.out.find("contacts: none possible"), std::string::npos) << r.out;
+  const Result free = cosserat("check '" COSSERAT_SOURCE_DIR "/models/flagellate_rigid.xml'");
+  EXPECT_EQ(free.status, 0) << free.err;
+  EXPECT_NE(free.out.find("contacts: none possible"), std::string::npos) << free.out;
 }
 
 TEST_F(Cli, CheckBadModelReportsFileAndLine) {

@@ -618,3 +618,67 @@ TEST(Scene, CompressionRecordsTheMostCompressedSection) {
 }
 
 }  // namespace
+
+namespace {
+
+// --- skipping the collision detection of scenes where nothing can touch (Scene::may_collide) ---
+
+// Every geom overlaps every other (a floor, a ball on it, a rod lying across both, a body on the
+// rod's tip), so MuJoCo's collision detection reports a contact for every pair its filters let
+// through. `rod`, `ball`, `tip`: contype/conaffinity attributes; `extra`: more MJCF.
+std::string overlap_xml(const std::string& rod, const std::string& ball, const std::string& tip,
+                        const std::string& extra = "") {
+  return R"(<mujoco>
+  <option timestep="0.002" gravity="0 0 -9.81"/>
+  <worldbody>
+    <geom name="floor" type="plane" size="1 1 0.1"/>
+    <body name="ball" pos="0.4 0 0.02"><freejoint/><geom name="ball" type="sphere" size="0.03" mass="0.1" )" +
+         ball + R"(/></body>
+    <cosserat name="rod" pos="0 0 0.004" length="0.4" sections="3" strain="kl" radius="0.005" density="1000"
+              young="1e6" poisson="0.5" )" +
+         rod + R"(>
+      <body name="tip" pos="0 0 0"><geom type="sphere" size="0.02" mass="0.05" )" +
+         tip + R"(/></body>
+    </cosserat>
+  </worldbody>)" + extra +
+         "</mujoco>";
+}
+
+// The load-time test agrees with MuJoCo's own filters on scenes where every pair overlaps: where
+// it says nothing can touch, MuJoCo's collision detection finds nothing; where it says something
+// can, MuJoCo finds contacts.
+TEST(Scene, CollisionDetectionIsSkippedOnlyWhereNothingCanTouch) {
+  const std::string off = R"(contype="0" conaffinity="0")";
+  struct Row {
+    std::string what, xml;
+    bool may_collide;
+  };
+  const std::vector<Row> rows = {
+      {"nothing collides", overlap_xml(off, off, off), false},
+      {"only the floor has masks (world geoms never collide with each other)", overlap_xml(off, off, off,
+          R"(<worldbody><geom type="box" pos="0 0 -0.05" size="0.1 0.1 0.1"/></worldbody>)"), false},
+      {"rod on the floor", overlap_xml(R"(contype="1" conaffinity="1")", off, off), true},
+      {"ball on the floor, one-sided masks", overlap_xml(off, R"(contype="1" conaffinity="0")", off), true},
+      {"rod and ball in their own group, off the floor's",
+       overlap_xml(R"(contype="2" conaffinity="2")", R"(contype="2" conaffinity="2")", off), true},
+      {"tip and ball, the floor's group 1 not in their affinity",
+       overlap_xml(off, R"(contype="2" conaffinity="4")", R"(contype="4" conaffinity="2")"), true},
+      {"the only pair excluded", overlap_xml(off, R"(contype="2" conaffinity="2")", R"(contype="2" conaffinity="2")",
+          R"(<contact><exclude body1="ball" body2="tip"/></contact>)"), false},
+      {"an explicit pair", overlap_xml(off, off, off, R"(<contact><pair geom1="floor" geom2="ball"/></contact>)"), true},
+  };
+  for (const Row& row : rows) {
+    auto s = load_scene_string(row.xml, kPath);
+    EXPECT_EQ(s->may_collide, row.may_collide) << row.what;
+    SceneData sd(*s);
+    forward(*s, sd);
+    const int ncon_step = sd.d->ncon;
+    mj_collision(s->m, sd.d);  // MuJoCo's own detection on the same poses
+    EXPECT_EQ(ncon_step, sd.d->ncon) << row.what;
+    if (row.may_collide)
+      EXPECT_GT(sd.d->ncon, 0) << row.what << ": the scene overlaps everywhere";
+    else
+      EXPECT_EQ(sd.d->ncon, 0) << row.what << ": MuJoCo finds a contact the skip would miss";
+  }
+}
+}  // namespace
