@@ -36,6 +36,9 @@ struct RodBinding {
   int below_begin = 0, below_end = 0;  // MuJoCo bodies hanging below the last proxy: [begin, end)
   std::vector<int> geom_id;       // capsules (decl.geoms order)
   std::vector<int> site_id;       // sites (decl.sites order)
+  // geoms and sites on the proxies and helpers that are not the rod's own (none in models the
+  // pre-processor writes; kept general): placed from their body's pose as MuJoCo places them
+  std::vector<int> other_geom_id, other_site_id;
   // Capsules and sites on rigid sections sit at a constant pose relative to the frame their
   // section starts at (node `anchor`, -1: the rod's base): kept here, not recomputed each step.
   struct Fixed {
@@ -64,6 +67,9 @@ struct Scene {
   std::vector<int> site_rod;      // per MuJoCo site: rod index or -1
   std::vector<int> site_index;    // per MuJoCo site: index into that rod's sites
   std::vector<int> site_section;  // per MuJoCo site: section (proxy) of the rod carrying it
+  // per MuJoCo body: 1 for the bodies a rod places (its proxies and helpers, and the bodies below
+  // it), which the step's kinematics leaves to the rod's patch instead of computing them twice
+  std::vector<char> body_by_rod;
   std::string path;
   // false when no two geoms of the model can ever touch (scene_may_collide, at load): the step then
   // skips MuJoCo's collision detection, whose broad phase otherwise costs a tenth of a step on a

@@ -58,8 +58,11 @@ const char* kRigidScene = R"(<mujoco>
       <site name="s2" pos="0.2 0 0"/>
       <body pos="0.2 0 0"><joint name="b" type="ball"/><geom type="sphere" size="0.03" pos="0.05 0 0" mass="0.1"/></body>
     </body>
+    <body name="hand" mocap="true" pos="0.5 0 0.8" quat="0.9 0.1 0.2 0"><site name="s3" pos="0 0.02 0"/>
+      <geom type="box" size="0.02 0.02 0.02" pos="0.01 0 0" contype="0" conaffinity="0"/></body>
   </worldbody>
-  <tendon><spatial name="t" stiffness="5"><site site="s1"/><site site="s2"/></spatial></tendon>
+  <tendon><spatial name="t" stiffness="5"><site site="s1"/><site site="s2"/></spatial>
+    <spatial name="pull" stiffness="3"><site site="s2"/><site site="s3"/></spatial></tendon>
   <actuator><motor joint="h" gear="1"/></actuator>
 </mujoco>)";
 
@@ -72,12 +75,24 @@ TEST(Scene, StagedPipelineReproducesMjStepBitForBit) {
   sd.d->qvel[0] = 0.3;
   for (int k = 0; k < 300; ++k) {
     d->ctrl[0] = sd.d->ctrl[0] = 0.2 * std::sin(0.01 * k);
+    // the mocap body moves (and its quaternion is not normalised: the kinematics normalises it)
+    const double mocap[7] = {0.5 + 0.1 * std::sin(0.02 * k), 0.0, 0.8, 1.0, 0.1 * k / 300.0, 0.2, 0.0};
+    for (mjData* x : {d, sd.d}) {
+      std::copy(mocap, mocap + 3, x->mocap_pos);
+      std::copy(mocap + 3, mocap + 7, x->mocap_quat);
+    }
     mj_step(m, d);
     ASSERT_EQ(step(*s, sd, Integrator::Euler), Status::Ok);
   }
   EXPECT_GT(d->ncon, 0);  // the box rests on the plane: contacts were exercised
   EXPECT_EQ(std::memcmp(d->qpos, sd.d->qpos, sizeof(mjtNum) * m->nq), 0);
   EXPECT_EQ(std::memcmp(d->qvel, sd.d->qvel, sizeof(mjtNum) * m->nv), 0);
+  // the kinematics of the last step, mocap body and its site included
+  EXPECT_EQ(std::memcmp(d->xpos, sd.d->xpos, sizeof(mjtNum) * 3 * m->nbody), 0);
+  EXPECT_EQ(std::memcmp(d->xquat, sd.d->xquat, sizeof(mjtNum) * 4 * m->nbody), 0);
+  EXPECT_EQ(std::memcmp(d->geom_xmat, sd.d->geom_xmat, sizeof(mjtNum) * 9 * m->ngeom), 0);
+  EXPECT_EQ(std::memcmp(d->site_xpos, sd.d->site_xpos, sizeof(mjtNum) * 3 * m->nsite), 0);
+  EXPECT_EQ(std::memcmp(d->mocap_quat, sd.d->mocap_quat, sizeof(mjtNum) * 4 * m->nmocap), 0);
   mj_deleteData(d);
   mj_deleteModel(m);
 }
