@@ -24,6 +24,7 @@
 
 #include "dynamics.hpp"
 #include "kinematics.hpp"
+#include "mujoco_ports.hpp"
 #include "tree_ldl.hpp"
 
 namespace cosserat::mj {
@@ -239,63 +240,6 @@ void set_body_pose(const mjModel* m, mjData* d, int b, const SE3& g) {
   }
 }
 
-// MuJoCo 2.2.2's mj_kinematics for one body whose parent pose is final, operation for operation
-// (engine_core_smooth.c: the same roundings), after the quaternions in qpos and mocap_quat were
-// normalised (normalize_quaternions).
-void body_kinematics(const mjModel* m, mjData* d, int i) {
-  mjtNum pos[3], quat[4];
-  const int jntadr = m->body_jntadr[i], jntnum = m->body_jntnum[i];
-  if (jntnum == 1 && m->jnt_type[jntadr] == mjJNT_FREE) {
-    const int qadr = m->jnt_qposadr[jntadr];
-    mju_copy3(pos, d->qpos + qadr);
-    mju_copy4(quat, d->qpos + qadr + 3);
-    mju_copy3(d->xanchor + 3 * jntadr, pos);
-    const mjtNum zaxis[3] = {0, 0, 1};
-    mju_copy3(d->xaxis + 3 * jntadr, zaxis);
-  } else {
-    const int pid = m->body_parentid[i];
-    // the body's offset from its parent: the model's, or a mocap body's from mjData
-    const int mocap = m->body_mocapid[i];
-    const mjtNum* bodypos = mocap >= 0 ? d->mocap_pos + 3 * mocap : m->body_pos + 3 * i;
-    const mjtNum* bodyquat = mocap >= 0 ? d->mocap_quat + 4 * mocap : m->body_quat + 4 * i;
-    mjtNum vec[3];
-    mju_rotVecMat(vec, bodypos, d->xmat + 9 * pid);
-    mju_add3(pos, d->xpos + 3 * pid, vec);
-    mju_mulQuat(quat, d->xquat + 4 * pid, bodyquat);
-    for (int j = 0; j < jntnum; ++j) {
-      const int jid = jntadr + j, qadr = m->jnt_qposadr[jid], type = m->jnt_type[jid];
-      mjtNum xanchor[3], xaxis[3];
-      mju_rotVecQuat(xaxis, m->jnt_axis + 3 * jid, quat);
-      mju_rotVecQuat(xanchor, m->jnt_pos + 3 * jid, quat);
-      mju_addTo3(xanchor, pos);
-      if (type == mjJNT_SLIDE) {
-        mju_addToScl3(pos, xaxis, d->qpos[qadr] - m->qpos0[qadr]);
-      } else if (type == mjJNT_BALL || type == mjJNT_HINGE) {
-        mjtNum qloc[4], vec1[3];
-        if (type == mjJNT_BALL)
-          mju_copy4(qloc, d->qpos + qadr);
-        else
-          mju_axisAngle2Quat(qloc, m->jnt_axis + 3 * jid, d->qpos[qadr] - m->qpos0[qadr]);
-        mju_mulQuat(quat, quat, qloc);  // (mju_mulQuat goes through a temporary)
-        // off-centre rotation
-        mju_sub3(vec, xanchor, pos);
-        mju_rotVecQuat(vec1, m->jnt_pos + 3 * jid, quat);
-        pos[0] += (vec[0] - vec1[0]);
-        pos[1] += (vec[1] - vec1[1]);
-        pos[2] += (vec[2] - vec1[2]);
-      }
-      mju_copy3(d->xanchor + 3 * jid, xanchor);
-      mju_copy3(d->xaxis + 3 * jid, xaxis);
-    }
-  }
-  mju_normalize4(quat);
-  mju_copy4(d->xquat + 4 * i, quat);
-  mju_copy3(d->xpos + 3 * i, pos);
-  mju_quat2Mat(d->xmat + 9 * i, quat);
-  mj_local2Global(d, d->xipos + 3 * i, d->ximat + 9 * i, m->body_ipos + 3 * i, m->body_iquat + 4 * i, i,
-                  m->body_sameframe[i]);
-}
-
 // Geoms and sites of bodies [b0, b1) from their (final) body poses.
 void attached_kinematics(const mjModel* m, mjData* d, int b0, int b1) {
   for (int g = 0; g < m->ngeom; ++g) {
@@ -310,34 +254,6 @@ void attached_kinematics(const mjModel* m, mjData* d, int b0, int b1) {
       mj_local2Global(d, d->site_xpos + 3 * s, d->site_xmat + 9 * s, m->site_pos + 3 * s, m->site_quat + 4 * s, b,
                       m->site_sameframe[s]);
   }
-}
-
-// MuJoCo's mj_kinematics for the bodies no rod places (Scene::body_by_rod): the world, the bodies
-// above and beside the rods, their geoms and sites. The rods' proxies, helpers and the bodies
-// below them are placed by patch_rod_kinematics alone (mj_kinematics would place them first, for
-// the patch to overwrite).
-void free_kinematics(const Scene& s, mjData* d) {
-  const mjModel* m = s.m;
-  // as mj_kinematics does: the quaternions in qpos and mocap_quat normalised in place
-  mj_normalizeQuat(m, d->qpos);
-  for (int i = 0; i < m->nmocap; ++i) mju_normalize4(d->mocap_quat + 4 * i);
-  mju_zero3(d->xpos);
-  mju_unit4(d->xquat);
-  mju_zero3(d->xipos);
-  mju_zero(d->xmat, 9);
-  mju_zero(d->ximat, 9);
-  d->xmat[0] = d->xmat[4] = d->xmat[8] = 1;
-  d->ximat[0] = d->ximat[4] = d->ximat[8] = 1;
-  for (int b = 1; b < m->nbody; ++b)
-    if (!s.body_by_rod[b]) body_kinematics(m, d, b);
-  for (int g = 0; g < m->ngeom; ++g)
-    if (!s.body_by_rod[m->geom_bodyid[g]])
-      mj_local2Global(d, d->geom_xpos + 3 * g, d->geom_xmat + 9 * g, m->geom_pos + 3 * g, m->geom_quat + 4 * g,
-                      m->geom_bodyid[g], m->geom_sameframe[g]);
-  for (int i = 0; i < m->nsite; ++i)
-    if (!s.body_by_rod[m->site_bodyid[i]])
-      mj_local2Global(d, d->site_xpos + 3 * i, d->site_xmat + 9 * i, m->site_pos + 3 * i, m->site_quat + 4 * i,
-                      m->site_bodyid[i], m->site_sameframe[i]);
 }
 
 // Patch point 1: proxy poses, rod capsules and sites from the rod solution; then everything below.
@@ -732,11 +648,11 @@ void smooth_forces(const mjModel* m, mjData* d) {
 void fwd_inertia(const Scene& s, SceneData& sd) {
   const mjModel* m = s.m;
   mjData* d = sd.d;
-  free_kinematics(s, d);
+  kinematics_except(m, d, s.body_by_rod.data());
   for (size_t r = 0; r < s.rods.size(); ++r) patch_rod_kinematics(s, sd, static_cast<int>(r));
   mj_comPos(m, d);
   for (size_t r = 0; r < s.rods.size(); ++r) patch_cdof(s, sd, static_cast<int>(r));
-  mj_crb(m, d);
+  crb_skipping_massless(m, d);
   for (size_t r = 0; r < s.rods.size(); ++r) patch_qM(s, sd, static_cast<int>(r));
 }
 

@@ -1,0 +1,28 @@
+// Stages of MuJoCo 2.2.2's smooth pipeline (engine_core_smooth.c), operation for operation, for the
+// parts of a scene that the rods do not own: the step calls these instead of MuJoCo's own stages
+// so that it does not compute what a rod's patch overwrites or what is zero on its massless
+// proxies (DESIGN.md section 6). Compiled without fused multiply-adds (CMakeLists.txt): every
+// number they produce is bit-for-bit the packaged MuJoCo's (Scene.StagedPipelineReproducesMjStep
+// BitForBit; runs of the shipped models are compared field by field against the full stages).
+#pragma once
+
+#include <mujoco/mujoco.h>
+
+namespace cosserat::mj {
+
+// mj_kinematics for one body whose parent's pose is final (free, ball, hinge and slide joints,
+// mocap bodies), after the quaternions in qpos and mocap_quat were normalised in place: its frame,
+// joint anchors and axes, and inertial frame. Its geoms and sites are not placed.
+void body_kinematics(const mjModel* m, mjData* d, int body);
+
+// mj_kinematics for the bodies b with !skip[b] (skip: nbody flags, or nullptr for none), their
+// geoms and sites, the world, and the in-place normalisation of qpos's and mocap_quat's
+// quaternions. A skipped body, its geoms and sites are left as they are (the caller places them).
+void kinematics_except(const mjModel* m, mjData* d, const char* skip);
+
+// mj_crb (composite inertias and qM), without the pass over the ancestors of a dof whose body's
+// composite inertia is zero (a rod's massless proxies with nothing below them): those entries of
+// qM are the dof's armature and zeros, as MuJoCo's products with a zero vector leave them.
+void crb_skipping_massless(const mjModel* m, mjData* d);
+
+}  // namespace cosserat::mj
