@@ -96,13 +96,14 @@ TEST(Newton, TrapezoidalRuleSolvesItsImplicitEquation) {
   EXPECT_GT(lin.velocity, 1e3 * nw.velocity);
 }
 
-// Error at T = 0.2 s against RK4 at h = 1e-5, for steps h, h/2, h/4.
-std::vector<double> errors(Integrator it, double rho, const std::vector<double>& steps) {
+// Error at T = 0.2 s against RK4 at h = 1e-5, for steps h, h/2, h/4 (`newton`: the corrections
+// per step, Scene::newton_iterations).
+std::vector<double> errors(Integrator it, double rho, const std::vector<double>& steps, int newton = 50) {
   const double T = 0.2;
   auto run = [&](Integrator method, double h) {
     auto s = load_scene_string(cantilever_xml(1e6, 0.01, 3, h), kPath);
     s->newton_tol = 1e-12;
-    s->newton_iterations = 50;
+    s->newton_iterations = newton;
     s->rho_inf = rho;
     SceneData sd(*s);
     const long n = std::lround(T / h);
@@ -115,8 +116,8 @@ std::vector<double> errors(Integrator it, double rho, const std::vector<double>&
   return e;
 }
 
-void expect_order(Integrator it, double rho, double lo, double hi) {
-  const std::vector<double> e = errors(it, rho, {4e-3, 2e-3, 1e-3});
+void expect_order(Integrator it, double rho, double lo, double hi, int newton = 50) {
+  const std::vector<double> e = errors(it, rho, {4e-3, 2e-3, 1e-3}, newton);
   std::printf("errors at h = 4, 2, 1 ms: %.3e %.3e %.3e\n", e[0], e[1], e[2]);
   for (size_t k = 0; k + 1 < e.size(); ++k) {
     const double ratio = e[k] / e[k + 1];
@@ -132,6 +133,13 @@ TEST(Newton, GeneralizedAlphaWithMostDampingIsSecondOrder) {
 }
 TEST(Newton, BackwardEulerIsFirstOrder) { expect_order(Integrator::Implicit, 0.8, 1.6, 2.5); }
 TEST(Newton, MidpointRuleIsSecondOrder) { expect_order(Integrator::Midpoint, 0.8, 3.2, 5.0); }
+// The linearised trapezoidal rule (--newton 0) takes gravity's and the inertial forces'
+// configuration derivative explicitly (its matrix has the rods' K only): first order. One
+// correction per step with the start's matrix (--newton 1) restores the rule's second order.
+TEST(Newton, LinearisedTrapezoidalRuleIsFirstOrder) { expect_order(Integrator::Trapezoidal, 0.8, 1.6, 2.5, 0); }
+TEST(Newton, OneCorrectionMakesTheTrapezoidalRuleSecondOrder) {
+  expect_order(Integrator::Trapezoidal, 0.8, 3.2, 5.0, 1);
+}
 
 // rho_inf = 1: generalized alpha is the trapezoidal rule (its A stays f(q, v) when converged).
 TEST(Newton, GeneralizedAlphaWithRhoOneIsTheTrapezoidalRule) {
