@@ -21,6 +21,8 @@
 #include <cstdio>
 #include <cstring>
 #include <limits>
+#include <unordered_set>
+#include <vector>
 
 #include "dynamics.hpp"
 #include "kinematics.hpp"
@@ -827,22 +829,27 @@ void recompute_invweight0(Scene& s) {
 // flags (they may change between steps; mj_collision reads them itself): an explicit <pair>, or
 // two geoms on bodies of different weld groups (same weld group: never tested) whose masks pass
 // (contype1 & conaffinity2) || (contype2 & conaffinity1), on a body pair that no <exclude> names.
-// Conservative: MuJoCo's parent-child filter is not applied (a pair it drops still counts).
+// Conservative: the masks are united per body, and MuJoCo's parent-child filter is not applied
+// (a pair it drops still counts).
 bool scene_may_collide(const mjModel* m) {
   if (m->npair > 0) return true;
-  auto excluded = [m](int b1, int b2) {  // exclude_signature: (body1 + 1) << 16 + body2 + 1
-    const int sig12 = ((b1 + 1) << 16) + b2 + 1, sig21 = ((b2 + 1) << 16) + b1 + 1;
-    for (int e = 0; e < m->nexclude; ++e)
-      if (m->exclude_signature[e] == sig12 || m->exclude_signature[e] == sig21) return true;
-    return false;
-  };
-  for (int g1 = 0; g1 < m->ngeom; ++g1)
-    for (int g2 = g1 + 1; g2 < m->ngeom; ++g2) {
-      if (!((m->geom_contype[g1] & m->geom_conaffinity[g2]) || (m->geom_contype[g2] & m->geom_conaffinity[g1])))
-        continue;
-      const int b1 = m->geom_bodyid[g1], b2 = m->geom_bodyid[g2];
+  // per body, the union of its geoms' masks (a body pair whose unions pass may hold a geom pair
+  // that passes: conservative, and linear in the geoms)
+  std::vector<int> contype(m->nbody, 0), conaffinity(m->nbody, 0), active;
+  for (int g = 0; g < m->ngeom; ++g) {
+    contype[m->geom_bodyid[g]] |= m->geom_contype[g];
+    conaffinity[m->geom_bodyid[g]] |= m->geom_conaffinity[g];
+  }
+  for (int b = 0; b < m->nbody; ++b)
+    if (contype[b] || conaffinity[b]) active.push_back(b);
+  // exclude_signature: (body1 + 1) << 16 + body2 + 1
+  const std::unordered_set<int> excluded(m->exclude_signature, m->exclude_signature + m->nexclude);
+  for (size_t i = 0; i < active.size(); ++i)
+    for (size_t j = i + 1; j < active.size(); ++j) {
+      const int b1 = active[i], b2 = active[j];
+      if (!((contype[b1] & conaffinity[b2]) || (contype[b2] & conaffinity[b1]))) continue;
       if (m->body_weldid[b1] == m->body_weldid[b2]) continue;
-      if (!excluded(b1, b2)) return true;
+      if (!excluded.count(((b1 + 1) << 16) + b2 + 1) && !excluded.count(((b2 + 1) << 16) + b1 + 1)) return true;
     }
   return false;
 }
