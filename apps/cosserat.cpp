@@ -34,6 +34,7 @@
 #include "render_commands.hpp"
 #include "scene.hpp"
 #include "scene_statics.hpp"
+#include "state_options.hpp"
 #include "statics.hpp"
 
 namespace {
@@ -243,24 +244,7 @@ struct StateOptions {
     c.options.push_back(text_option("--ctrl", "U", "actuator controls: nu numbers separated by commas (applied after --key)", ctrl));
   }
 
-  void apply(const mj::Scene& s, mj::SceneData& sd) const {
-    const mjModel* m = s.m;
-    if (!key.empty()) {
-      int id = mj_name2id(m, mjOBJ_KEY, key.c_str());
-      if (id < 0 && key.find_first_not_of("0123456789") == std::string::npos) id = parse_int("--key", key, 0);
-      if (id < 0 || id >= m->nkey)
-        fail("--key: no keyframe '" + key + "' (the model has " + std::to_string(m->nkey) + ")");
-      mj_resetDataKeyframe(m, sd.d, id);
-    }
-    if (!ctrl.empty()) {
-      std::vector<double> u;
-      std::istringstream in(ctrl);
-      for (std::string v; std::getline(in, v, ',');) u.push_back(parse_number("--ctrl", v));
-      if (static_cast<int>(u.size()) != m->nu)
-        fail("--ctrl: " + std::to_string(u.size()) + " values for " + std::to_string(m->nu) + " actuators");
-      std::copy(u.begin(), u.end(), sd.d->ctrl);
-    }
-  }
+  void apply(const mj::Scene& s, mj::SceneData& sd) const { apply_key_and_ctrl(s.m, sd.d, key, ctrl); }
 };
 
 // A loaded scene stepping with the command's time step and integrator.
@@ -277,7 +261,7 @@ class Simulation {
     if (o.rho) scene_->rho_inf = *o.rho;
     data_ = std::make_unique<mj::SceneData>(*scene_);
     state.apply(*scene_, *data_);
-    steps_ = std::llround(o.duration / timestep());
+    steps_ = step_count(o.duration, timestep(), "--duration");
     outputs_ = named_outputs(*scene_);
   }
 
@@ -729,7 +713,7 @@ int cmd_compare(int argc, char** argv) {
   match(oa.bodies, ob.bodies, static_cast<int>(oa.sites.size()), static_cast<int>(ob.sites.size()), false);
 
   const double dt = std::max(a.sim.timestep(), b.sim.timestep());
-  const long n = std::max(1L, static_cast<long>(std::llround(sim.duration / dt)));
+  const long n = step_count(sim.duration, dt, "--duration");
   const long half = n / 2;
   const std::vector<int> fa = free_bodies(a.sim), fb = free_bodies(b.sim);
   std::vector<std::string> warnings;
@@ -863,7 +847,7 @@ int cmd_demo(int argc, char** argv) {
   std::ofstream f(csv);
   if (!f) fail("cannot write " + csv);
   f << "time,energy,tip.x,tip.y,tip.z,tension\n";
-  const long steps = std::llround(o.duration / o.timestep);
+  const long steps = step_count(o.duration, o.timestep, "--duration");
   Progress progress("demo", steps);
   const auto t0 = std::chrono::steady_clock::now();
   for (long k = 0; k <= steps; ++k) {

@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "adaptive_option.hpp"
+#include "state_options.hpp"
 #include "cli.hpp"
 #include "integrators.hpp"
 #include "png_io.hpp"
@@ -83,6 +84,7 @@ struct PictureOptions {
 
   void finish() {
     if (out.empty()) fail("--out is required");
+    if (render.rods.segments > 10000) fail("--rod-segments: at most 10000 rings per rod, got " + std::to_string(render.rods.segments));
     render.rods.coloring = rd::parse_rod_coloring(coloring);
   }
 };
@@ -106,26 +108,13 @@ struct Simulation {
     }
     apply_step_tol(*scene, integrator, o.step_tol);
     data = std::make_unique<mj::SceneData>(*scene);
-    if (!o.key.empty()) {
-      int id = mj_name2id(m, mjOBJ_KEY, o.key.c_str());
-      if (id < 0 && o.key.find_first_not_of("0123456789") == std::string::npos) id = parse_int("--key", o.key, 0);
-      if (id < 0 || id >= m->nkey) fail("--key: no keyframe '" + o.key + "' (the model has " + std::to_string(m->nkey) + ")");
-      mj_resetDataKeyframe(m, data->d, id);
-    }
-    if (!o.ctrl.empty()) {
-      std::vector<double> u;
-      std::istringstream in(o.ctrl);
-      for (std::string v; std::getline(in, v, ',');) u.push_back(parse_number("--ctrl", v));
-      if (static_cast<int>(u.size()) != m->nu)
-        fail("--ctrl: " + std::to_string(u.size()) + " values for " + std::to_string(m->nu) + " actuators");
-      std::copy(u.begin(), u.end(), data->d->ctrl);
-    }
+    apply_key_and_ctrl(m, data->d, o.key, o.ctrl);
     t0 = data->d->time;
   }
 
   // Steps until `t` after the start (to the nearest step) and brings the kinematics up to date.
   void advance_to(double t) {
-    const long target = std::llround(t / scene->m->opt.timestep);
+    const long target = step_count(t, scene->m->opt.timestep, "the simulated time (--time, --duration)");
     for (; steps < target; ++steps)
       if (mj::step(*scene, *data, integrator) != cosserat::Status::Ok) {
         const std::string c = mj::collapse_warning(*scene, *data);
@@ -209,12 +198,15 @@ int render_command(int argc, char** argv) {
     const auto pos = cl.parse(argc - 1, argv + 1);  // after the command name
     if (!pos) return 0;
     o.finish();
-    const long frames = std::llround(duration * fps);
+    const double nframes = duration * fps;
+    if (!(nframes < 1e7)) fail("--duration " + format(duration) + " at --fps " + format(fps) + " makes more than 1e7 frames");
+    const long frames = std::lround(nframes);
     if (frames < 1) fail("--duration " + format(duration) + " at --fps " + format(fps) + " makes no frame");
     if (!video.empty() && rd::find_program("ffmpeg").empty())
       fail("--video needs ffmpeg, which is not installed (apt-get install ffmpeg); without --video only the frames are written");
 
     Simulation sim((*pos)[0], o);
+    step_count((frames - 1) / fps, sim.scene->m->opt.timestep, "--duration");  // before any frame is written
     rd::Renderer renderer(*sim.scene, o.render);
     std::error_code ec;
     fs::create_directories(o.out, ec);

@@ -83,7 +83,21 @@ std::vector<std::string> split_whitespace(std::string_view s) {
   return out;
 }
 
-std::optional<std::string> read_text_file(const std::string& path) {
+// The text of a regular file (not a directory, device or pipe: /dev/zero would never end) of at
+// most kMaxFileBytes; nullopt otherwise, with the reason in `why`.
+constexpr std::uintmax_t kMaxFileBytes = 256u << 20;
+std::optional<std::string> read_text_file(const std::string& path, std::string* why = nullptr) {
+  std::error_code ec;
+  const auto st = fs::status(path, ec);
+  if (!ec && fs::exists(st) && !fs::is_regular_file(st)) {
+    if (why) *why = fs::is_directory(st) ? "it is a directory" : "it is not a regular file";
+    return std::nullopt;
+  }
+  if (const auto size = fs::file_size(path, ec); !ec && size > kMaxFileBytes) {
+    if (why) *why = "it is larger than 256 MB";
+    return std::nullopt;
+  }
+  if (why) why->clear();
   std::ifstream in(path, std::ios::binary);
   if (!in) return std::nullopt;
   std::ostringstream ss;
@@ -328,6 +342,7 @@ class Preprocessor {
   void emit_excludes(XMLDocument& doc, XMLElement* root);
   void check_depth(const XMLElement* root) const;
   void check_custom_fields(const XMLElement* root) const;
+  void check_options(const XMLElement* root) const;
 
   Reader reader(const XMLElement* e) const { return Reader(e, origin(e), origins_); }
   const Origin& origin(const XMLElement* e) const;
@@ -404,8 +419,9 @@ void Preprocessor::splice_include(XMLElement* include, XMLDocument& doc, std::ve
     for (const auto& s : stack) chain += fs::path(s).filename().string() + " -> ";
     r.fail("include cycle: " + chain + fs::path(key).filename().string());
   }
-  const auto text = read_text_file(path);
-  if (!text) r.fail("cannot open include file '" + path + "'");
+  std::string why;
+  const auto text = read_text_file(path, &why);
+  if (!text) r.fail("cannot open include file '" + path + "'" + (why.empty() ? "" : ": " + why));
 
   // parse and expand the included file in its own document, then clone its content here
   XMLDocument& inc = parse(*text, path);
@@ -864,11 +880,14 @@ Preprocessed Preprocessor::run(const std::string& text, const std::string& path)
   XMLDocument& doc = parse(text, file);
   XMLElement* root = doc.RootElement();
   if (!is(root, "mujoco")) reader(root).fail("the root element must be <mujoco>");
+  if (const XMLElement* extra = root->NextSiblingElement())
+    throw LoadError(file, extra->GetLineNum(), "<" + std::string(extra->Name()) + "> after the root element <mujoco>: a model has one top-level element");
 
   std::vector<std::string> stack{canonical_key(file)};
   expand_includes(root, doc, stack);
   collect_names(root);
   check_custom_fields(root);
+  check_options(root);
   rewrite(root);
   emit_excludes(doc, root);
   check_depth(root);
@@ -922,6 +941,20 @@ void Preprocessor::check_custom_fields(const XMLElement* root) const {
     }
 }
 
+// <option> values MuJoCo 2.2.2 accepts although no simulation can use them: a time step that is not
+// a positive number, non-finite gravity, wind or magnetic field, a negative or non-finite medium
+// density or viscosity (a negative viscosity silently switched the plugin's fluid off).
+void Preprocessor::check_options(const XMLElement* root) const {
+  for (const XMLElement* o = root->FirstChildElement("option"); o; o = o->NextSiblingElement("option")) {
+    const Reader r = reader(o);
+    if (const auto h = r.numbers("timestep", 1, 1))
+      r.check((*h)[0] > 0, "timestep", "must be a positive number of seconds, got '" + r.text("timestep") + "'");
+    for (const char* a : {"gravity", "wind", "magnetic"}) r.numbers(a, 3, 3);
+    for (const char* a : {"density", "viscosity"})
+      if (const auto v = r.numbers(a, 1, 1)) r.check((*v)[0] >= 0, a, "must not be negative, got '" + r.text(a) + "'");
+  }
+}
+
 // Maps each line of the printed MJCF to the origin of the element that starts there: re-parse the
 // printed text and walk both trees together (generated elements inherit their parent's origin).
 void Preprocessor::map_lines(const XMLElement* root, Preprocessed& out) const {
@@ -950,8 +983,9 @@ SourceLine Preprocessed::origin_of_line(int line) const {
 }
 
 Preprocessed preprocess_file(const std::string& path) {
-  const auto text = read_text_file(path);
-  if (!text) throw LoadError(path, 0, "cannot open file");
+  std::string why;
+  const auto text = read_text_file(path, &why);
+  if (!text) throw LoadError(path, 0, "cannot open the model file" + (why.empty() ? "" : ": " + why));
   return Preprocessor().run(*text, path);
 }
 

@@ -91,7 +91,18 @@ TEST_F(Cli, BadCommandLinesExitOneWithOneLineReason) {
   for (const std::string args : {"run '" + kCantilever + "' --bogus", "run '" + kCantilever + "' --duration",
                                  "run '" + kCantilever + "' --duration abc", "run '" + kCantilever + "' --every 0",
                                  "run '" + kCantilever + "' --integrator foo", std::string("run"),
-                                 std::string("frobnicate"), std::string("check /nonexistent/model.xml")}) {
+                                 std::string("frobnicate"), std::string("check /nonexistent/model.xml"),
+                                 // found by fuzzing: step counts that overflowed or rounded to zero
+                                 // ran 0 steps and exited 0, compare hung; large controls were
+                                 // zeroed by MuJoCo; the rings of a rod's tube were unbounded
+                                 "run '" + kCantilever + "' --duration 1e300",
+                                 "run '" + kCantilever + "' --duration 0.02 --timestep 10",
+                                 "compare '" + kCantilever + "' '" + kCantilever + "' --duration 0.02 --timestep 1e-300",
+                                 "equilibrium '" + kCantilever + "' --ctrl 1.1e10",
+                                 "snapshot '" + kCantilever + "' --out /tmp/cosserat_cli_bad.png --time 1e300",
+                                 "snapshot '" + kCantilever + "' --out /tmp/cosserat_cli_bad.png --rod-segments 1000000",
+                                 "render '" + kCantilever + "' --out /tmp/cosserat_cli_bad --duration 1e300 --fps 1",
+                                 std::string("check /dev/zero")}) {
     const Result r = cosserat(args);
     EXPECT_EQ(r.status, 1) << args;
     EXPECT_EQ(lines(r.err).size(), 1u) << args << ": " << r.err;

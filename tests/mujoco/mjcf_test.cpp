@@ -177,6 +177,16 @@ std::vector<BadCase> bad_cases() {
        3, "'data' needs 1 number, got 2"},
       {"unknown integrator", "<mujoco>\n<custom>\n<text name=\"cosserat:integrator\" data=\"leapfrog\"/>\n</custom>\n</mujoco>\n",
        3, "must name an integrator (euler, implicit, trapezoidal, genalpha, midpoint, rk4), got 'leapfrog'"},
+      // <option> values MuJoCo accepts but no simulation can use (found by fuzzing: a zero or NaN
+      // time step ran 0 steps and exited 0, compare hung; NaN gravity failed without a line)
+      {"zero time step", "<mujoco>\n<option timestep=\"0\"/>\n</mujoco>\n", 2, "'timestep' must be a positive number of seconds"},
+      {"NaN time step", "<mujoco>\n<option timestep=\"nan\"/>\n</mujoco>\n", 2, "'timestep' holds 'nan', which is not a number"},
+      {"NaN gravity", "<mujoco>\n<option gravity=\"nan 0 0\"/>\n</mujoco>\n", 2, "'gravity' holds 'nan'"},
+      {"infinite wind", "<mujoco>\n<option wind=\"0 inf 0\"/>\n</mujoco>\n", 2, "'wind' holds 'inf'"},
+      {"negative viscosity", "<mujoco>\n<option viscosity=\"-5\"/>\n</mujoco>\n", 2, "'viscosity' must not be negative"},
+      {"content after the root", "<mujoco>\n</mujoco>\n<cosserat name=\"x\" length=\"-1\"/>\n", 3,
+       "<cosserat> after the root element <mujoco>"},
+      {"include of a device", "<mujoco>\n<include file=\"/dev/zero\"/>\n</mujoco>\n", 2, "'/dev/zero': it is not a regular file"},
   };
 }
 
@@ -194,6 +204,18 @@ TEST(MjcfErrors, TableOfBadInput) {
       EXPECT_TRUE(e.file.ends_with(c.file)) << e.what();
       const std::string prefix = e.file + ":" + std::to_string(e.line) + ": ";
       EXPECT_EQ(std::string(e.what()).rfind(prefix, 0), 0u) << e.what();
+    }
+  }
+}
+
+TEST(MjcfErrors, ModelThatIsNotARegularFile) {
+  for (const std::string& path : {std::string("/dev/zero"), kData}) {
+    try {
+      preprocess_file(path);
+      ADD_FAILURE() << "no LoadError for " << path;
+    } catch (const LoadError& e) {
+      EXPECT_EQ(e.file, path);
+      EXPECT_NE(e.message.find(path == kData ? "is a directory" : "is not a regular file"), std::string::npos) << e.what();
     }
   }
 }

@@ -1,0 +1,55 @@
+// The initial state of the commands that simulate or solve (run, compare, equilibrium, linearize,
+// render, snapshot): --key and --ctrl, and the step count of a duration.
+#pragma once
+
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "cli.hpp"
+#include "scene.hpp"
+
+namespace cosserat::cli {
+
+// Keyframe `key` (name or index; empty: none) and then the controls `ctrl` (nu numbers separated by
+// commas; empty: none) into d. Controls of magnitude 1e10 or more are refused: MuJoCo 2.2.2 sets
+// such a control to 0 with only a warning (mjMAXVAL), so the run would silently ignore it.
+inline void apply_key_and_ctrl(const mjModel* m, mjData* d, const std::string& key, const std::string& ctrl) {
+  if (!key.empty()) {
+    int id = mj_name2id(m, mjOBJ_KEY, key.c_str());
+    if (id < 0 && key.find_first_not_of("0123456789") == std::string::npos) id = parse_int("--key", key, 0);
+    if (id < 0 || id >= m->nkey) fail("--key: no keyframe '" + key + "' (the model has " + std::to_string(m->nkey) + ")");
+    mj_resetDataKeyframe(m, d, id);
+  }
+  if (!ctrl.empty()) {
+    std::vector<double> u;
+    std::istringstream in(ctrl);
+    for (std::string v; std::getline(in, v, ',');) {
+      u.push_back(parse_number("--ctrl", v));
+      if (!(std::abs(u.back()) < mjMAXVAL)) fail("--ctrl: '" + v + "' is not below 1e10 in magnitude (MuJoCo ignores such controls)");
+    }
+    if (static_cast<int>(u.size()) != m->nu)
+      fail("--ctrl: " + std::to_string(u.size()) + " values for " + std::to_string(m->nu) + " actuators");
+    std::copy(u.begin(), u.end(), d->ctrl);
+  }
+}
+
+// The number of steps of h in `duration` (to the nearest). Refused, naming `what` (the options
+// that set it), when a positive duration gives no step, or when it gives more than 1e12 steps
+// (a run that would not end, and beyond what a step counter holds).
+inline long step_count(double duration, double h, const std::string& what) {
+  const double n = duration / h;
+  char buf[160];
+  if (!(n <= 1e12)) {
+    std::snprintf(buf, sizeof buf, "%s: %g s in steps of %g s is %.3g steps, more than 1e12", what.c_str(), duration, h, n);
+    fail(buf);
+  }
+  const long k = std::lround(n);
+  if (k < 1 && duration > 0) {
+    std::snprintf(buf, sizeof buf, "%s: %g s is less than half a step of %g s: no step would be taken", what.c_str(), duration, h);
+    fail(buf);
+  }
+  return k;
+}
+
+}  // namespace cosserat::cli
