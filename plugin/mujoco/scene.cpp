@@ -39,15 +39,19 @@ using Mat3r = Eigen::Matrix<double, 3, 3, Eigen::RowMajor>;  // MuJoCo's xmat la
 
 // ---------------------------------------------------------------------------------- loading --
 
-// MuJoCo's compiler error, located in the user's file: its "line = N" refers to the generated
-// MJCF; Preprocessed maps that back to the element's origin.
+// MuJoCo's compiler or XML reader error, located in the user's file: its line ("line = N", or
+// "Element 'NAME', line N") refers to the generated MJCF; Preprocessed maps that back to the
+// element's origin.
 LoadError mujoco_error(const Preprocessed& pre, const std::string& error) {
   std::string msg = error;
   const size_t nl = msg.find('\n');
   std::string first = msg.substr(0, nl);
   if (first.rfind("Error: ", 0) == 0) first = first.substr(7);
-  int line = 0;
-  if (const size_t at = msg.find("line = "); at != std::string::npos) line = std::atoi(msg.c_str() + at + 7);
+  int line = 0;  // the compiler's "line = N", or the XML reader's "Element 'geom', line N"
+  if (const size_t at = msg.find("line = "); at != std::string::npos)
+    line = std::atoi(msg.c_str() + at + 7);
+  else if (const size_t el = msg.find("Element '"); el != std::string::npos)
+    if (const size_t at = msg.find(", line ", el); at != std::string::npos) line = std::atoi(msg.c_str() + at + 7);
   std::string object;
   if (const size_t at = msg.find("Object name = "); at != std::string::npos) {
     object = msg.substr(at + 14);

@@ -141,6 +141,20 @@ TEST(Scene, MujocoCompileErrorsPointAtTheUsersFileAndLine) {
   } catch (const LoadError& e) {
     EXPECT_EQ(e.line, 5) << e.what();
   }
+  // MuJoCo's XML reader (schema) errors say "Element 'geom', line N" instead of the compiler's
+  // "line = N" (found by fuzzing: they were reported at line 0)
+  for (const std::string& attr : {std::string("frobnicate=\"2\""), std::string("size=\"0.1 0.2 0.3 0.4\"")}) {
+    const std::string schema = "<mujoco>\n<worldbody>\n<cosserat name=\"rod\" length=\"0.3\" sections=\"5\"/>\n"
+                               "<body name=\"c\">\n<joint type=\"slide\"/>\n<geom " + attr + "/>\n</body>\n"
+                               "</worldbody>\n</mujoco>\n";
+    try {
+      load_scene_string(schema, dir + "/schema.xml");
+      ADD_FAILURE() << "no error for " << attr;
+    } catch (const LoadError& e) {
+      EXPECT_EQ(e.line, 6) << e.what();
+      EXPECT_NE(e.message.find("XML Error"), std::string::npos) << e.what();
+    }
+  }
 }
 
 // ---- soft-rigid trees: MuJoCo-coupled against the standalone core --------------------------
