@@ -78,6 +78,9 @@ struct Preprocessed {
                                         // (generated elements: their <cosserat>'s)
   // MuJoCo's compiler names lines of `xml` ("line = N"): the user's file:line for line N.
   SourceLine origin_of_line(int line) const;
+  // the <key> elements of <keyframe>, in order (MuJoCo's keyframe errors name the key's index,
+  // "key N: ...", and no line)
+  std::vector<SourceLine> key_origin;
 };
 
 // Reads `path`, expands <include file=...> recursively (relative to the including file), and

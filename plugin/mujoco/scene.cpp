@@ -57,7 +57,12 @@ LoadError mujoco_error(const Preprocessed& pre, const std::string& error) {
     object = msg.substr(at + 14);
     object = object.substr(0, object.find(','));
   }
-  const SourceLine where = pre.origin_of_line(line);
+  SourceLine where = pre.origin_of_line(line);
+  // "key N: ..." (keyframe errors carry no line): the N-th <key>
+  if (line == 0 && first.rfind("key ", 0) == 0) {
+    const int k = std::atoi(first.c_str() + 4);
+    if (k >= 0 && k < static_cast<int>(pre.key_origin.size())) where = pre.key_origin[k];
+  }
   return LoadError(where.file, where.line, "MuJoCo: " + first + (object.empty() ? "" : " (object '" + object + "')"));
 }
 

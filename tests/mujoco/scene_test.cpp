@@ -155,6 +155,16 @@ TEST(Scene, MujocoCompileErrorsPointAtTheUsersFileAndLine) {
       EXPECT_NE(e.message.find("XML Error"), std::string::npos) << e.what();
     }
   }
+  // keyframe errors name the key's index and no line: the index's <key> (was line 0)
+  const std::string keys = "<mujoco>\n<worldbody>\n<cosserat name=\"rod\" length=\"0.3\" sections=\"2\"/>\n</worldbody>\n"
+                           "<keyframe>\n<key name=\"fine\"/>\n<key qpos=\"1 2\"/>\n</keyframe>\n</mujoco>\n";
+  try {
+    load_scene_string(keys, dir + "/keys.xml");
+    ADD_FAILURE() << "no error";
+  } catch (const LoadError& e) {
+    EXPECT_EQ(e.line, 7) << e.what();
+    EXPECT_NE(e.message.find("key 1"), std::string::npos) << e.what();
+  }
 }
 
 // ---- soft-rigid trees: MuJoCo-coupled against the standalone core --------------------------
