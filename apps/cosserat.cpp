@@ -623,14 +623,16 @@ class Sampler {
  public:
   Sampler(const std::string& path, const SimOptions& o, const StateOptions& state) : sim(path, o, state) {
     sim.observe();
-    prev_t_ = cur_t_ = sim.time();
+    t0_ = prev_t_ = cur_t_ = sim.time();
     prev_ = cur_ = positions();
   }
   Simulation sim;
   bool diverged = false;
 
-  // Positions (sites then bodies, as in outputs()) at time t >= the previous request.
-  std::vector<Vec3> at(double t) {
+  // Positions (sites then bodies, as in outputs()) at time t after the start (a keyframe may start
+  // the simulation at another time than 0), t >= the previous request.
+  std::vector<Vec3> at(double t_since_start) {
+    const double t = t0_ + t_since_start;
     const double tol = 1e-9 * sim.timestep();
     while (!diverged && cur_t_ < t - tol) {
       if (!sim.step()) {
@@ -657,7 +659,7 @@ class Sampler {
     for (const auto& n : sim.outputs().bodies) p.push_back(body_position(sim.data(), n.id));
     return p;
   }
-  double prev_t_ = 0, cur_t_ = 0;
+  double t0_ = 0, prev_t_ = 0, cur_t_ = 0;
   std::vector<Vec3> prev_, cur_;
 };
 

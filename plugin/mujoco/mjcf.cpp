@@ -502,9 +502,13 @@ RodInput Preprocessor::read_rod(XMLElement* cosserat, const std::string& parent_
   RodSpec& spec = d.spec;
   spec.name = d.name;
   spec.length = r.required_number("length");
+  // sizes beyond 1e6 m overflow the section's inertia (radius 1e100: an internal error without a line)
+  constexpr double kMaxSize = 1e6;
   r.check(spec.length > 0, "length", "must be positive, got " + r.text("length"));
+  r.check(spec.length <= kMaxSize, "length", "must be at most 1e6 m, got " + r.text("length"));
   if (const auto rad = r.numbers("radius", 1, 2)) {
     for (double x : *rad) r.check(x > 0, "radius", "must be positive, got '" + r.text("radius") + "'");
+    for (double x : *rad) r.check(x <= kMaxSize, "radius", "must be at most 1e6 m, got '" + r.text("radius") + "'");
     spec.radius_base = rad->front();
     spec.radius_tip = rad->back();
   } else {
@@ -572,18 +576,20 @@ void Preprocessor::read_sections(const Reader& r, RodInput& rod) {
     secs.push_back(ss);
     sized.push_back(s.has("length"));
   }
+  // each section nests one body: a rod of twice the parser's depth limit is refused here, before
+  // allocating its sections (sections="999999999" exhausted memory) and generating their
+  // O(sections^2) collision exclusions (check_depth, after the rewrite, gives the exact limit of
+  // the rods that come closer)
+  constexpr int kDepthLimit = TINYXML2_MAX_ELEMENT_DEPTH - 1;
+  const int requested = secs.empty() ? std::max(n_attr, 1) : static_cast<int>(secs.size());
   if (secs.empty()) {
-    secs.assign(n_attr > 0 ? n_attr : 1, spec.section);
+    if (requested < 2 * kDepthLimit) secs.assign(requested, spec.section);
     sized.assign(secs.size(), false);
   } else if (n_attr > 0 && n_attr != static_cast<int>(secs.size())) {
     r.fail_attr("sections", "is " + std::to_string(n_attr) + " but there are " + std::to_string(secs.size()) +
                                 " <section> children");
   }
-  spec.sections = static_cast<int>(secs.size());
-  // each section nests one body: a rod of twice the parser's depth limit is refused here, before
-  // generating its O(sections^2) collision exclusions (check_depth, after the rewrite, gives the
-  // exact limit of the rods that come closer)
-  constexpr int kDepthLimit = TINYXML2_MAX_ELEMENT_DEPTH - 1;
+  spec.sections = requested;
   if (spec.sections >= 2 * kDepthLimit) {
     const std::string why = ", but each section nests one body and MuJoCo 2.2.2's XML parser stops at " +
                             std::to_string(kDepthLimit) + " nested elements: use at most about " +

@@ -865,10 +865,31 @@ bool scene_may_collide(const mjModel* m) {
 
 namespace {
 
+// Keyframes with a non-finite value (MuJoCo 2.2.2 reads "nan" with only a warning): the run from
+// such a key would report a NaN time or diverge without saying where the NaN came from.
+void check_keyframes(const Preprocessed& pre, const mjModel* m) {
+  for (int k = 0; k < m->nkey; ++k) {
+    const struct {
+      const char* name;
+      const mjtNum* v;
+      int n;
+    } fields[] = {{"time", m->key_time + k, 1},           {"qpos", m->key_qpos + k * m->nq, m->nq},
+                  {"qvel", m->key_qvel + k * m->nv, m->nv}, {"act", m->key_act + k * m->na, m->na},
+                  {"ctrl", m->key_ctrl + k * m->nu, m->nu}, {"mpos", m->key_mpos + 3 * k * m->nmocap, 3 * m->nmocap},
+                  {"mquat", m->key_mquat + 4 * k * m->nmocap, 4 * m->nmocap}};
+    for (const auto& f : fields)
+      if (!std::all_of(f.v, f.v + f.n, [](mjtNum x) { return std::isfinite(x); })) {
+        const SourceLine where = k < static_cast<int>(pre.key_origin.size()) ? pre.key_origin[k] : SourceLine{pre.path, 0};
+        throw LoadError(where.file, where.line, "<key>: attribute '" + std::string(f.name) + "' holds a value that is not a finite number");
+      }
+  }
+}
+
 std::unique_ptr<Scene> compile(const Preprocessed& pre) {
   auto s = std::make_unique<Scene>();
   s->path = pre.path;
   s->m = compile_xml(pre);
+  check_keyframes(pre, s->m);
   for (const auto& decl : pre.rods) s->rods.push_back(bind_rod(s->m, decl));
   std::sort(s->rods.begin(), s->rods.end(),
             [](const RodBinding& a, const RodBinding& b) { return a.base_body < b.base_body; });

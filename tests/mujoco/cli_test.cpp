@@ -222,6 +222,27 @@ TEST_F(Cli, CompareModelWithItselfHasZeroDeviation) {
   EXPECT_TRUE(j["swimming_speed"]["a"].empty());  // no free bodies
 }
 
+// A keyframe that starts the run at t = 1 s: compare samples from the start, not from t = 0 (found by
+// fuzzing: it compared the two initial states and reported 0 deviation). Nothing here depends on
+// the absolute time, so the deviations are those of a start at t = 0.
+TEST_F(Cli, CompareStartsAtTheKeyframesTime) {
+  auto model = [](const std::string& young, const std::string& time) {
+    const fs::path p = scratch() / ("key_" + young + "_" + time + ".xml");
+    std::ofstream(p) << "<mujoco><option gravity=\"0 0 -9.81\"/><worldbody><cosserat name=\"rod\" length=\"0.5\" "
+                        "radius=\"0.005\" young=\"" + young + "\"/></worldbody><keyframe><key time=\"" + time +
+                            "\"/></keyframe></mujoco>";
+    return p.string();
+  };
+  auto tip_max = [&](const std::string& time) {
+    const Result r = cosserat("compare '" + model("1e6", time) + "' '" + model("1e5", time) + "' --key 0 --duration 0.1 --json -");
+    EXPECT_EQ(r.status, 0) << r.err;
+    return json::parse(r.out)["sites"]["rod/tip"]["max"].get<double>();
+  };
+  const double from0 = tip_max("0"), from1 = tip_max("1");
+  EXPECT_GT(from0, 1e-3);  // the softer rod sags further
+  EXPECT_NEAR(from1, from0, 1e-9 * from0);
+}
+
 // Two models with no name in common: nothing to compare is an error (before simulating), unless a
 // free body gives a swimming speed, which is then compared with a warning.
 TEST_F(Cli, CompareNeedsSomethingInCommon) {

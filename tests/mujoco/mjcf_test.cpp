@@ -187,6 +187,11 @@ std::vector<BadCase> bad_cases() {
       {"content after the root", "<mujoco>\n</mujoco>\n<cosserat name=\"x\" length=\"-1\"/>\n", 3,
        "<cosserat> after the root element <mujoco>"},
       {"include of a device", "<mujoco>\n<include file=\"/dev/zero\"/>\n</mujoco>\n", 2, "'/dev/zero': it is not a regular file"},
+      // (fuzzing, second round: sections allocated before the depth check exhausted memory; sizes
+      // that overflow the inertia gave an internal error without a line)
+      {"a billion sections", in_world(rod + R"( sections="999999999"/>)"), 3, "'sections' is 999999999, but each section nests one body"},
+      {"radius beyond 1e6 m", in_world(rod + R"( radius="1e100"/>)"), 3, "'radius' must be at most 1e6 m"},
+      {"length beyond 1e6 m", in_world(R"(<cosserat name="a" length="1e150"/>)"), 3, "'length' must be at most 1e6 m"},
   };
 }
 

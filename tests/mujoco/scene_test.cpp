@@ -165,6 +165,16 @@ TEST(Scene, MujocoCompileErrorsPointAtTheUsersFileAndLine) {
     EXPECT_EQ(e.line, 7) << e.what();
     EXPECT_NE(e.message.find("key 1"), std::string::npos) << e.what();
   }
+  // a keyframe value MuJoCo reads as NaN (with only a warning) is refused at its <key>
+  const std::string nan_key = "<mujoco>\n<worldbody>\n<cosserat name=\"rod\" length=\"0.3\"/>\n</worldbody>\n"
+                              "<keyframe>\n<key name=\"fine\"/>\n<key time=\"nan\"/>\n</keyframe>\n</mujoco>\n";
+  try {
+    load_scene_string(nan_key, dir + "/nan_key.xml");
+    ADD_FAILURE() << "no error";
+  } catch (const LoadError& e) {
+    EXPECT_EQ(e.line, 7) << e.what();
+    EXPECT_NE(e.message.find("'time' holds a value that is not a finite number"), std::string::npos) << e.what();
+  }
 }
 
 // ---- soft-rigid trees: MuJoCo-coupled against the standalone core --------------------------
