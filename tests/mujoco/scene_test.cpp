@@ -110,6 +110,20 @@ TEST(Scene, RecomputedInvweight0EqualsMujocosOnRigidScene) {
 
 // MuJoCo's own compiler errors name lines of the generated MJCF; the user must see their file and
 // line, also inside included files and around <cosserat> elements.
+// Loading `xml` (named dir/name) fails with a LoadError at `file` (default: the same) and `line`
+// whose message contains `text`.
+void expect_load_error(const std::string& xml, const std::string& dir, const std::string& name, int line,
+                       const std::string& text, const std::string& file = "") {
+  try {
+    load_scene_string(xml, dir + "/" + name);
+    ADD_FAILURE() << "no error for " << name;
+  } catch (const LoadError& e) {
+    EXPECT_EQ(e.file, dir + "/" + (file.empty() ? name : file)) << e.what();
+    EXPECT_EQ(e.line, line) << e.what();
+    EXPECT_NE(e.message.find(text), std::string::npos) << e.what();
+  }
+}
+
 TEST(Scene, MujocoCompileErrorsPointAtTheUsersFileAndLine) {
   const std::string dir = "/tmp/cosserat_scene_test_include";
   std::system(("mkdir -p " + dir).c_str());
@@ -119,62 +133,27 @@ TEST(Scene, MujocoCompileErrorsPointAtTheUsersFileAndLine) {
                "<geom size=\"0.1\"/>\n</body>\n</worldbody>\n</mujoco>\n", f);
     std::fclose(f);
   }
-  const std::string main_xml =
-      "<mujoco>\n<worldbody>\n<cosserat name=\"rod\" length=\"0.3\" sections=\"3\"/>\n</worldbody>\n"
-      "<include file=\"part.xml\"/>\n</mujoco>\n";
-  try {
-    load_scene_string(main_xml, dir + "/main.xml");
-    ADD_FAILURE() << "no error";
-  } catch (const LoadError& e) {
-    EXPECT_EQ(e.file, dir + "/part.xml") << e.what();
-    EXPECT_EQ(e.line, 4) << e.what();
-    EXPECT_NE(e.message.find("range"), std::string::npos) << e.what();
-  }
+  expect_load_error("<mujoco>\n<worldbody>\n<cosserat name=\"rod\" length=\"0.3\" sections=\"3\"/>\n</worldbody>\n"
+                    "<include file=\"part.xml\"/>\n</mujoco>\n",
+                    dir, "main.xml", 4, "range", "part.xml");
   // an error in the main file after a rod (whose generated bodies add many lines)
-  const std::string bad =
-      "<mujoco>\n<worldbody>\n<cosserat name=\"rod\" length=\"0.3\" sections=\"5\"/>\n"
-      "<body name=\"c\">\n<joint type=\"slide\" range=\"0 1\"/>\n<geom size=\"0.1\"/>\n</body>\n"
-      "</worldbody>\n</mujoco>\n";
-  try {
-    load_scene_string(bad, dir + "/bad.xml");
-    ADD_FAILURE() << "no error";
-  } catch (const LoadError& e) {
-    EXPECT_EQ(e.line, 5) << e.what();
-  }
+  const std::string rod5 = "<mujoco>\n<worldbody>\n<cosserat name=\"rod\" length=\"0.3\" sections=\"5\"/>\n";
+  expect_load_error(rod5 + "<body name=\"c\">\n<joint type=\"slide\" range=\"0 1\"/>\n<geom size=\"0.1\"/>\n</body>\n"
+                           "</worldbody>\n</mujoco>\n",
+                    dir, "bad.xml", 5, "range");
   // MuJoCo's XML reader (schema) errors say "Element 'geom', line N" instead of the compiler's
   // "line = N" (found by fuzzing: they were reported at line 0)
-  for (const std::string& attr : {std::string("frobnicate=\"2\""), std::string("size=\"0.1 0.2 0.3 0.4\"")}) {
-    const std::string schema = "<mujoco>\n<worldbody>\n<cosserat name=\"rod\" length=\"0.3\" sections=\"5\"/>\n"
-                               "<body name=\"c\">\n<joint type=\"slide\"/>\n<geom " + attr + "/>\n</body>\n"
-                               "</worldbody>\n</mujoco>\n";
-    try {
-      load_scene_string(schema, dir + "/schema.xml");
-      ADD_FAILURE() << "no error for " << attr;
-    } catch (const LoadError& e) {
-      EXPECT_EQ(e.line, 6) << e.what();
-      EXPECT_NE(e.message.find("XML Error"), std::string::npos) << e.what();
-    }
-  }
-  // keyframe errors name the key's index and no line: the index's <key> (was line 0)
-  const std::string keys = "<mujoco>\n<worldbody>\n<cosserat name=\"rod\" length=\"0.3\" sections=\"2\"/>\n</worldbody>\n"
-                           "<keyframe>\n<key name=\"fine\"/>\n<key qpos=\"1 2\"/>\n</keyframe>\n</mujoco>\n";
-  try {
-    load_scene_string(keys, dir + "/keys.xml");
-    ADD_FAILURE() << "no error";
-  } catch (const LoadError& e) {
-    EXPECT_EQ(e.line, 7) << e.what();
-    EXPECT_NE(e.message.find("key 1"), std::string::npos) << e.what();
-  }
-  // a keyframe value MuJoCo reads as NaN (with only a warning) is refused at its <key>
-  const std::string nan_key = "<mujoco>\n<worldbody>\n<cosserat name=\"rod\" length=\"0.3\"/>\n</worldbody>\n"
-                              "<keyframe>\n<key name=\"fine\"/>\n<key time=\"nan\"/>\n</keyframe>\n</mujoco>\n";
-  try {
-    load_scene_string(nan_key, dir + "/nan_key.xml");
-    ADD_FAILURE() << "no error";
-  } catch (const LoadError& e) {
-    EXPECT_EQ(e.line, 7) << e.what();
-    EXPECT_NE(e.message.find("'time' holds a value that is not a finite number"), std::string::npos) << e.what();
-  }
+  for (const std::string& attr : {std::string("frobnicate=\"2\""), std::string("size=\"0.1 0.2 0.3 0.4\"")})
+    expect_load_error(rod5 + "<body name=\"c\">\n<joint type=\"slide\"/>\n<geom " + attr + "/>\n</body>\n"
+                             "</worldbody>\n</mujoco>\n",
+                      dir, "schema.xml", 6, "XML Error");
+  // keyframe errors name the key's index and no line: the index's <key> (was line 0); a value
+  // MuJoCo reads as NaN (with only a warning) is refused at its <key>
+  const std::string rod2 = "<mujoco>\n<worldbody>\n<cosserat name=\"rod\" length=\"0.3\" sections=\"2\"/>\n</worldbody>\n"
+                           "<keyframe>\n<key name=\"fine\"/>\n";
+  expect_load_error(rod2 + "<key qpos=\"1 2\"/>\n</keyframe>\n</mujoco>\n", dir, "keys.xml", 7, "key 1");
+  expect_load_error(rod2 + "<key time=\"nan\"/>\n</keyframe>\n</mujoco>\n", dir, "nan_key.xml", 7,
+                    "'time' holds a value that is not a finite number");
 }
 
 // ---- soft-rigid trees: MuJoCo-coupled against the standalone core --------------------------
