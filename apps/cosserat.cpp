@@ -235,18 +235,6 @@ struct SimOptions {
   }
 };
 
-// The initial state and the controls: a keyframe (qpos, qvel, act, ctrl) and/or explicit controls.
-struct StateOptions {
-  std::string key, ctrl;
-
-  void add_to(CommandLine& c) {
-    c.options.push_back(text_option("--key", "K", "start from keyframe K (name or index): qpos, qvel, act, ctrl", key));
-    c.options.push_back(text_option("--ctrl", "U", "actuator controls: nu numbers separated by commas (applied after --key)", ctrl));
-  }
-
-  void apply(const mj::Scene& s, mj::SceneData& sd) const { apply_key_and_ctrl(s.m, sd.d, key, ctrl); }
-};
-
 // A loaded scene stepping with the command's time step and integrator.
 class Simulation {
  public:

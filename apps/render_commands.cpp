@@ -55,7 +55,7 @@ struct PictureOptions {
   std::string out;
   rd::RenderOptions render;
   std::string coloring = "model";
-  std::string key, ctrl;
+  StateOptions state;    // --key, --ctrl
   double timestep = 0;  // 0: the model's
   std::string integrator;
   std::optional<double> step_tol;  // mj::Scene::step_tol (none: the model's)
@@ -75,8 +75,7 @@ struct PictureOptions {
     c.options.push_back(int_option("--rod-segments", "N", "rings drawn along each rod's tube, evenly spaced (default: adaptive to its bending)", r.rods.segments, 1));
     c.options.push_back({"--no-shadows", "", "do not draw shadows", [&r](const std::string&) { r.shadows = false; }});
     c.options.push_back(int_option("--samples", "N", "multisampling per pixel (default: the model's offsamples)", r.samples, 0));
-    c.options.push_back(text_option("--key", "K", "start from keyframe K (name or index)", key));
-    c.options.push_back(text_option("--ctrl", "U", "actuator controls: nu numbers separated by commas (after --key)", ctrl));
+    state.add_to(c);
     c.options.push_back(positive_option("--timestep", "h", "time step [s] (default: the model's <option timestep>)", timestep));
     c.options.push_back(text_option("--integrator", "NAME", "euler | implicit | trapezoidal | genalpha | midpoint | rk4 (default: implicit with rods, euler without; see 'cosserat run --help')", integrator));
     c.options.push_back(optional_positive_option("--step-tol", "TOL", "adaptive substeps to this tolerance (implicit, trapezoidal, genalpha, midpoint; default: the model's cosserat:step_tol, else fixed steps; see 'cosserat run --help')", step_tol));
@@ -108,7 +107,7 @@ struct Simulation {
     }
     apply_step_tol(*scene, integrator, o.step_tol);
     data = std::make_unique<mj::SceneData>(*scene);
-    apply_key_and_ctrl(m, data->d, o.key, o.ctrl);
+    o.state.apply(*scene, *data);
     t0 = data->d->time;
   }
 

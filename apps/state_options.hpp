@@ -2,6 +2,9 @@
 // render, snapshot): --key and --ctrl, and the step count of a duration.
 #pragma once
 
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -33,6 +36,18 @@ inline void apply_key_and_ctrl(const mjModel* m, mjData* d, const std::string& k
     std::copy(u.begin(), u.end(), d->ctrl);
   }
 }
+
+// The initial state and the controls: a keyframe (qpos, qvel, act, ctrl) and/or explicit controls.
+struct StateOptions {
+  std::string key, ctrl;
+
+  void add_to(CommandLine& c) {
+    c.options.push_back(text_option("--key", "K", "start from keyframe K (name or index): qpos, qvel, act, ctrl", key));
+    c.options.push_back(text_option("--ctrl", "U", "actuator controls: nu numbers separated by commas (applied after --key)", ctrl));
+  }
+
+  void apply(const mj::Scene& s, mj::SceneData& sd) const { apply_key_and_ctrl(s.m, sd.d, key, ctrl); }
+};
 
 // The number of steps of h in `duration` (to the nearest). Refused, naming `what` (the options
 // that set it), when a positive duration gives no step, or when it gives more than 1e12 steps

@@ -87,13 +87,19 @@ void kinematics_except(const mjModel* m, mjData* d, const char* skip) {
   for (int b = 1; b < m->nbody; ++b)
     if (!(skip && skip[b])) body_kinematics(m, d, b);
   for (int g = 0; g < m->ngeom; ++g)
-    if (!(skip && skip[m->geom_bodyid[g]]))
-      mj_local2Global(d, d->geom_xpos + 3 * g, d->geom_xmat + 9 * g, m->geom_pos + 3 * g, m->geom_quat + 4 * g,
-                      m->geom_bodyid[g], m->geom_sameframe[g]);
+    if (!(skip && skip[m->geom_bodyid[g]])) geom_kinematics(m, d, g);
   for (int i = 0; i < m->nsite; ++i)
-    if (!(skip && skip[m->site_bodyid[i]]))
-      mj_local2Global(d, d->site_xpos + 3 * i, d->site_xmat + 9 * i, m->site_pos + 3 * i, m->site_quat + 4 * i,
-                      m->site_bodyid[i], m->site_sameframe[i]);
+    if (!(skip && skip[m->site_bodyid[i]])) site_kinematics(m, d, i);
+}
+
+void geom_kinematics(const mjModel* m, mjData* d, int g) {
+  mj_local2Global(d, d->geom_xpos + 3 * g, d->geom_xmat + 9 * g, m->geom_pos + 3 * g, m->geom_quat + 4 * g,
+                  m->geom_bodyid[g], m->geom_sameframe[g]);
+}
+
+void site_kinematics(const mjModel* m, mjData* d, int i) {
+  mj_local2Global(d, d->site_xpos + 3 * i, d->site_xmat + 9 * i, m->site_pos + 3 * i, m->site_quat + 4 * i,
+                  m->site_bodyid[i], m->site_sameframe[i]);
 }
 
 void crb_skipping_massless(const mjModel* m, mjData* d) {

@@ -15,6 +15,10 @@ namespace cosserat::mj {
 // joint anchors and axes, and inertial frame. Its geoms and sites are not placed.
 void body_kinematics(const mjModel* m, mjData* d, int body);
 
+// mj_kinematics for one geom or site whose body's pose is final: its frame from the body's.
+void geom_kinematics(const mjModel* m, mjData* d, int geom);
+void site_kinematics(const mjModel* m, mjData* d, int site);
+
 // mj_kinematics for the bodies b with !skip[b] (skip: nbody flags, or nullptr for none), their
 // geoms and sites, the world, and the in-place normalisation of qpos's and mocap_quat's
 // quaternions. A skipped body, its geoms and sites are left as they are (the caller places them).

@@ -253,18 +253,10 @@ void set_body_pose(const mjModel* m, mjData* d, int b, const SE3& g) {
 
 // Geoms and sites of bodies [b0, b1) from their (final) body poses.
 void attached_kinematics(const mjModel* m, mjData* d, int b0, int b1) {
-  for (int g = 0; g < m->ngeom; ++g) {
-    const int b = m->geom_bodyid[g];
-    if (b >= b0 && b < b1)
-      mj_local2Global(d, d->geom_xpos + 3 * g, d->geom_xmat + 9 * g, m->geom_pos + 3 * g, m->geom_quat + 4 * g, b,
-                      m->geom_sameframe[g]);
-  }
-  for (int s = 0; s < m->nsite; ++s) {
-    const int b = m->site_bodyid[s];
-    if (b >= b0 && b < b1)
-      mj_local2Global(d, d->site_xpos + 3 * s, d->site_xmat + 9 * s, m->site_pos + 3 * s, m->site_quat + 4 * s, b,
-                      m->site_sameframe[s]);
-  }
+  for (int g = 0; g < m->ngeom; ++g)
+    if (m->geom_bodyid[g] >= b0 && m->geom_bodyid[g] < b1) geom_kinematics(m, d, g);
+  for (int s = 0; s < m->nsite; ++s)
+    if (m->site_bodyid[s] >= b0 && m->site_bodyid[s] < b1) site_kinematics(m, d, s);
 }
 
 // Patch point 1: proxy poses, rod capsules and sites from the rod solution; then everything below.
@@ -315,12 +307,8 @@ void patch_rod_kinematics(const Scene& s, SceneData& sd, int r) {
     const int id = rb.site_id[k];
     set_pose(d->site_xpos + 3 * id, d->site_xmat + 9 * id, g);
   }
-  for (int g : rb.other_geom_id)
-    mj_local2Global(d, d->geom_xpos + 3 * g, d->geom_xmat + 9 * g, m->geom_pos + 3 * g, m->geom_quat + 4 * g,
-                    m->geom_bodyid[g], m->geom_sameframe[g]);
-  for (int i : rb.other_site_id)
-    mj_local2Global(d, d->site_xpos + 3 * i, d->site_xmat + 9 * i, m->site_pos + 3 * i, m->site_quat + 4 * i,
-                    m->site_bodyid[i], m->site_sameframe[i]);
+  for (int g : rb.other_geom_id) geom_kinematics(m, d, g);
+  for (int i : rb.other_site_id) site_kinematics(m, d, i);
   for (int b = rb.below_begin; b < rb.below_end; ++b) body_kinematics(m, d, b);
   attached_kinematics(m, d, rb.below_begin, rb.below_end);
 }
