@@ -78,26 +78,27 @@ void add_congruence_rigid(const SE3& g, const Mat6& A, Mat6& out) {
   out.bottomRightCorner<3, 3>().diagonal().array() += m;
 }
 
-// Each column of the 6 x n force subspace F to the parent frame of g: F <- Ad*_g F (in place).
-template <class Cols>
-inline void coAd_cols(const SE3& g, Cols& F) {
-  for (Eigen::Index c = 0; c < F.cols(); ++c) {
-    const Vec3 n = g.R * F.col(c).template tail<3>();
-    const Vec3 mo = g.R * F.col(c).template head<3>() + g.u.cross(n);
-    F.col(c).template head<3>() = mo;
-    F.col(c).template tail<3>() = n;
+// Each column of the 6 x n force subspace F (column-major, 6 doubles per column) to the parent
+// frame of g: F <- Ad*_g F (in place). (Raw columns and fixed-size maps: the walk below runs
+// these O(sections^2) times per evaluation, and Eigen's dynamic blocks cost more than the
+// arithmetic at 3-6 columns.)
+inline void coAd_cols(const SE3& g, double* F, int n) {
+  for (int c = 0; c < n; ++c) {
+    Eigen::Map<Vec6> f(F + 6 * c);
+    const Vec3 nn = g.R * f.tail<3>();
+    f.head<3>() = g.R * f.head<3>() + g.u.cross(nn);
+    f.tail<3>() = nn;
   }
 }
 
-// The cross term of an ancestor b (motion subspace S_b, dofs from rb) and a force subspace F
-// (dofs from cf) in b's frame: M(rb.., cf..) += S_b^T F and M(cf.., rb..) += F^T S_b.
-template <class Cols>
-inline void add_cross(const Mat6X& Sb, const Cols& F, MatX& M, int rb, int cf) {
-  const Eigen::Index nb = Sb.cols(), nf = F.cols();
-  for (Eigen::Index c = 0; c < nf; ++c) {
-    const Vec6 f = F.col(c);
-    for (Eigen::Index r = 0; r < nb; ++r) {
-      const double x = Sb.col(r).dot(f);
+// The cross term of an ancestor b (motion subspace S_b: nb columns, dofs from rb) and a force
+// subspace F (nf columns, dofs from cf) in b's frame: M(rb.., cf..) += S_b^T F and
+// M(cf.., rb..) += F^T S_b.
+inline void add_cross(const double* Sb, int nb, const double* F, int nf, MatX& M, int rb, int cf) {
+  for (int c = 0; c < nf; ++c) {
+    const Eigen::Map<const Vec6> f(F + 6 * c);
+    for (int r = 0; r < nb; ++r) {
+      const double x = Eigen::Map<const Vec6>(Sb + 6 * r).dot(f);
       M(rb + r, cf + c) += x;
       M(cf + c, rb + r) += x;
     }
@@ -152,33 +153,34 @@ void composite(const Model& m, Data& d, NodeMatrix which, MatX& out_M, Mat6& out
     while (ak + 1 < nn && m.nodes[ak + 1].parent == ak && m.nodes[ak + 1].dof0 == q0 &&
            m.nodes[ak + 1].ndof == nd)
       ++ak;
-    auto F = d.Fs.leftCols(nd);
+    double* F = d.Fs.data();  // 6 x nd, column-major
     for (int a = ak; a >= a0; --a) {
-      const Mat6X& Sa = d.S[a];
+      const double* Sa = d.S[a].data();
       if (a < ak) {
-        coAd_cols(d.g_rel[a + 1], F);
-        add_cross(Sa, F, out_M, q0, q0);  // a is an ancestor of the group's nodes below it
+        coAd_cols(d.g_rel[a + 1], F, nd);
+        add_cross(Sa, nd, F, nd, out_M, q0, q0);  // a is an ancestor of the group's nodes below it
       }
       for (int c = 0; c < nd; ++c) {  // F += Ic_a S_a, and the diagonal term S_a^T Ic_a S_a
-        const Vec6 f = d.Ic[a] * Sa.col(c);
+        const Vec6 f = d.Ic[a] * Eigen::Map<const Vec6>(Sa + 6 * c);
+        Eigen::Map<Vec6> Fc(F + 6 * c);
         if (a < ak)
-          F.col(c) += f;
+          Fc += f;
         else
-          F.col(c) = f;
-        for (int r = 0; r < nd; ++r) out_M(q0 + r, q0 + c) += Sa.col(r).dot(f);
+          Fc = f;
+        for (int r = 0; r < nd; ++r) out_M(q0 + r, q0 + c) += Eigen::Map<const Vec6>(Sa + 6 * r).dot(f);
       }
     }
     // the walk above the group, one ancestor group at a time: for an ancestor b, the cross terms
     // of b's group up to b are Jg_b^T F (F in b's frame), and F moves on by g_grp_b to the frame
     // that group hangs from
-    coAd_cols(d.g_rel[a0], F);  // force subspace to the parent frame
+    coAd_cols(d.g_rel[a0], F, nd);  // force subspace to the parent frame
     for (int b = na.parent; b >= 0;) {
       const Node& nb = m.nodes[b];
-      if (nb.ndof > 0) add_cross(d.Jg[b], F, out_M, nb.dof0, q0);
-      coAd_cols(d.g_grp[b], F);
+      if (nb.ndof > 0) add_cross(d.Jg[b].data(), nb.ndof, F, nd, out_M, nb.dof0, q0);
+      coAd_cols(d.g_grp[b], F, nd);
       b = m.nodes[nb.group_first].parent;
     }
-    out_F_base.middleCols(q0, nd) += F;
+    out_F_base.middleCols(q0, nd) += d.Fs.leftCols(nd);
     a0 = ak + 1;
   }
 }
