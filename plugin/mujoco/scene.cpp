@@ -579,8 +579,10 @@ SceneData::SceneData(const Scene& s) {
   const int nv = s.m->nv, nq = s.m->nq, na = s.m->na;
   tmp_nv.assign(nv, 0);
   qacc_tmp.assign(nv, 0);
-  qpos_save.assign(nq, 0);
-  qvel_save.assign(nv, 0);
+  step_start.q0.assign(nq, 0);
+  step_start.v0.assign(nv, 0);
+  step_start.act0.assign(na, 0);
+  step_start.act_dot0.assign(na, 0);
   rk_q0.assign(nq, 0);
   rk_v0.assign(nv, 0);
   rk_a0.assign(na, 0);
@@ -1567,8 +1569,7 @@ Status step(const Scene& s, SceneData& sd) { return step(s, sd, s.integrator); }
 Status step(const Scene& s, SceneData& sd, Integrator method) {
   const mjModel* m = s.m;
   mjData* d = sd.d;
-  mju_copy(sd.qpos_save.data(), d->qpos, m->nq);
-  mju_copy(sd.qvel_save.data(), d->qvel, m->nv);
+  save_state(sd.step_start, m, d);
   const double t = d->time;
   switch (method) {
     case Integrator::Euler:
@@ -1587,9 +1588,7 @@ Status step(const Scene& s, SceneData& sd, Integrator method) {
       break;
   }
   if (!state_finite(m, d)) {
-    mju_copy(d->qpos, sd.qpos_save.data(), m->nq);
-    mju_copy(d->qvel, sd.qvel_save.data(), m->nv);
-    d->time = t;
+    restore_state(sd.step_start, d);
     sd.status = Status::Diverged;
     sd.warning = "the state became non-finite at t = " + std::to_string(t) + " s";
     return sd.status;

@@ -161,7 +161,12 @@ struct SceneData {
   // constraints): d->qfrc_smooth holds the forces, d->qacc, d->qacc_smooth and d->qLD are stale
   bool forces_only = false;
   // scratch (sized once)
-  std::vector<mjtNum> tmp_nv, qacc_tmp, qpos_save, qvel_save;
+  std::vector<mjtNum> tmp_nv, qacc_tmp;
+  // the state step() started from (restored when the step diverges)
+  struct StepStart {
+    std::vector<mjtNum> q0, v0, act0, act_dot0;
+    double t0 = 0.0;
+  } step_start;
   std::vector<mjtNum> rk_q0, rk_v0, rk_a0, rk_kq, rk_kv, rk_ka, rk_dx;  // RK4 stages
   struct RodScratch {
     std::vector<int> anc;  // MuJoCo dofs above the rod's base, nearest first

@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <string>
+#include <vector>
 
 #include "scene.hpp"
 
@@ -72,3 +73,35 @@ TEST(ActuatorImplicit, SaturatedServoIsNotDamped) {
 }
 
 }  // namespace
+
+// A step that diverges leaves the whole state it started from: positions, velocities, time and the
+// actuators' activations (a filtered servo, whose activation the diverging step changed too).
+TEST(ActuatorImplicit, DivergedStepRestoresTheStartStateWithActivations) {
+  // the velocity servo of wheel_xml as a <general> actuator with a first-order filter on the control
+  std::string xml = wheel_xml(0.01);
+  const size_t a = xml.find("<velocity"), b = xml.find("/>", a);
+  xml.replace(a, b + 2 - a,
+              R"(<general name="servo" joint="spin" gear="2" dyntype="filter" dynprm="0.05" gainprm="0.01"
+                         biastype="affine" biasprm="0 0 -0.01"/>)");
+  auto s = load_scene_string(xml, kPath);
+  ASSERT_EQ(s->m->na, 1);
+  SceneData sd(*s);
+  sd.d->ctrl[0] = 3.0;
+  std::vector<double> q, v, act;
+  double t = 0.0;
+  Status st = Status::Ok;
+  int k = 0;
+  for (; k < 2000 && st == Status::Ok; ++k) {
+    q.assign(sd.d->qpos, sd.d->qpos + s->m->nq);
+    v.assign(sd.d->qvel, sd.d->qvel + s->m->nv);
+    act.assign(sd.d->act, sd.d->act + s->m->na);
+    t = sd.d->time;
+    st = step(*s, sd, Integrator::Euler);
+  }
+  ASSERT_EQ(st, Status::Diverged) << "the explicit servo should diverge (step " << k << ")";
+  ASSERT_GT(k, 1);
+  EXPECT_EQ(sd.d->time, t);
+  EXPECT_EQ(std::vector<double>(sd.d->qpos, sd.d->qpos + s->m->nq), q);
+  EXPECT_EQ(std::vector<double>(sd.d->qvel, sd.d->qvel + s->m->nv), v);
+  EXPECT_EQ(std::vector<double>(sd.d->act, sd.d->act + s->m->na), act);
+}
