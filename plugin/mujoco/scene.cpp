@@ -688,7 +688,7 @@ void fwd_velocity(const Scene& s, SceneData& sd) {
   mj_comVel(m, d);
   for (size_t r = 0; r < s.rods.size(); ++r) {
     rod_velocity(s, sd, static_cast<int>(r));
-    patch_cdof_dot(s, sd, static_cast<int>(r));
+    if (s.rods[r].cdof_dot_read) patch_cdof_dot(s, sd, static_cast<int>(r));
   }
   mj_passive(m, d);
   mj_referenceConstraint(m, d);
@@ -830,6 +830,24 @@ void recompute_invweight0(Scene& s) {
 // (contype1 & conaffinity2) || (contype2 & conaffinity1), on a body pair that no <exclude> names.
 // Conservative: the masks are united per body, and MuJoCo's parent-child filter is not applied
 // (a pair it drops still counts).
+namespace {
+// RodBinding::cdof_dot_read: whether a body with mass or another rod's base lies below the rod's
+// proxies (its subtree: [base_body + 1, below_end)), or the model has sensors of the acceleration
+// stage (mj_rnePostConstraint reads cdof_dot; counted whatever the sensor flags say now).
+bool rod_cdof_dot_read(const Scene& s, const RodBinding& rb) {
+  const mjModel* m = s.m;
+  for (int i = 0; i < m->nsensor; ++i)
+    if (m->sensor_needstage[i] == mjSTAGE_ACC) return true;
+  for (int b = rb.base_body + 1; b < rb.below_end; ++b)
+    if (m->body_mass[b] > 0 || m->body_inertia[3 * b] > 0 || m->body_inertia[3 * b + 1] > 0 ||
+        m->body_inertia[3 * b + 2] > 0)
+      return true;
+  for (const RodBinding& other : s.rods)
+    if (other.base_body > rb.base_body && other.base_body < rb.below_end) return true;
+  return false;
+}
+}  // namespace
+
 bool scene_may_collide(const mjModel* m) {
   if (m->npair > 0) return true;
   // per body, the union of its geoms' masks (a body pair whose unions pass may hold a geom pair
@@ -908,6 +926,7 @@ std::unique_ptr<Scene> compile(const Preprocessed& pre) {
   s->body_by_rod.assign(s->m->nbody, 0);
   for (const RodBinding& rb : s->rods)
     for (int b = rb.base_body + 1; b < rb.below_end; ++b) s->body_by_rod[b] = 1;
+  for (RodBinding& rb : s->rods) rb.cdof_dot_read = rod_cdof_dot_read(*s, rb);
   setup_fluid(*s);  // fluid hook: may switch MuJoCo's own fluid off (scene_fluid.hpp)
   if (!s->rods.empty()) recompute_invweight0(*s);
   s->integrator = s->rods.empty() ? Integrator::Euler : Integrator::Implicit;

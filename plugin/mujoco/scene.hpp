@@ -50,6 +50,12 @@ struct RodBinding {
   std::vector<Fixed> geom_fixed;  // per capsule
   std::vector<Fixed> site_fixed;  // per site
   bool extensible = false;        // a section with a free axial strain (SceneData::compression)
+  // Whether anything reads the cdof_dot of the rod's dofs (patch point 4; set at load): a body with
+  // mass below the rod (mj_rne accelerates it with them), another rod hanging below it (its base
+  // acceleration), or a sensor of the acceleration stage. Otherwise the step leaves d->cdof_dot of
+  // the rod's dofs as mj_comVel wrote them (cvel x cdof, not the rod's): mj_rne multiplies them by
+  // the massless proxies' zero inertias only.
+  bool cdof_dot_read = true;
 };
 
 // Rod capsules' geom_size and geom_rbound follow the state (their chords): a Scene steps one

@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstring>
 #include <string>
+#include <vector>
 
 #include "dynamics.hpp"
 #include "integrators.hpp"
@@ -709,4 +710,76 @@ TEST(Scene, CollisionDetectionIsSkippedOnlyWhereNothingCanTouch) {
       EXPECT_EQ(sd.d->ncon, 0) << row.what << ": MuJoCo finds a contact the skip would miss";
   }
 }
+}  // namespace
+
+namespace {
+
+// --- the rods' cdof_dot patch, only where something reads it (RodBinding::cdof_dot_read) ---
+
+// A rod on a swinging hinged arm (so the rod's base accelerates), horizontal under gravity, with a
+// body at its tip: `tip` holds that body's content, `sensors` a <sensor> section.
+std::string swinging_rod_xml(const std::string& tip, const std::string& sensors = "") {
+  return R"(<mujoco>
+  <option timestep="0.002" gravity="0 0 -9.81"/>
+  <worldbody>
+    <body name="arm" pos="0 0 1">
+      <joint name="swing" type="hinge" axis="0 1 0" damping="0.01"/>
+      <geom type="capsule" fromto="0 0 0 0.1 0 0" size="0.01" mass="0.2" contype="0" conaffinity="0"/>
+      <cosserat name="rod" pos="0.1 0 0" length="0.3" sections="3" strain="kl" radius="0.005" density="1000"
+                young="1e6" poisson="0.5" viscosity="0.5" contype="0" conaffinity="0">
+        <body name="tip" pos="0 0 0">)" +
+         tip + R"(</body>
+      </cosserat>
+    </body>
+  </worldbody>)" + sensors +
+         "</mujoco>";
+}
+
+// The state after 100 implicit steps, with the rod's cdof_dot patch as detected or forced.
+std::vector<double> swing(const std::string& xml, int force_rod = -1, bool force_to = true) {
+  auto s = load_scene_string(xml, kPath);
+  if (force_rod >= 0) s->rods[force_rod].cdof_dot_read = force_to;
+  SceneData sd(*s);
+  sd.d->qvel[0] = 2.0;
+  for (int k = 0; k < 100; ++k) EXPECT_EQ(step(*s, sd, Integrator::Implicit), Status::Ok);
+  std::vector<double> x(sd.d->qpos, sd.d->qpos + s->m->nq);
+  x.insert(x.end(), sd.d->qvel, sd.d->qvel + s->m->nv);
+  x.insert(x.end(), sd.d->sensordata, sd.d->sensordata + s->m->nsensordata);
+  return x;
+}
+
+// Where the load says nothing reads the rod's cdof_dot, patching it anyway changes no bit of the
+// motion; where it says something does (a body with mass below the rod, a rod hanging from it, an
+// acceleration sensor), leaving it unpatched changes the motion or the sensor: the test that says
+// "nothing reads it" too often fails here.
+TEST(Scene, RodJacobianRatesArePatchedOnlyWhereSomethingReadsThem) {
+  struct Row {
+    std::string what, xml;
+    std::vector<bool> read;  // per rod
+  };
+  const std::string inner = R"(<cosserat name="inner" pos="0 0 0" length="0.1" sections="2" strain="kl"
+      radius="0.003" density="1000" young="1e6" poisson="0.5" contype="0" conaffinity="0"/>)";
+  const std::vector<Row> rows = {
+      {"a massless marker at the tip", swinging_rod_xml(R"(<site name="mark"/>)"), {false}},
+      {"a weight at the tip",
+       swinging_rod_xml(R"(<geom type="sphere" size="0.01" mass="0.05" contype="0" conaffinity="0"/>)"), {true}},
+      {"a rod hanging from the tip", swinging_rod_xml(inner), {true, false}},
+      {"an accelerometer at the massless tip",
+       swinging_rod_xml(R"(<site name="mark"/>)", R"(<sensor><accelerometer site="mark"/></sensor>)"), {true}},
+  };
+  for (const Row& row : rows) {
+    auto s = load_scene_string(row.xml, kPath);
+    ASSERT_EQ(s->rods.size(), row.read.size()) << row.what;
+    const std::vector<double> as_loaded = swing(row.xml);
+    for (size_t r = 0; r < row.read.size(); ++r) {
+      EXPECT_EQ(s->rods[r].cdof_dot_read, row.read[r]) << row.what << ", rod " << r;
+      const std::vector<double> flipped = swing(row.xml, static_cast<int>(r), !s->rods[r].cdof_dot_read);
+      if (s->rods[r].cdof_dot_read)
+        EXPECT_NE(flipped, as_loaded) << row.what << ", rod " << r << ": the patch is read, skipping it must show";
+      else
+        EXPECT_EQ(flipped, as_loaded) << row.what << ", rod " << r << ": skipping the patch must be exact";
+    }
+  }
+}
+
 }  // namespace
