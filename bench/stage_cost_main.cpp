@@ -5,8 +5,9 @@
 //   1. the step and its public stages (fwd_position, fwd_velocity, actuation, acceleration,
 //      constraint solve, sensors, integrator), each timed from the same state (restored between
 //      repetitions, median of many);
-//   2. inside them, MuJoCo's own stage functions (run on a copy of mjData holding the patched
-//      state), the solver core's functions on each rod (fwd_position, crba, fwd_velocity, rnea,
+//   2. inside them, MuJoCo's own stage functions as the step runs them (on a copy of mjData holding
+//      the patched state; the exact ports of mujoco_ports.hpp where the step skips part of a stage,
+//      nothing for a stage it skips), the solver core's functions on each rod (fwd_position, crba, fwd_velocity, rnea,
 //      passive) and the core kernels the coupling calls per step (section Jacobians at section
 //      ends for cdof and cdof_dot, rod poses for capsules and sites); the rest of each block is
 //      coupling glue. Grouped as kinematics, mass matrix, bias, passive, fluid (the plugin's), tendons,
@@ -41,6 +42,7 @@
 #include "common.hpp"
 #include "dynamics.hpp"
 #include "kinematics.hpp"
+#include "mujoco_ports.hpp"
 #include "native_chain.hpp"
 
 // ---------------------------------------------------------------- allocation counting (malloc) --
@@ -180,26 +182,31 @@ json breakdown(const mj::Scene& s, mj::SceneData& sd, Sim& sim, const Ctx& c, st
   const double t_step = timed([&] { st.restore(m, d); }, [&] { sim.step(); }, c.reps, c.min_time);
   st.restore(m, d);
   mj::forward(s, sd);
-  // MuJoCo's stages on a copy of the patched data
+  // MuJoCo's stages on a copy of the patched data, as the step runs them: the exact ports that skip
+  // what the rods place or what is zero on their massless proxies (mujoco_ports.hpp), and no
+  // collision detection where nothing can touch (the keys keep MuJoCo's stage names)
   mjData* d2 = mj_makeData(m);
-  auto M = [&](void (*f)(const mjModel*, mjData*)) {
-    return timed([&] { mj_copyData(d2, m, d); }, [&] { f(m, d2); }, c.reps, c.min_time);
+  auto M = [&](const std::function<void(mjData*)>& f) {
+    return timed([&] { mj_copyData(d2, m, d); }, [&] { f(d2); }, c.reps, c.min_time);
+  };
+  auto stage = [](void (*f)(const mjModel*, mjData*), const mjModel* mm) {
+    return std::function<void(mjData*)>([f, mm](mjData* x) { f(mm, x); });
   };
   std::map<std::string, double> mjs;
-  mjs["mj_kinematics"] = M(mj_kinematics);
-  mjs["mj_comPos"] = M(mj_comPos);
-  mjs["mj_camlight"] = M(mj_camlight);
-  mjs["mj_tendon"] = M(mj_tendon);
-  mjs["mj_crb"] = M(mj_crb);
-  mjs["mj_factorM"] = unless_skipped([&] { return M(mj_factorM); });
-  mjs["mj_collision"] = M(mj_collision);
-  mjs["mj_makeConstraint"] = M(mj_makeConstraint);
-  mjs["mj_transmission"] = M(mj_transmission);
-  mjs["mj_projectConstraint"] = unless_skipped([&] { return M(mj_projectConstraint); });
-  mjs["mj_comVel"] = M(mj_comVel);
-  mjs["mj_passive"] = M(mj_passive);
-  mjs["mj_referenceConstraint"] = M(mj_referenceConstraint);
-  mjs["mj_rne"] = timed([&] { mj_copyData(d2, m, d); }, [&] { mj_rne(m, d2, 0, d2->qfrc_bias); }, c.reps, c.min_time);
+  mjs["mj_kinematics"] = M([&](mjData* x) { mj::kinematics_except(m, x, s.body_by_rod.data()); });
+  mjs["mj_comPos"] = M(stage(mj_comPos, m));
+  mjs["mj_camlight"] = M(stage(mj_camlight, m));
+  mjs["mj_tendon"] = M(stage(mj_tendon, m));
+  mjs["mj_crb"] = M([&](mjData* x) { mj::crb_skipping_massless(m, x); });
+  mjs["mj_factorM"] = unless_skipped([&] { return M(stage(mj_factorM, m)); });
+  mjs["mj_collision"] = s.may_collide ? M(stage(mj_collision, m)) : 0.0;
+  mjs["mj_makeConstraint"] = M(stage(mj_makeConstraint, m));
+  mjs["mj_transmission"] = M(stage(mj_transmission, m));
+  mjs["mj_projectConstraint"] = unless_skipped([&] { return M(stage(mj_projectConstraint, m)); });
+  mjs["mj_comVel"] = M([&](mjData* x) { mj::com_velocity_except(m, x, s.velocity_skip.data()); });
+  mjs["mj_passive"] = M(stage(mj_passive, m));
+  mjs["mj_referenceConstraint"] = M(stage(mj_referenceConstraint, m));
+  mjs["mj_rne"] = M([&](mjData* x) { mj::rne_except(m, x, 0, x->qfrc_bias, s.velocity_skip.data()); });
   mj_deleteData(d2);
   // the core on each rod, and the kernels the coupling calls
   std::map<std::string, double> core;
@@ -212,8 +219,10 @@ json breakdown(const mj::Scene& s, mj::SceneData& sd, Sim& sim, const Ctx& c, st
     rd.rhs.setZero();
     core["rnea"] += T([&] { cosserat::rnea(rm, rd, rd.rhs, false, true, rd.qfrc_bias); });
     core["passive"] += T([&] { cosserat::passive(rm, rd); });
-    // cdof reads the group Jacobians fwd_position computes; cdof_dot needs their derivative
-    core["glue: group_jacobian_dot (cdof_dot)"] += T([&] { cosserat::group_jacobian_dot(rm, rd); });
+    // cdof reads the group Jacobians fwd_position computes; cdof_dot needs their derivative (where
+    // something reads it: RodBinding::cdof_dot_read)
+    if (s.rods[r].cdof_dot_read)
+      core["glue: group_jacobian_dot (cdof_dot)"] += T([&] { cosserat::group_jacobian_dot(rm, rd); });
     // capsules and sites on rigid sections are placed from a cached pose: only the others cost
     const mj::RodBinding& rb = s.rods[r];
     core["glue: rod_pose (capsules off rigid sections)"] += T([&] {

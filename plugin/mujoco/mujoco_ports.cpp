@@ -17,6 +17,40 @@ void mul_inert_vec(mjtNum res[6], const mjtNum i[10], const mjtNum v[6]) {
   res[5] = i[7] * v[0] - i[6] * v[1] + i[9] * v[5];
 }
 
+// engine_util_spatial.c's motion and force cross products and dof-vector product (not exported).
+void cross_motion(mjtNum res[6], const mjtNum vel[6], const mjtNum v[6]) {
+  res[0] = -vel[2] * v[1] + vel[1] * v[2];
+  res[1] = vel[2] * v[0] - vel[0] * v[2];
+  res[2] = -vel[1] * v[0] + vel[0] * v[1];
+  res[3] = -vel[2] * v[4] + vel[1] * v[5];
+  res[4] = vel[2] * v[3] - vel[0] * v[5];
+  res[5] = -vel[1] * v[3] + vel[0] * v[4];
+  res[3] += -vel[5] * v[1] + vel[4] * v[2];
+  res[4] += vel[5] * v[0] - vel[3] * v[2];
+  res[5] += -vel[4] * v[0] + vel[3] * v[1];
+}
+
+void cross_force(mjtNum res[6], const mjtNum vel[6], const mjtNum f[6]) {
+  res[0] = -vel[2] * f[1] + vel[1] * f[2];
+  res[1] = vel[2] * f[0] - vel[0] * f[2];
+  res[2] = -vel[1] * f[0] + vel[0] * f[1];
+  res[3] = -vel[2] * f[4] + vel[1] * f[5];
+  res[4] = vel[2] * f[3] - vel[0] * f[5];
+  res[5] = -vel[1] * f[3] + vel[0] * f[4];
+  res[0] += -vel[5] * f[4] + vel[4] * f[5];
+  res[1] += vel[5] * f[3] - vel[3] * f[5];
+  res[2] += -vel[4] * f[3] + vel[3] * f[4];
+}
+
+void mul_dof_vec(mjtNum* res, const mjtNum* dof, const mjtNum* vec, int n) {
+  if (n == 1)
+    mju_scl(res, dof, vec[0], 6);
+  else if (n <= 0)
+    mju_zero(res, 6);
+  else
+    mju_mulMatTVec(res, dof, vec, n, 6);
+}
+
 }  // namespace
 
 void body_kinematics(const mjModel* m, mjData* d, int i) {
@@ -121,6 +155,70 @@ void crb_skipping_massless(const mjModel* m, mjData* d) {
     mul_inert_vec(tmp, crb_i, d->cdof + 6 * i);
     for (int j = i; j >= 0; j = m->dof_parentid[j]) d->qM[Madr_ij++] += mju_dot(d->cdof + 6 * j, tmp, 6);
   }
+}
+
+void com_velocity_except(const mjModel* m, mjData* d, const char* skip) {
+  mjtNum tmp[6], cvel[6], cdofdot[36];
+  mju_zero(d->cvel, 6);
+  for (int i = 1; i < m->nbody; ++i) {
+    if (skip && skip[i]) continue;
+    const int bda = m->body_dofadr[i];
+    mju_copy(cvel, d->cvel + 6 * m->body_parentid[i], 6);
+    for (int j = 0; j < m->body_dofnum[i]; ++j) {
+      switch (m->jnt_type[m->dof_jntid[bda + j]]) {
+        case mjJNT_FREE:
+          mju_zero(cdofdot, 18);
+          mul_dof_vec(tmp, d->cdof + 6 * bda, d->qvel + bda, 3);
+          mju_addTo(cvel, tmp, 6);
+          j += 3;
+          [[fallthrough]];
+        case mjJNT_BALL:
+          for (int k = 0; k < 3; ++k) cross_motion(cdofdot + 6 * (j + k), cvel, d->cdof + 6 * (bda + j + k));
+          mul_dof_vec(tmp, d->cdof + 6 * (bda + j), d->qvel + bda + j, 3);
+          mju_addTo(cvel, tmp, 6);
+          j += 2;
+          break;
+        default:
+          cross_motion(cdofdot + 6 * j, cvel, d->cdof + 6 * (bda + j));
+          mul_dof_vec(tmp, d->cdof + 6 * (bda + j), d->qvel + bda + j, 1);
+          mju_addTo(cvel, tmp, 6);
+      }
+    }
+    mju_copy(d->cvel + 6 * i, cvel, 6);
+    mju_copy(d->cdof_dot + 6 * bda, cdofdot, 6 * m->body_dofnum[i]);
+  }
+}
+
+void rne_except(const mjModel* m, mjData* d, int flg_acc, mjtNum* result, const char* skip) {
+  mjtNum tmp[6], tmp1[6];
+  const int mark = d->pstack;  // mjMARKSTACK
+  mjtNum* cacc = mj_stackAlloc(d, m->nbody * 6);
+  mjtNum* cfrc = mj_stackAlloc(d, m->nbody * 6);
+  mju_zero(cacc, 6);
+  if (!(m->opt.disableflags & mjDSBL_GRAVITY)) mju_scl3(cacc + 3, m->opt.gravity, -1);
+  for (int i = 1; i < m->nbody; ++i) {
+    if (skip && skip[i]) {  // massless, with a massless subtree: no force of its own
+      mju_zero(cfrc + 6 * i, 6);
+      continue;
+    }
+    const int bda = m->body_dofadr[i];
+    mul_dof_vec(tmp, d->cdof_dot + 6 * bda, d->qvel + bda, m->body_dofnum[i]);
+    mju_add(cacc + 6 * i, cacc + 6 * m->body_parentid[i], tmp, 6);
+    if (flg_acc) {
+      mul_dof_vec(tmp, d->cdof + 6 * bda, d->qacc + bda, m->body_dofnum[i]);
+      mju_addTo(cacc + 6 * i, tmp, 6);
+    }
+    mul_inert_vec(cfrc + 6 * i, d->cinert + 10 * i, cacc + 6 * i);
+    mul_inert_vec(tmp, d->cinert + 10 * i, d->cvel + 6 * i);
+    cross_force(tmp1, d->cvel + 6 * i, tmp);
+    mju_addTo(cfrc + 6 * i, tmp1, 6);
+  }
+  mju_zero(cfrc, 6);
+  for (int i = m->nbody - 1; i > 0; --i)
+    if (m->body_parentid[i] && !(skip && skip[i])) mju_addTo(cfrc + 6 * m->body_parentid[i], cfrc + 6 * i, 6);
+  for (int i = 0; i < m->nv; ++i)
+    result[i] = skip && skip[m->dof_bodyid[i]] ? 0.0 : mju_dot(d->cdof + 6 * i, cfrc + 6 * m->dof_bodyid[i], 6);
+  d->pstack = mark;  // mjFREESTACK
 }
 
 }  // namespace cosserat::mj

@@ -29,4 +29,15 @@ void kinematics_except(const mjModel* m, mjData* d, const char* skip);
 // qM are the dof's armature and zeros, as MuJoCo's products with a zero vector leave them.
 void crb_skipping_massless(const mjModel* m, mjData* d);
 
+// mj_comVel (cvel, and cdof_dot = cvel x cdof) for the bodies b with !skip[b] (skip: nbody flags,
+// or nullptr for none); a skipped body's cvel and cdof_dot are left as they are. `skip` must hold
+// whole subtrees: a body below a skipped one is skipped too.
+void com_velocity_except(const mjModel* m, mjData* d, const char* skip);
+
+// mj_rne into result (nv) with the bodies b with skip[b] taken as massless with a massless subtree:
+// their bias force is zero, and so is `result` at their dofs, without computing them (MuJoCo's
+// products with their zero inertias give zeros, whose sign may differ). Skipped bodies' cvel and
+// cdof_dot are not read. `skip` must hold whole subtrees of massless bodies.
+void rne_except(const mjModel* m, mjData* d, int flg_acc, mjtNum* result, const char* skip);
+
 }  // namespace cosserat::mj

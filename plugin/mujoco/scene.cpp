@@ -685,14 +685,14 @@ void fwd_velocity(const Scene& s, SceneData& sd) {
   mjData* d = sd.d;
   if (m->ntendon) mju_mulMatVec(d->ten_velocity, d->ten_J, d->qvel, m->ntendon, m->nv);
   if (m->nu) mju_mulMatVec(d->actuator_velocity, d->actuator_moment, d->qvel, m->nu, m->nv);
-  mj_comVel(m, d);
+  com_velocity_except(m, d, s.velocity_skip.data());
   for (size_t r = 0; r < s.rods.size(); ++r) {
     rod_velocity(s, sd, static_cast<int>(r));
     if (s.rods[r].cdof_dot_read) patch_cdof_dot(s, sd, static_cast<int>(r));
   }
   mj_passive(m, d);
   mj_referenceConstraint(m, d);
-  mj_rne(m, d, 0, d->qfrc_bias);
+  rne_except(m, d, 0, d->qfrc_bias, s.velocity_skip.data());
   for (size_t r = 0; r < s.rods.size(); ++r) patch_bias(s, sd, static_cast<int>(r));
   fluid_forces(s, sd);  // fluid hook: qfrc_passive -= D qvel; no-op without the fluid
 }
@@ -846,6 +846,13 @@ bool rod_cdof_dot_read(const Scene& s, const RodBinding& rb) {
     if (other.base_body > rb.base_body && other.base_body < rb.below_end) return true;
   return false;
 }
+
+// Whether a sensor reads velocities or accelerations (cvel, cdof_dot, cacc of any body).
+bool reads_velocities(const mjModel* m) {
+  for (int i = 0; i < m->nsensor; ++i)
+    if (m->sensor_needstage[i] == mjSTAGE_VEL || m->sensor_needstage[i] == mjSTAGE_ACC) return true;
+  return false;
+}
 }  // namespace
 
 bool scene_may_collide(const mjModel* m) {
@@ -927,6 +934,11 @@ std::unique_ptr<Scene> compile(const Preprocessed& pre) {
   for (const RodBinding& rb : s->rods)
     for (int b = rb.base_body + 1; b < rb.below_end; ++b) s->body_by_rod[b] = 1;
   for (RodBinding& rb : s->rods) rb.cdof_dot_read = rod_cdof_dot_read(*s, rb);
+  s->velocity_skip.assign(s->m->nbody, 0);
+  if (!reads_velocities(s->m))
+    for (const RodBinding& rb : s->rods)
+      if (!rb.cdof_dot_read)
+        for (int b = rb.base_body + 1; b < rb.below_end; ++b) s->velocity_skip[b] = 1;
   setup_fluid(*s);  // fluid hook: may switch MuJoCo's own fluid off (scene_fluid.hpp)
   if (!s->rods.empty()) recompute_invweight0(*s);
   s->integrator = s->rods.empty() ? Integrator::Euler : Integrator::Implicit;

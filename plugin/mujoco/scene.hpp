@@ -52,9 +52,9 @@ struct RodBinding {
   bool extensible = false;        // a section with a free axial strain (SceneData::compression)
   // Whether anything reads the cdof_dot of the rod's dofs (patch point 4; set at load): a body with
   // mass below the rod (mj_rne accelerates it with them), another rod hanging below it (its base
-  // acceleration), or a sensor of the acceleration stage. Otherwise the step leaves d->cdof_dot of
-  // the rod's dofs as mj_comVel wrote them (cvel x cdof, not the rod's): mj_rne multiplies them by
-  // the massless proxies' zero inertias only.
+  // acceleration), or a sensor of the acceleration stage. Otherwise the step does not patch
+  // d->cdof_dot of the rod's dofs: mj_rne would multiply them by the massless proxies' zero
+  // inertias only (and Scene::velocity_skip may skip the rod's bodies in those passes altogether).
   bool cdof_dot_read = true;
 };
 
@@ -76,6 +76,11 @@ struct Scene {
   // per MuJoCo body: 1 for the bodies a rod places (its proxies and helpers, and the bodies below
   // it), which the step's kinematics leaves to the rod's patch instead of computing them twice
   std::vector<char> body_by_rod;
+  // per MuJoCo body: 1 for the bodies of rods whose cdof_dot nothing reads (RodBinding::
+  // cdof_dot_read: massless, with a massless subtree), when no sensor reads velocities or
+  // accelerations: the step's com-velocity and bias passes (com_velocity_except, rne_except) skip
+  // them, leaving their d->cvel and d->cdof_dot uncomputed.
+  std::vector<char> velocity_skip;
   std::string path;
   // false when no two geoms of the model can ever touch (scene_may_collide, at load): the step then
   // skips MuJoCo's collision detection, whose broad phase otherwise costs a tenth of a step on a

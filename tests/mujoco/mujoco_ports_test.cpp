@@ -1,6 +1,6 @@
 // The ports of MuJoCo 2.2.2's smooth stages (plugin/mujoco/mujoco_ports.hpp) against MuJoCo's own
-// mj_kinematics and mj_crb, bit for bit, on the shipped models and on a scene with every joint
-// type and a mocap body.
+// mj_kinematics, mj_crb, mj_comVel and mj_rne, bit for bit, on the shipped models and on a scene
+// with every joint type and a mocap body.
 #include "mujoco_ports.hpp"
 
 #include <gtest/gtest.h>
@@ -116,6 +116,55 @@ TEST(MujocoPorts, CompositeInertiaIsMujocos) {
   }
   EXPECT_GT(zero_dofs, 0);          // the skip happened
   EXPECT_LT(zero_dofs, rod_dofs);   // and rods with bodies below took the full pass
+}
+
+// Without a skip list, com_velocity_except and rne_except are mj_comVel and mj_rne bit for bit.
+// With the scene's (Scene::velocity_skip: the bodies of rods with nothing massive below them),
+// the bodies they compute keep MuJoCo's cvel and cdof_dot bit for bit, and the bias forces equal
+// MuJoCo's (a skipped body's zero may differ in sign from MuJoCo's product with its zero inertia).
+TEST(MujocoPorts, VelocityAndBiasAreMujocos) {
+  int skipped = 0, kept_rod_bodies = 0;
+  for (const std::string& src : sources()) {
+    auto s = load(src);
+    SceneData sd(*s);
+    disturb(*s, sd);
+    forward(*s, sd);
+    const mjModel* m = s->m;
+    const std::string what = src.substr(0, 60);
+    mjData* ref = mj_makeData(m);
+    mj_copyData(ref, m, sd.d);
+    mj_comVel(m, ref);
+    mj_rne(m, ref, 0, ref->qfrc_bias);
+    mjData* all = mj_makeData(m);
+    mj_copyData(all, m, sd.d);
+    com_velocity_except(m, all, nullptr);
+    rne_except(m, all, 0, all->qfrc_bias, nullptr);
+    EXPECT_TRUE(same(ref->cvel, all->cvel, 6 * m->nbody)) << what;
+    EXPECT_TRUE(same(ref->cdof_dot, all->cdof_dot, 6 * m->nv)) << what;
+    EXPECT_TRUE(same(ref->qfrc_bias, all->qfrc_bias, m->nv)) << what;
+    ASSERT_EQ(s->velocity_skip.size(), static_cast<size_t>(m->nbody));
+    mjData* part = mj_makeData(m);
+    mj_copyData(part, m, sd.d);
+    com_velocity_except(m, part, s->velocity_skip.data());
+    rne_except(m, part, 0, part->qfrc_bias, s->velocity_skip.data());
+    for (int b = 1; b < m->nbody; ++b) {
+      if (s->velocity_skip[b]) {
+        ++skipped;
+        EXPECT_EQ(m->body_mass[b], 0.0) << what << ": skipped body " << b << " has mass";
+        continue;
+      }
+      kept_rod_bodies += s->body_by_rod[b];
+      EXPECT_TRUE(same(ref->cvel + 6 * b, part->cvel + 6 * b, 6)) << what << ", body " << b;
+      const int n = m->body_dofnum[b], a = m->body_dofadr[b];
+      EXPECT_TRUE(same(ref->cdof_dot + 6 * a, part->cdof_dot + 6 * a, 6 * n)) << what << ", body " << b;
+    }
+    for (int i = 0; i < m->nv; ++i) EXPECT_EQ(ref->qfrc_bias[i], part->qfrc_bias[i]) << what << ", dof " << i;
+    mj_deleteData(part);
+    mj_deleteData(all);
+    mj_deleteData(ref);
+  }
+  EXPECT_GT(skipped, 0);          // the skip happened
+  EXPECT_GT(kept_rod_bodies, 0);  // and rods with massive bodies below kept their passes
 }
 
 }  // namespace
