@@ -7,6 +7,7 @@
 
 #include <cmath>
 #include <cstring>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -42,6 +43,14 @@ void disturb(const Scene& s, SceneData& sd) {
   for (int i = 0; i < 4 * s.m->nmocap; ++i) sd.d->mocap_quat[i] *= 1.1;
 }
 
+// A copy of d, deleted with the handle.
+using DataCopy = std::unique_ptr<mjData, void (*)(mjData*)>;
+DataCopy copy_of(const mjModel* m, const mjData* d) {
+  mjData* c = mj_makeData(m);
+  mj_copyData(c, m, d);
+  return DataCopy(c, mj_deleteData);
+}
+
 template <class T>
 bool same(const T* a, const T* b, int n) {
   return std::memcmp(a, b, sizeof(T) * n) == 0;
@@ -66,9 +75,8 @@ TEST(MujocoPorts, KinematicsIsMujocos) {
     SceneData sd(*s);
     disturb(*s, sd);
     const mjModel* m = s->m;
-    mjData* ref = mj_makeData(m);
-    mj_copyData(ref, m, sd.d);
-    mj_kinematics(m, ref);
+    const DataCopy ref = copy_of(m, sd.d);
+    mj_kinematics(m, ref.get());
     kinematics_except(m, sd.d, nullptr);
     const mjData* d = sd.d;
     const std::string what = src.substr(0, 60);
@@ -85,7 +93,6 @@ TEST(MujocoPorts, KinematicsIsMujocos) {
     EXPECT_TRUE(same(ref->geom_xmat, d->geom_xmat, 9 * m->ngeom)) << what;
     EXPECT_TRUE(same(ref->site_xpos, d->site_xpos, 3 * m->nsite)) << what;
     EXPECT_TRUE(same(ref->site_xmat, d->site_xmat, 9 * m->nsite)) << what;
-    mj_deleteData(ref);
   }
 }
 
@@ -100,9 +107,8 @@ TEST(MujocoPorts, CompositeInertiaIsMujocos) {
     disturb(*s, sd);
     forward(*s, sd);
     const mjModel* m = s->m;
-    mjData* ref = mj_makeData(m);
-    mj_copyData(ref, m, sd.d);
-    mj_crb(m, ref);
+    const DataCopy ref = copy_of(m, sd.d);
+    mj_crb(m, ref.get());
     crb_skipping_massless(m, sd.d);
     const std::string what = src.substr(0, 60);
     EXPECT_TRUE(same(ref->crb, sd.d->crb, 10 * m->nbody)) << what;
@@ -112,7 +118,6 @@ TEST(MujocoPorts, CompositeInertiaIsMujocos) {
         const mjtNum* c = sd.d->crb + 10 * m->dof_bodyid[rb.dof0 + k];
         zero_dofs += std::all_of(c, c + 10, [](mjtNum x) { return x == 0.0; });
       }
-    mj_deleteData(ref);
   }
   EXPECT_GT(zero_dofs, 0);          // the skip happened
   EXPECT_LT(zero_dofs, rod_dofs);   // and rods with bodies below took the full pass
@@ -131,22 +136,19 @@ TEST(MujocoPorts, VelocityAndBiasAreMujocos) {
     forward(*s, sd);
     const mjModel* m = s->m;
     const std::string what = src.substr(0, 60);
-    mjData* ref = mj_makeData(m);
-    mj_copyData(ref, m, sd.d);
-    mj_comVel(m, ref);
-    mj_rne(m, ref, 0, ref->qfrc_bias);
-    mjData* all = mj_makeData(m);
-    mj_copyData(all, m, sd.d);
-    com_velocity_except(m, all, nullptr);
-    rne_except(m, all, 0, all->qfrc_bias, nullptr);
+    const DataCopy ref = copy_of(m, sd.d);
+    mj_comVel(m, ref.get());
+    mj_rne(m, ref.get(), 0, ref->qfrc_bias);
+    const DataCopy all = copy_of(m, sd.d);
+    com_velocity_except(m, all.get(), nullptr);
+    rne_except(m, all.get(), 0, all->qfrc_bias, nullptr);
     EXPECT_TRUE(same(ref->cvel, all->cvel, 6 * m->nbody)) << what;
     EXPECT_TRUE(same(ref->cdof_dot, all->cdof_dot, 6 * m->nv)) << what;
     EXPECT_TRUE(same(ref->qfrc_bias, all->qfrc_bias, m->nv)) << what;
     ASSERT_EQ(s->velocity_skip.size(), static_cast<size_t>(m->nbody));
-    mjData* part = mj_makeData(m);
-    mj_copyData(part, m, sd.d);
-    com_velocity_except(m, part, s->velocity_skip.data());
-    rne_except(m, part, 0, part->qfrc_bias, s->velocity_skip.data());
+    const DataCopy part = copy_of(m, sd.d);
+    com_velocity_except(m, part.get(), s->velocity_skip.data());
+    rne_except(m, part.get(), 0, part->qfrc_bias, s->velocity_skip.data());
     for (int b = 1; b < m->nbody; ++b) {
       if (s->velocity_skip[b]) {
         ++skipped;
@@ -159,9 +161,6 @@ TEST(MujocoPorts, VelocityAndBiasAreMujocos) {
       EXPECT_TRUE(same(ref->cdof_dot + 6 * a, part->cdof_dot + 6 * a, 6 * n)) << what << ", body " << b;
     }
     for (int i = 0; i < m->nv; ++i) EXPECT_EQ(ref->qfrc_bias[i], part->qfrc_bias[i]) << what << ", dof " << i;
-    mj_deleteData(part);
-    mj_deleteData(all);
-    mj_deleteData(ref);
   }
   EXPECT_GT(skipped, 0);          // the skip happened
   EXPECT_GT(kept_rod_bodies, 0);  // and rods with massive bodies below kept their passes
