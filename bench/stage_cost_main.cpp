@@ -189,23 +189,23 @@ json breakdown(const mj::Scene& s, mj::SceneData& sd, Sim& sim, const Ctx& c, st
   auto M = [&](const std::function<void(mjData*)>& f) {
     return timed([&] { mj_copyData(d2, m, d); }, [&] { f(d2); }, c.reps, c.min_time);
   };
-  auto stage = [](void (*f)(const mjModel*, mjData*), const mjModel* mm) {
-    return std::function<void(mjData*)>([f, mm](mjData* x) { f(mm, x); });
+  auto stage = [m](void (*f)(const mjModel*, mjData*)) {
+    return std::function<void(mjData*)>([f, m](mjData* x) { f(m, x); });
   };
   std::map<std::string, double> mjs;
   mjs["mj_kinematics"] = M([&](mjData* x) { mj::kinematics_except(m, x, s.body_by_rod.data()); });
-  mjs["mj_comPos"] = M(stage(mj_comPos, m));
-  mjs["mj_camlight"] = M(stage(mj_camlight, m));
-  mjs["mj_tendon"] = M(stage(mj_tendon, m));
+  mjs["mj_comPos"] = M(stage(mj_comPos));
+  mjs["mj_camlight"] = M(stage(mj_camlight));
+  mjs["mj_tendon"] = M(stage(mj_tendon));
   mjs["mj_crb"] = M([&](mjData* x) { mj::crb_skipping_massless(m, x); });
-  mjs["mj_factorM"] = unless_skipped([&] { return M(stage(mj_factorM, m)); });
-  mjs["mj_collision"] = s.may_collide ? M(stage(mj_collision, m)) : 0.0;
-  mjs["mj_makeConstraint"] = M(stage(mj_makeConstraint, m));
-  mjs["mj_transmission"] = M(stage(mj_transmission, m));
-  mjs["mj_projectConstraint"] = unless_skipped([&] { return M(stage(mj_projectConstraint, m)); });
+  mjs["mj_factorM"] = unless_skipped([&] { return M(stage(mj_factorM)); });
+  mjs["mj_collision"] = s.may_collide ? M(stage(mj_collision)) : 0.0;
+  mjs["mj_makeConstraint"] = M(stage(mj_makeConstraint));
+  mjs["mj_transmission"] = M(stage(mj_transmission));
+  mjs["mj_projectConstraint"] = unless_skipped([&] { return M(stage(mj_projectConstraint)); });
   mjs["mj_comVel"] = M([&](mjData* x) { mj::com_velocity_except(m, x, s.velocity_skip.data()); });
-  mjs["mj_passive"] = M(stage(mj_passive, m));
-  mjs["mj_referenceConstraint"] = M(stage(mj_referenceConstraint, m));
+  mjs["mj_passive"] = M(stage(mj_passive));
+  mjs["mj_referenceConstraint"] = M(stage(mj_referenceConstraint));
   mjs["mj_rne"] = M([&](mjData* x) { mj::rne_except(m, x, 0, x->qfrc_bias, s.velocity_skip.data()); });
   mj_deleteData(d2);
   // the core on each rod, and the kernels the coupling calls

@@ -197,10 +197,7 @@ void rne_except(const mjModel* m, mjData* d, int flg_acc, mjtNum* result, const 
   mju_zero(cacc, 6);
   if (!(m->opt.disableflags & mjDSBL_GRAVITY)) mju_scl3(cacc + 3, m->opt.gravity, -1);
   for (int i = 1; i < m->nbody; ++i) {
-    if (skip && skip[i]) {  // massless, with a massless subtree: no force of its own
-      mju_zero(cfrc + 6 * i, 6);
-      continue;
-    }
+    if (skip && skip[i]) continue;  // massless, with a massless subtree: its cfrc is never read
     const int bda = m->body_dofadr[i];
     mul_dof_vec(tmp, d->cdof_dot + 6 * bda, d->qvel + bda, m->body_dofnum[i]);
     mju_add(cacc + 6 * i, cacc + 6 * m->body_parentid[i], tmp, 6);

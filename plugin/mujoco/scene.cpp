@@ -579,10 +579,7 @@ SceneData::SceneData(const Scene& s) {
   const int nv = s.m->nv, nq = s.m->nq, na = s.m->na;
   tmp_nv.assign(nv, 0);
   qacc_tmp.assign(nv, 0);
-  step_start.q0.assign(nq, 0);
-  step_start.v0.assign(nv, 0);
-  step_start.act0.assign(na, 0);
-  step_start.act_dot0.assign(na, 0);
+  step_start.size(s.m);
   rk_q0.assign(nq, 0);
   rk_v0.assign(nv, 0);
   rk_a0.assign(na, 0);
@@ -592,21 +589,17 @@ SceneData::SceneData(const Scene& s) {
   rk_dx.assign(nv, 0);
   A_LD.assign(s.m->nM, 0);
   A_LDiagInv.assign(nv, 0);
-  for (auto* v : {&newton.v0, &newton.f0, &newton.A0, &newton.A, &newton.r, &newton.y, &newton.delta, &newton.v_end})
+  newton.size(s.m);
+  for (auto* v : {&newton.f0, &newton.A0, &newton.A, &newton.r, &newton.y, &newton.delta, &newton.v_end})
     v->assign(nv, 0);
-  newton.q0.assign(nq, 0);
   newton.q_end.assign(nq, 0);
   newton.x_prev.assign(nv, 0);
   newton.F_prev.assign(nv, 0);
   newton.dX.assign(static_cast<size_t>(nv) * kMaxNewtonMemory, 0);
   newton.dF.assign(static_cast<size_t>(nv) * kMaxNewtonMemory, 0);
-  newton.act0.assign(na, 0);
-  newton.act_dot0.assign(na, 0);
-  for (auto* v : {&adapt.v0, &adapt.a_prev, &adapt.v_end}) v->assign(nv, 0);
-  adapt.q0.assign(nq, 0);
+  adapt.size(s.m);
+  for (auto* v : {&adapt.a_prev, &adapt.v_end}) v->assign(nv, 0);
   adapt.q_end.assign(nq, 0);
-  adapt.act0.assign(na, 0);
-  adapt.act_dot0.assign(na, 0);
   fluid_qD.assign(s.fluid.active ? s.m->nM : 0, 0);
   fluid_f.assign(s.fluid.active ? nv : 0, 0);
   fluid_cols.setZero(6, s.fluid.max_chain);
@@ -624,12 +617,17 @@ SceneData::~SceneData() {
 }
 
 namespace {
-// Sensors MuJoCo evaluates at the acceleration stage (they read qacc or cacc).
-bool has_acceleration_sensors(const mjModel* m) {
-  if (m->opt.disableflags & mjDSBL_SENSOR) return false;
+// Whether the model has a sensor MuJoCo evaluates at `stage` or a later one (whatever the sensor
+// flags say now).
+bool has_sensor_from(const mjModel* m, mjtStage stage) {
   for (int i = 0; i < m->nsensor; ++i)
-    if (m->sensor_needstage[i] == mjSTAGE_ACC) return true;
+    if (m->sensor_needstage[i] >= stage) return true;
   return false;
+}
+
+// Sensors MuJoCo evaluates at the acceleration stage (they read qacc or cacc), if sensors are on.
+bool has_acceleration_sensors(const mjModel* m) {
+  return !(m->opt.disableflags & mjDSBL_SENSOR) && has_sensor_from(m, mjSTAGE_ACC);
 }
 
 // MuJoCo 2.2.2's mj_fwdAcceleration without its solve for qacc_smooth: qfrc_smooth = passive -
@@ -831,26 +829,16 @@ void recompute_invweight0(Scene& s) {
 // Conservative: the masks are united per body, and MuJoCo's parent-child filter is not applied
 // (a pair it drops still counts).
 namespace {
-// RodBinding::cdof_dot_read: whether a body with mass or another rod's base lies below the rod's
-// proxies (its subtree: [base_body + 1, below_end)), or the model has sensors of the acceleration
-// stage (mj_rnePostConstraint reads cdof_dot; counted whatever the sensor flags say now).
-bool rod_cdof_dot_read(const Scene& s, const RodBinding& rb) {
+// Whether a body with mass or another rod's base lies below the rod's proxies (its subtree:
+// [base_body + 1, below_end)): they read its cdof_dot (RodBinding::cdof_dot_read).
+bool mass_or_rod_below(const Scene& s, const RodBinding& rb) {
   const mjModel* m = s.m;
-  for (int i = 0; i < m->nsensor; ++i)
-    if (m->sensor_needstage[i] == mjSTAGE_ACC) return true;
   for (int b = rb.base_body + 1; b < rb.below_end; ++b)
     if (m->body_mass[b] > 0 || m->body_inertia[3 * b] > 0 || m->body_inertia[3 * b + 1] > 0 ||
         m->body_inertia[3 * b + 2] > 0)
       return true;
   for (const RodBinding& other : s.rods)
     if (other.base_body > rb.base_body && other.base_body < rb.below_end) return true;
-  return false;
-}
-
-// Whether a sensor reads velocities or accelerations (cvel, cdof_dot, cacc of any body).
-bool reads_velocities(const mjModel* m) {
-  for (int i = 0; i < m->nsensor; ++i)
-    if (m->sensor_needstage[i] == mjSTAGE_VEL || m->sensor_needstage[i] == mjSTAGE_ACC) return true;
   return false;
 }
 }  // namespace
@@ -933,9 +921,11 @@ std::unique_ptr<Scene> compile(const Preprocessed& pre) {
   s->body_by_rod.assign(s->m->nbody, 0);
   for (const RodBinding& rb : s->rods)
     for (int b = rb.base_body + 1; b < rb.below_end; ++b) s->body_by_rod[b] = 1;
-  for (RodBinding& rb : s->rods) rb.cdof_dot_read = rod_cdof_dot_read(*s, rb);
+  // acceleration sensors read every cdof_dot (mj_rnePostConstraint; whatever the sensor flags say now)
+  const bool acceleration_sensors = has_sensor_from(s->m, mjSTAGE_ACC);
+  for (RodBinding& rb : s->rods) rb.cdof_dot_read = acceleration_sensors || mass_or_rod_below(*s, rb);
   s->velocity_skip.assign(s->m->nbody, 0);
-  if (!reads_velocities(s->m))
+  if (!has_sensor_from(s->m, mjSTAGE_VEL))  // sensors of velocities or accelerations read cvel, cdof_dot
     for (const RodBinding& rb : s->rods)
       if (!rb.cdof_dot_read)
         for (int b = rb.base_body + 1; b < rb.below_end; ++b) s->velocity_skip[b] = 1;
@@ -1134,17 +1124,15 @@ Scheme generalized_alpha(double rho) {
 
 // A step's start state (qpos, qvel, act, act_dot, time) into st.q0, v0, act0, act_dot0, t0, and
 // back; and its end state (qpos, qvel, time) into st.q_end, v_end, t_end, with the test whether
-// the next step starts there. `St`: SceneData::NewtonScratch or SceneData::Adaptive.
-template <class St>
-void save_state(St& st, const mjModel* m, const mjData* d) {
+// the next step starts there (`St`: SceneData::NewtonScratch or SceneData::Adaptive).
+void save_state(SceneData::SavedState& st, const mjModel* m, const mjData* d) {
   std::copy(d->qpos, d->qpos + m->nq, st.q0.begin());
   std::copy(d->qvel, d->qvel + m->nv, st.v0.begin());
   std::copy(d->act, d->act + m->na, st.act0.begin());
   std::copy(d->act_dot, d->act_dot + m->na, st.act_dot0.begin());
   st.t0 = d->time;
 }
-template <class St>
-void restore_state(const St& st, mjData* d) {
+void restore_state(const SceneData::SavedState& st, mjData* d) {
   std::copy(st.q0.begin(), st.q0.end(), d->qpos);
   std::copy(st.v0.begin(), st.v0.end(), d->qvel);
   std::copy(st.act0.begin(), st.act0.end(), d->act);

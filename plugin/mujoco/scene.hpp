@@ -173,11 +173,18 @@ struct SceneData {
   bool forces_only = false;
   // scratch (sized once)
   std::vector<mjtNum> tmp_nv, qacc_tmp;
-  // the state step() started from (restored when the step diverges)
-  struct StepStart {
+  // A copy of the state (qpos, qvel, act, act_dot, time), sized by the constructor.
+  struct SavedState {
     std::vector<mjtNum> q0, v0, act0, act_dot0;
     double t0 = 0.0;
-  } step_start;
+    void size(const mjModel* m) {
+      q0.assign(m->nq, 0);
+      v0.assign(m->nv, 0);
+      act0.assign(m->na, 0);
+      act_dot0.assign(m->na, 0);
+    }
+  };
+  SavedState step_start;  // the state step() started from (restored when the step diverges)
   std::vector<mjtNum> rk_q0, rk_v0, rk_a0, rk_kq, rk_kv, rk_ka, rk_dx;  // RK4 stages
   struct RodScratch {
     std::vector<int> anc;  // MuJoCo dofs above the rod's base, nearest first
@@ -187,9 +194,8 @@ struct SceneData {
   std::vector<RodScratch> scratch;  // per rod
   // the implicit step's factor (A = M + theta h D + theta^2 h^2 K, MuJoCo's qLD layout)
   std::vector<mjtNum> A_LD, A_LDiagInv;
-  struct NewtonScratch {
-    std::vector<mjtNum> q0, v0, act0, act_dot0, f0, A0, A, r, y, delta;
-    double t0 = 0.0;
+  struct NewtonScratch : SavedState {  // the step's start state, and:
+    std::vector<mjtNum> f0, A0, A, r, y, delta;
     // generalized alpha: the end acceleration A0 carries over to the next step if it starts from
     // the state this one ended with
     bool carry_valid = false;
@@ -202,9 +208,9 @@ struct SceneData {
   // Scene::step_tol > 0: the adaptive substeps' state. The substep's start (restored when it is
   // rejected), the last accepted substep's mean acceleration and the state it ended in (the
   // history is used only if the next step starts there), and the level k of substeps h / 2^k.
-  struct Adaptive {
-    std::vector<mjtNum> q0, v0, act0, act_dot0, a_prev, q_end, v_end;
-    double t0 = 0.0, t_end = 0.0;
+  struct Adaptive : SavedState {  // the substep's start state, and:
+    std::vector<mjtNum> a_prev, q_end, v_end;
+    double t_end = 0.0;
     bool valid = false;
     int level = 0;
   } adapt;
