@@ -50,6 +50,12 @@ namespace {
 constexpr double kPi = 3.14159265358979323846;
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
+// The native chain's lengths on every problem: steps of 1.5-2 (a grid of doublings left gaps that
+// the equal-error interpolation bridged between discretisations: bench/equal_error_rules.py), from
+// as few dofs as our coarsest rods (N = 2: 6 hinges; one ikl section has 3 dofs). Our space knobs
+// are as dense (each problem's families).
+const std::vector<int> kNativeChains = {2, 3, 4, 6, 8, 12, 16, 24, 32, 48, 64};
+
 struct Options {
   bool quick = false;
   std::vector<std::string> problems;
@@ -236,11 +242,7 @@ Problem cantilever(const Options& o) {
   const std::vector<double> ours_h = {1e-1, 5e-2, 2e-2, 1e-2, 5e-3, 2e-3, 1e-3, 5e-4, 2e-4, 1e-4, 5e-5, 2e-5, 1e-5};
   const std::vector<double> native_h = {1e-1, 5e-2, 2e-2, 1e-2, 5e-3, 2e-3, 1e-3, 5e-4,
                                         2e-4, 1e-4, 5e-5, 2e-5, 1e-5, 5e-6, 2e-6};
-  // space knobs in steps of 1.5-2 on both sides (a grid of doublings left gaps that the equal-error
-  // interpolation bridged between discretisations: bench/equal_error_rules.py), the native chain
-  // from as few dofs as our coarsest rods (N = 2: 6 hinges; one ikl section has 3 dofs)
-  const std::vector<int> ours_space = {1, 2, 3, 4, 6, 8, 12, 16};
-  const std::vector<int> native_space = {2, 3, 4, 6, 8, 12, 16, 24, 32, 48, 64};
+  const std::vector<int> ours_space = {1, 2, 3, 4, 6, 8, 12, 16}, native_space = kNativeChains;
   if (o.quick) {
     p.families.push_back({"PCS / implicit", false, false, Method::Implicit, {2, 4}, 0, {1e-3, 5e-4}});
     p.families.push_back({"GVS 2 sec / rk4", false, false, Method::RK4, {1, 2}, 2, {1e-3, 5e-4}});
@@ -326,8 +328,7 @@ Problem circle(const Options& o) {
   const std::vector<double> ours_h = {1.25, 5e-1, 2.5e-1, 1e-1, 5e-2, 2e-2, 1e-2, 5e-3, 2e-3, 1e-3, 5e-4, 2e-4, 1e-4};
   const std::vector<double> native_h = {1.25, 5e-1, 2.5e-1, 1e-1, 5e-2, 2e-2, 1e-2, 5e-3, 2e-3, 1e-3, 5e-4,
                                         2e-4, 1e-4, 5e-5, 2e-5, 1e-5, 5e-6};
-  // space knobs as for the cantilever (our 1 section is exact here: only 1 .. 8)
-  const std::vector<int> native_space = {2, 3, 4, 6, 8, 12, 16, 24, 32, 48, 64};
+  const std::vector<int> native_space = kNativeChains;  // ours: 1 .. 8 sections (1 is exact here)
   if (o.quick) {
     p.families.push_back({"PCS / implicit", false, false, Method::Implicit, {1, 2}, 0, {1e-2, 5e-3}});
     p.families.push_back({"native hinge / euler", true, false, Method::Euler, {4, 8}, 0, {1e-3, 5e-4}});
@@ -390,13 +391,13 @@ std::vector<Problem> flagellates(const Options& o) {
       p.families.push_back({"PCS / implicit", false, false, Method::Implicit, {1}, 0, {h0 * 2, h0}});
       p.families.push_back({"native / euler", true, false, Method::Euler, {16}, 0, {h0 * 2, h0}});
     } else {
-      p.families.push_back({"PCS / implicit", false, false, Method::Implicit, {1, 2, 4}, 0, hs});
-      p.families.push_back({"PCS / rk4", false, false, Method::RK4, {1, 2, 4}, 0, hs});
-      p.families.push_back({"native / euler", true, false, Method::Euler, {8, 16, 32, 64}, 0, hs});
-      p.families.push_back({"native / rk4", true, false, Method::RK4, {8, 16, 32, 64}, 0, hs});
+      p.families.push_back({"PCS / implicit", false, false, Method::Implicit, {1, 2, 3, 4}, 0, hs});
+      p.families.push_back({"PCS / rk4", false, false, Method::RK4, {1, 2, 3, 4}, 0, hs});
+      p.families.push_back({"native / euler", true, false, Method::Euler, kNativeChains, 0, hs});
+      p.families.push_back({"native / rk4", true, false, Method::RK4, kNativeChains, 0, hs});
       // the native chain with our implicit step too (motor servo and fluid damping implicit), so
       // that the step-size limit of the explicit methods is not what the comparison measures
-      p.families.push_back({"native / implicit", true, false, Method::Implicit, {8, 16, 32, 64}, 0, hs});
+      p.families.push_back({"native / implicit", true, false, Method::Implicit, kNativeChains, 0, hs});
     }
     if (std::string(f) == "flagellate") {
       // the soft flagellum is stiff (axial modes) and light in a viscous fluid: explicit steps
@@ -453,12 +454,12 @@ Problem octopus(const Options& o) {
     p.families.push_back({"native hinge / euler", true, false, Method::Euler, {8}, 0, {1e-3, 5e-4}});
   } else {
     for (Method m : {Method::Implicit, Method::TrapezoidalLinear, Method::RK4})
-      p.families.push_back({std::string("PCS / ") + method_name(m), false, false, m, {2, 4, 8, 16, 32}, 0, ours_h});
+      p.families.push_back({std::string("PCS / ") + method_name(m), false, false, m, {2, 3, 4, 6, 8, 12, 16, 24, 32}, 0, ours_h});
     for (Method m : {Method::Implicit, Method::TrapezoidalLinear, Method::RK4})
       p.families.push_back({std::string("GVS 2 sec / ") + method_name(m), false, false, m, {1, 2, 3, 4}, 2, ours_h});
     for (Method m : {Method::Euler, Method::Implicit, Method::RK4})
-      p.families.push_back({std::string("native hinge / ") + method_name(m), true, false, m, {8, 16, 32, 64}, 0, native_h});
-    p.families.push_back({"native hinge clamp 2EI/ds / euler", true, false, Method::Euler, {8, 16, 32, 64}, 0, native_h, 2.0});
+      p.families.push_back({std::string("native hinge / ") + method_name(m), true, false, m, kNativeChains, 0, native_h});
+    p.families.push_back({"native hinge clamp 2EI/ds / euler", true, false, Method::Euler, kNativeChains, 0, native_h, 2.0});
   }
   p.reference = ours(4, 3, Method::RK4, 5e-5);
   p.reference_check = ours(32, 0, Method::RK4, 1e-4);
