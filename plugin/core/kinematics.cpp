@@ -245,13 +245,14 @@ void rod_jacobian(const Model& m, const Data& d, int r, double X, MatX& J) {
   if (n.ndof > 0) J.middleCols(n.dof0, n.ndof) += dexp(-ps.Om) * G.leftCols(n.ndof);
 }
 
-int section_jacobian(const Model& m, const Data& d, int r, double X, Mat6X& J, Mat6X* Jdot, SE3* gX,
-                     int section) {
+namespace {
+// section_jacobian from its partial step ps and G = dOmega/dq (partial_step's), with E = exp(ps.Om)
+// when the caller has it (nullptr: computed here; unused when ps.full).
+int section_jacobian_from(const Model& m, const Data& d, const PartialStep& ps, const Mat6X& G, Mat6X& J,
+                          Mat6X* Jdot, SE3* gX, const SE3* E) {
   // scratch kept between calls (only their first ndof columns are used: reallocated only when a
   // section with more dofs comes along)
-  thread_local Mat6X G, S, Sdot, AJ;
-  PartialStep ps;
-  partial_step(m, d, r, X, section, &G, ps, false);
+  thread_local Mat6X S, Sdot, AJ;
   const int si = m.nodes[ps.node].section;
   const Section& sec = m.sections[si];
   const int nd = sec.ndof;
@@ -311,10 +312,37 @@ int section_jacobian(const Model& m, const Data& d, int r, double X, Mat6X& J, M
         }
       }
     }
-    advance(ps.offset * exp_se3(ps.Om), S, Sdot);
+    advance(ps.offset * (E ? *E : exp_se3(ps.Om)), S, Sdot);
   }
   if (gX) *gX = g;
   return si;
+}
+}  // namespace
+
+int section_jacobian(const Model& m, const Data& d, int r, double X, Mat6X& J, Mat6X* Jdot, SE3* gX,
+                     int section) {
+  thread_local Mat6X G;  // scratch, as section_jacobian_from's
+  PartialStep ps;
+  partial_step(m, d, r, X, section, &G, ps, false);
+  return section_jacobian_from(m, d, ps, G, J, Jdot, gX, nullptr);
+}
+
+SE3 rod_pose_and_jacobian(const Model& m, const Data& d, int r, double X, int section, Mat6X& J, SE3* g_start_X) {
+  thread_local Mat6X G;
+  PartialStep ps;
+  partial_step(m, d, r, X, -1, &G, ps, false);  // rod_pose's node (the section's, unless X is a boundary)
+  if (section >= 0 && m.nodes[ps.node].section != section) {
+    section_jacobian(m, d, r, X, J, nullptr, g_start_X, section);
+    return rod_pose(m, d, r, X);
+  }
+  if (ps.full) {
+    section_jacobian_from(m, d, ps, G, J, nullptr, g_start_X, nullptr);
+    return d.g[ps.node];
+  }
+  const SE3 E = exp_se3(ps.Om);
+  section_jacobian_from(m, d, ps, G, J, nullptr, g_start_X, &E);
+  const SE3& gp = ps.parent < 0 ? d.base_pose : d.g[ps.parent];
+  return gp * ps.offset * E;
 }
 
 Vec6 rod_strain(const Model& m, const Data& d, int r, double X) {

@@ -34,6 +34,12 @@ void rod_jacobian(const Model& m, const Data& d, int rod, double X, MatX& J);
 // between two sections (a point fixed to the later one); by default the earlier one is used.
 int section_jacobian(const Model& m, const Data& d, int rod, double X, Mat6X& J, Mat6X* Jdot = nullptr,
                      SE3* g_start_X = nullptr, int section = -1);
+// rod_pose(m, d, rod, X), returned, and section_jacobian(m, d, rod, X, J, nullptr, g_start_X,
+// section) in one pass: one partial step and one exponential where the two would take two of each
+// (both results bit for bit theirs). For a point that needs both every evaluation (a tendon's path
+// point on the rod: its position, then its Jacobian).
+SE3 rod_pose_and_jacobian(const Model& m, const Data& d, int rod, double X, int section, Mat6X& J,
+                          SE3* g_start_X);
 
 // Strain xi(X) = Phi(X) q + xi* of rod r.
 Vec6 rod_strain(const Model& m, const Data& d, int rod, double X);

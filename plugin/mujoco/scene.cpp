@@ -303,8 +303,18 @@ void patch_rod_kinematics(const Scene& s, SceneData& sd, int r) {
   }
   for (size_t k = 0; k < rb.site_id.size(); ++k) {
     const RodBinding::Fixed& f = rb.site_fixed[k];
-    const SE3 g = f.fixed ? anchor_pose(rd, f.anchor) * f.rel : site_pose(rb.model, rd, rb.decl.sites[k]);
     const int id = rb.site_id[k];
+    SE3 g;
+    if (f.fixed) {
+      g = anchor_pose(rd, f.anchor) * f.rel;
+    } else if (rb.site_tendon[k]) {  // site_pose's pose, and the Jacobian patch_tendons needs
+      SceneData::RodScratch& sc = sd.scratch[r];
+      const RodSiteDecl& sdl = rb.decl.sites[k];
+      g = rod_pose_and_jacobian(rb.model, rd, 0, sdl.X, s.site_section[id], sc.site_J[k], &sc.site_g_start[k]);
+      g.u += g.R * sdl.pos;
+    } else {
+      g = site_pose(rb.model, rd, rb.decl.sites[k]);
+    }
     set_pose(d->site_xpos + 3 * id, d->site_xmat + 9 * id, g);
   }
   for (int g : rb.other_geom_id) geom_kinematics(m, d, g);
@@ -360,13 +370,13 @@ void patch_cdof_dot(const Scene& s, SceneData& sd, int r) {
 // treating p as fixed to the proxy (the section end). dJ rows: translation (0-2) and rotation
 // (3-5), world axes. Returns the section's first MuJoCo dof (ndof = dJ.cols()). Needs
 // fwd_position and the patched cdof.
-int point_correction(const Scene& s, const SceneData& sd, int r, int si, double X, const Vec3& p, Mat6X& dJ) {
+// The same from the section Jacobian J at X and the pose g_start_X of X in the section's start
+// frame (section_jacobian's).
+int point_correction(const Scene& s, const SceneData& sd, int r, int si, const Mat6X& J, const SE3& g_start_X,
+                     const Vec3& p, Mat6X& dJ) {
   const mjData* d = sd.d;
   const RodBinding& rb = s.rods[r];
   const cosserat::Data& rd = sd.rod[r];
-  thread_local Mat6X J;  // scratch: no heap memory once sized
-  SE3 g_start_X;
-  section_jacobian(rb.model, rd, 0, X, J, nullptr, &g_start_X, si);
   const Section& sec = rb.model.sections[si];
   const SE3 gX = anchor_pose(rd, sec.start_node) * g_start_X;  // the section starts at its start node
   const mjtNum* c = d->subtree_com + 3 * s.m->body_rootid[rb.proxy_body[si]];
@@ -382,6 +392,13 @@ int point_correction(const Scene& s, const SceneData& sd, int r, int si, double 
     dJ.col(k).tail<3>() = w - wm;
   }
   return rb.dof0 + sec.dof0;
+}
+
+int point_correction(const Scene& s, const SceneData& sd, int r, int si, double X, const Vec3& p, Mat6X& dJ) {
+  thread_local Mat6X J;  // scratch: no heap memory once sized
+  SE3 g_start_X;
+  section_jacobian(s.rods[r].model, sd.rod[r], 0, X, J, nullptr, &g_start_X, si);
+  return point_correction(s, sd, r, si, J, g_start_X, p, dJ);
 }
 
 // Add `val` at (row, col) of efc_J, dense or sparse (the column is in the row's pattern: the
@@ -480,7 +497,11 @@ void patch_tendons(const Scene& s, SceneData& sd) {
         const Vec3 u = Vec3(q[0], q[1], q[2]) - p;
         if (u.norm() > 0) grad -= u.normalized();
       }
-      const int col0 = point_correction(s, sd, r, s.site_section[site], sdl.X, p, dJ);
+      const int k_site = s.site_index[site];
+      const SceneData::RodScratch& sc = sd.scratch[r];
+      const int col0 = s.rods[r].site_tendon[k_site]
+                           ? point_correction(s, sd, r, s.site_section[site], sc.site_J[k_site], sc.site_g_start[k_site], p, dJ)
+                           : point_correction(s, sd, r, s.site_section[site], sdl.X, p, dJ);
       for (int c = 0; c < dJ.cols(); ++c) d->ten_J[t * m->nv + col0 + c] += grad.dot(dJ.col(c).head<3>());
     }
   }
@@ -609,6 +630,10 @@ SceneData::SceneData(const Scene& s) {
     for (int j = first_ancestor_dof(s.m, s.rods[r].base_body); j >= 0; j = s.m->dof_parentid[j]) sc.anc.push_back(j);
     sc.C.resize(6, static_cast<int>(sc.anc.size()));
     sc.Kv.resize(s.rods[r].model.nv);
+    sc.site_J.assign(s.rods[r].site_id.size(), Mat6X());
+    sc.site_g_start.assign(s.rods[r].site_id.size(), SE3());
+    for (size_t k = 0; k < s.rods[r].site_id.size(); ++k)
+      if (s.rods[r].site_tendon[k]) sc.site_J[k].resize(6, s.rods[r].model.sections[s.site_section[s.rods[r].site_id[k]]].ndof);
   }
 }
 
@@ -912,6 +937,14 @@ std::unique_ptr<Scene> compile(const Preprocessed& pre) {
       const auto it = std::find(pb.begin(), pb.end(), body);
       s->site_section[s->rods[r].site_id[k]] = it == pb.end() ? 0 : static_cast<int>(it - pb.begin());
     }
+  // sites on a spatial tendon's path (RodBinding::site_tendon)
+  std::vector<char> on_tendon(s->m->nsite, 0);
+  for (int w = 0; w < s->m->nwrap; ++w)
+    if (s->m->wrap_type[w] == mjWRAP_SITE) on_tendon[s->m->wrap_objid[w]] = 1;
+  for (auto& rb : s->rods) {
+    rb.site_tendon.assign(rb.site_id.size(), 0);
+    for (size_t k = 0; k < rb.site_id.size(); ++k) rb.site_tendon[k] = on_tendon[rb.site_id[k]] && !rb.site_fixed[k].fixed;
+  }
   for (size_t r = 0; r < s->rods.size(); ++r)
     for (size_t k = 0; k < s->rods[r].geom_id.size(); ++k) {
       s->geom_rod[s->rods[r].geom_id[k]] = static_cast<int>(r);

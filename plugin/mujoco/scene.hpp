@@ -49,6 +49,10 @@ struct RodBinding {
   };
   std::vector<Fixed> geom_fixed;  // per capsule
   std::vector<Fixed> site_fixed;  // per site
+  // per site: a spatial tendon's path point (set at load) off a rigid section. Its pose and its
+  // section Jacobian come from one partial step each evaluation (cosserat::rod_pose_and_jacobian:
+  // the kinematics keep the Jacobian in SceneData::RodScratch for the tendon patch)
+  std::vector<char> site_tendon;
   bool extensible = false;        // a section with a free axial strain (SceneData::compression)
   // Whether anything reads the cdof_dot of the rod's dofs (patch point 4; set at load): a body with
   // mass below the rod (mj_rne accelerates it with them), another rod hanging below it (its base
@@ -190,6 +194,10 @@ struct SceneData {
     std::vector<int> anc;  // MuJoCo dofs above the rod's base, nearest first
     Mat6X C;               // their base-frame columns (6 x anc.size())
     VecX Kv;
+    // per site with RodBinding::site_tendon: its section Jacobian and pose relative to the section
+    // start (cosserat::section_jacobian's J and g_start_X), from this evaluation's kinematics
+    std::vector<Mat6X> site_J;
+    std::vector<SE3> site_g_start;
   };
   std::vector<RodScratch> scratch;  // per rod
   // the implicit step's factor (A = M + theta h D + theta^2 h^2 K, MuJoCo's qLD layout)

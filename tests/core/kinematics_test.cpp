@@ -10,6 +10,17 @@ using namespace cosserat::testing;
 
 namespace {
 
+// One kl rod of `sections` PCS sections from the world frame, with the default or the
+// Gauss-Lobatto mass rule.
+Model kl_rod(int sections, bool lobatto) {
+  RodSpec spec = rod_spec("kl", sections, 0);
+  spec.section.lobatto = lobatto;
+  Model m;
+  m.add_rod(-1, SE3::Identity(), spec);
+  m.finalize();
+  return m;
+}
+
 // pose of the frame at X relative to the start of its section, for a given q
 SE3 relative_pose(const Model& m, const Data& d, int r, double X) {
   Mat6X J;
@@ -84,11 +95,7 @@ namespace {
 // axial strain is fixed (ikl) do not count.
 TEST(MinAxialStretch, IsTheMostCompressedSectionsAxialStrain) {
   for (bool lobatto : {false, true}) {
-    RodSpec spec = rod_spec("kl", 3, 0);
-    spec.section.lobatto = lobatto;
-    Model m;
-    m.add_rod(-1, SE3::Identity(), spec);
-    m.finalize();
+    const Model m = kl_rod(3, lobatto);
     Data d(m);
     // kl: dofs (k_x, k_y, k_z, p_x - 1) per section; bend every section, compress the middle one
     d.q = 0.3 * VecX::Random(m.nv);
@@ -132,6 +139,55 @@ TEST(MinAxialStretch, IsTheMostCompressedSectionsAxialStrain) {
     fwd_position(m, d);
     EXPECT_TRUE(std::isinf(min_axial_stretch(m, d)));
   }
+}
+
+}  // namespace
+
+namespace {
+
+// rod_pose_and_jacobian is rod_pose and section_jacobian in one pass: both results bit for bit
+// theirs, inside sections, at nodes, at section boundaries (either section), at the ends, for PCS
+// (both mass rules) and GVS sections (the hybrid tree).
+TEST(RodPoseAndJacobian, IsRodPoseAndSectionJacobianBitForBit) {
+  std::vector<Model> models;
+  models.push_back(hybrid_tree(false));
+  for (bool lobatto : {false, true}) models.push_back(kl_rod(3, lobatto));
+  int compared = 0;
+  for (const Model& m : models) {
+    Data d(m);
+    d.q = 0.4 * VecX::Random(m.nv);
+    fwd_position(m, d);
+    for (int r = 0; r < static_cast<int>(m.rods.size()); ++r) {
+      std::vector<double> Xs = {0.0, m.rods[r].length};
+      for (double f : {0.05, 0.3, 0.5, 0.71}) Xs.push_back(f * m.rods[r].length);
+      for (const Node& n : m.nodes)
+        if (n.rod == r) Xs.push_back(n.X);  // nodes: section ends, Gauss or Lobatto points
+      for (double X : Xs) {
+        Mat6X J0;
+        SE3 g0;
+        const int s = section_jacobian(m, d, r, X, J0, nullptr, &g0);
+        // the section section_jacobian picks, and at a boundary the later one too
+        std::vector<int> sections = {s};
+        if (s + 1 < static_cast<int>(m.sections.size()) && m.sections[s + 1].rod == r &&
+            m.sections[s + 1].X0 == X)
+          sections.push_back(s + 1);
+        for (int si : sections) {
+          section_jacobian(m, d, r, X, J0, nullptr, &g0, si);
+          Mat6X J1;
+          SE3 g1;
+          const SE3 p1 = rod_pose_and_jacobian(m, d, r, X, si, J1, &g1);
+          const SE3 p0 = rod_pose(m, d, r, X);
+          ASSERT_EQ(J1.rows(), J0.rows());
+          ASSERT_EQ(J1.cols(), J0.cols());
+          EXPECT_TRUE((J1.array() == J0.array()).all()) << "X " << X << " section " << si;
+          EXPECT_TRUE((g1.matrix().array() == g0.matrix().array()).all()) << "X " << X;
+          EXPECT_TRUE((p1.matrix().array() == p0.matrix().array()).all()) << "X " << X;
+          ++compared;
+        }
+      }
+    }
+  }
+  EXPECT_GT(compared, 30);
 }
 
 }  // namespace
