@@ -56,7 +56,12 @@ Vec6 Section::basis_apply(const double* P, const double* x) const {
   for (int c = 0; c < B.cols(); ++c) {
     double coef = 0.0;
     for (int k = 0; k < nb; ++k) coef += x[c * nb + k] * P[k];
-    out += B.col(c) * coef;
+    // a selecting column adds coef to its row and (+-)0 to the others, which leaves them +0: the
+    // same sums without the dynamic column's arithmetic
+    if (B_row[c] >= 0)
+      out(B_row[c]) += coef;
+    else
+      out += B.col(c) * coef;
   }
   return out;
 }
@@ -148,6 +153,15 @@ int Model::add_rod(int parent, const SE3& placement, const RodSpec& spec) {
     sec.length = ss.length > 0 ? ss.length : fill;
     sec.order = ss.order;
     sec.B = basis_from_mask(ss.dofs);
+    for (int c = 0; c < sec.B.cols(); ++c) {
+      int row = -1, nonzeros = 0;
+      for (int i = 0; i < 6; ++i)
+        if (sec.B(i, c) != 0.0) {
+          ++nonzeros;
+          row = i;
+        }
+      sec.B_row[c] = nonzeros == 1 && sec.B(row, c) == 1.0 ? row : -1;
+    }
     sec.ndof = static_cast<int>(sec.B.cols()) * (ss.order + 1);
     sec.dof0 = nv;
     sec.rest_strain = ss.rest_strain;

@@ -109,6 +109,9 @@ struct Section {
   double X0 = 0.0, length = 0.0;
   int dof0 = 0, ndof = 0, order = 0;
   Mat6X B;                 // 6 x nfree selection of free components
+  // per column of B, the row it selects (a single 1); -1 where the column is not such a selection
+  // (basis_apply then takes the column as it is). Set with B by Model::add_rod.
+  int B_row[6] = {-1, -1, -1, -1, -1, -1};
   Vec6 rest_strain;
   RodMaterial material;
   int start_node = -1;     // node at X0 (the rod's attachment frame for the first section)
