@@ -100,6 +100,31 @@ void BM_rod_pose(benchmark::State& st) {
 }
 BENCHMARK(BM_rod_pose)->Apply(rod_args);
 
+// a cable's path point: its pose and its section Jacobian, in one pass (against BM_rod_pose plus
+// BM_section_jacobian at the same X, below)
+void BM_rod_pose_and_jacobian(benchmark::State& st) {
+  Rod r(st.range(0), st.range(1), st.range(2));
+  const double X = 0.37 * r.m.rods[0].length;
+  const int si = r.m.nodes[r.m.rod_node_at(0, X)].section;
+  Mat6X J(6, r.m.max_ndof);
+  SE3 g;
+  for (auto _ : st) benchmark::DoNotOptimize(rod_pose_and_jacobian(r.m, *r.d, 0, X, si, J, &g));
+}
+BENCHMARK(BM_rod_pose_and_jacobian)->Apply(rod_args);
+
+void BM_rod_pose_then_section_jacobian(benchmark::State& st) {
+  Rod r(st.range(0), st.range(1), st.range(2));
+  const double X = 0.37 * r.m.rods[0].length;
+  const int si = r.m.nodes[r.m.rod_node_at(0, X)].section;
+  Mat6X J(6, r.m.max_ndof);
+  SE3 g;
+  for (auto _ : st) {
+    benchmark::DoNotOptimize(rod_pose(r.m, *r.d, 0, X));
+    section_jacobian(r.m, *r.d, 0, X, J, nullptr, &g, si);
+  }
+}
+BENCHMARK(BM_rod_pose_then_section_jacobian)->Apply(rod_args);
+
 void BM_fwd_position(benchmark::State& st) {
   Rod r(st.range(0), st.range(1), st.range(2));
   for (auto _ : st) fwd_position(r.m, *r.d);
