@@ -18,7 +18,6 @@ error. Two monotone alternatives, printed next to it for every problem and both 
 
 The study's tables use "front" (bench/report.py); this script is for judging that choice.
 """
-import math
 import os
 import sys
 
@@ -29,14 +28,6 @@ PROBLEMS = ["cantilever", "circle", "flagellate", "flagellate_rigid", "octopus"]
 ERRORS = (1e-1, 3e-2, 1e-2, 3e-3, 1e-3, 3e-4, 1e-4, 3e-5, 1e-5, 1e-6)
 
 
-def chord(p0, p1, e):
-    (t0, e0), (t1, e1) = p0, p1
-    if e0 == e1:
-        return min(t0, t1)
-    a = (math.log(e) - math.log(e0)) / (math.log(e1) - math.log(e0))
-    return math.exp(math.log(t0) + a * (math.log(t1) - math.log(t0)))
-
-
 def hull_time(fr, e):
     """Least time at error e over every front point at or below e and every chord spanning e."""
     if not fr or e < fr[-1][1]:
@@ -45,7 +36,7 @@ def hull_time(fr, e):
     for i in range(len(fr)):
         for k in range(i + 1, len(fr)):
             if fr[k][1] <= e <= fr[i][1]:
-                best = min(best, chord(fr[i], fr[k], e))
+                best = min(best, report.time_at_error([fr[i], fr[k]], e))  # the chord
     return best
 
 

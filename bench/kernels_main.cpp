@@ -100,27 +100,30 @@ void BM_rod_pose(benchmark::State& st) {
 }
 BENCHMARK(BM_rod_pose)->Apply(rod_args);
 
-// a cable's path point: its pose and its section Jacobian, in one pass (against BM_rod_pose plus
-// BM_section_jacobian at the same X, below)
-void BM_rod_pose_and_jacobian(benchmark::State& st) {
-  Rod r(st.range(0), st.range(1), st.range(2));
-  const double X = 0.37 * r.m.rods[0].length;
-  const int si = r.m.nodes[r.m.rod_node_at(0, X)].section;
-  Mat6X J(6, r.m.max_ndof);
+// a cable's path point at 0.37 L: its pose and its section Jacobian, in one pass
+// (BM_rod_pose_and_jacobian) or as rod_pose and section_jacobian (BM_rod_pose_then_section_jacobian)
+struct PathPoint {
+  Rod r;
+  double X;
+  int section;
+  Mat6X J;
   SE3 g;
-  for (auto _ : st) benchmark::DoNotOptimize(rod_pose_and_jacobian(r.m, *r.d, 0, X, si, J, &g));
+  explicit PathPoint(const benchmark::State& st)
+      : r(st.range(0), st.range(1), st.range(2)), X(0.37 * r.m.rods[0].length),
+        section(r.m.nodes[r.m.rod_node_at(0, X)].section), J(6, r.m.max_ndof) {}
+};
+
+void BM_rod_pose_and_jacobian(benchmark::State& st) {
+  PathPoint p(st);
+  for (auto _ : st) benchmark::DoNotOptimize(rod_pose_and_jacobian(p.r.m, *p.r.d, 0, p.X, p.section, p.J, &p.g));
 }
 BENCHMARK(BM_rod_pose_and_jacobian)->Apply(rod_args);
 
 void BM_rod_pose_then_section_jacobian(benchmark::State& st) {
-  Rod r(st.range(0), st.range(1), st.range(2));
-  const double X = 0.37 * r.m.rods[0].length;
-  const int si = r.m.nodes[r.m.rod_node_at(0, X)].section;
-  Mat6X J(6, r.m.max_ndof);
-  SE3 g;
+  PathPoint p(st);
   for (auto _ : st) {
-    benchmark::DoNotOptimize(rod_pose(r.m, *r.d, 0, X));
-    section_jacobian(r.m, *r.d, 0, X, J, nullptr, &g, si);
+    benchmark::DoNotOptimize(rod_pose(p.r.m, *p.r.d, 0, p.X));
+    section_jacobian(p.r.m, *p.r.d, 0, p.X, p.J, nullptr, &p.g, p.section);
   }
 }
 BENCHMARK(BM_rod_pose_then_section_jacobian)->Apply(rod_args);

@@ -242,7 +242,7 @@ Problem cantilever(const Options& o) {
   const std::vector<double> ours_h = {1e-1, 5e-2, 2e-2, 1e-2, 5e-3, 2e-3, 1e-3, 5e-4, 2e-4, 1e-4, 5e-5, 2e-5, 1e-5};
   const std::vector<double> native_h = {1e-1, 5e-2, 2e-2, 1e-2, 5e-3, 2e-3, 1e-3, 5e-4,
                                         2e-4, 1e-4, 5e-5, 2e-5, 1e-5, 5e-6, 2e-6};
-  const std::vector<int> ours_space = {1, 2, 3, 4, 6, 8, 12, 16}, native_space = kNativeChains;
+  const std::vector<int> ours_space = {1, 2, 3, 4, 6, 8, 12, 16};
   if (o.quick) {
     p.families.push_back({"PCS / implicit", false, false, Method::Implicit, {2, 4}, 0, {1e-3, 5e-4}});
     p.families.push_back({"GVS 2 sec / rk4", false, false, Method::RK4, {1, 2}, 2, {1e-3, 5e-4}});
@@ -267,9 +267,9 @@ Problem cantilever(const Options& o) {
       p.families.push_back({std::string("GVS 2 sec / ") + method_name(m), false, false, m, {1, 2, 3, 4}, 2, ours_h});
     p.families.push_back({"PCS / midpoint", false, false, Method::Midpoint, ours_space, 0, ours_h});
     for (Method m : {Method::Euler, Method::RK4, Method::Implicit})
-      p.families.push_back({std::string("native hinge / ") + method_name(m), true, false, m, native_space, 0, native_h});
-    p.families.push_back({"native ball / euler", true, true, Method::Euler, native_space, 0, native_h});
-    p.families.push_back({"native hinge clamp 2EI/ds / euler", true, false, Method::Euler, native_space, 0, native_h, 2.0});
+      p.families.push_back({std::string("native hinge / ") + method_name(m), true, false, m, kNativeChains, 0, native_h});
+    p.families.push_back({"native ball / euler", true, true, Method::Euler, kNativeChains, 0, native_h});
+    p.families.push_back({"native hinge clamp 2EI/ds / euler", true, false, Method::Euler, kNativeChains, 0, native_h, 2.0});
   }
   p.reference = ours(3, 5, Method::RK4, 5e-5);
   p.reference_check = ours(2, 4, Method::RK4, 1e-4);
@@ -328,7 +328,6 @@ Problem circle(const Options& o) {
   const std::vector<double> ours_h = {1.25, 5e-1, 2.5e-1, 1e-1, 5e-2, 2e-2, 1e-2, 5e-3, 2e-3, 1e-3, 5e-4, 2e-4, 1e-4};
   const std::vector<double> native_h = {1.25, 5e-1, 2.5e-1, 1e-1, 5e-2, 2e-2, 1e-2, 5e-3, 2e-3, 1e-3, 5e-4,
                                         2e-4, 1e-4, 5e-5, 2e-5, 1e-5, 5e-6};
-  const std::vector<int> native_space = kNativeChains;  // ours: 1 .. 8 sections (1 is exact here)
   if (o.quick) {
     p.families.push_back({"PCS / implicit", false, false, Method::Implicit, {1, 2}, 0, {1e-2, 5e-3}});
     p.families.push_back({"native hinge / euler", true, false, Method::Euler, {4, 8}, 0, {1e-3, 5e-4}});
@@ -337,8 +336,8 @@ Problem circle(const Options& o) {
       p.families.push_back({std::string("PCS / ") + method_name(m), false, false, m, {1, 2, 3, 4, 6, 8}, 0, ours_h});
     p.families.push_back({"GVS 1 sec / implicit", false, false, Method::Implicit, {1, 2}, 1, ours_h});
     for (Method m : {Method::Euler, Method::Implicit, Method::RK4})
-      p.families.push_back({std::string("native hinge / ") + method_name(m), true, false, m, native_space, 0, native_h});
-    p.families.push_back({"native hinge clamp 2EI/ds / euler", true, false, Method::Euler, native_space, 0, native_h, 2.0});
+      p.families.push_back({std::string("native hinge / ") + method_name(m), true, false, m, kNativeChains, 0, native_h});
+    p.families.push_back({"native hinge clamp 2EI/ds / euler", true, false, Method::Euler, kNativeChains, 0, native_h, 2.0});
   }
   return p;
 }

@@ -847,12 +847,6 @@ void recompute_invweight0(Scene& s) {
   }
 }
 
-// Whether mj_collision (MuJoCo 2.2.2) can ever report a contact in model m, whatever its contact
-// flags (they may change between steps; mj_collision reads them itself): an explicit <pair>, or
-// two geoms on bodies of different weld groups (same weld group: never tested) whose masks pass
-// (contype1 & conaffinity2) || (contype2 & conaffinity1), on a body pair that no <exclude> names.
-// Conservative: the masks are united per body, and MuJoCo's parent-child filter is not applied
-// (a pair it drops still counts).
 namespace {
 // Whether a body with mass or another rod's base lies below the rod's proxies (its subtree:
 // [base_body + 1, below_end)): they read its cdof_dot (RodBinding::cdof_dot_read).
@@ -868,6 +862,12 @@ bool mass_or_rod_below(const Scene& s, const RodBinding& rb) {
 }
 }  // namespace
 
+// Whether mj_collision (MuJoCo 2.2.2) can ever report a contact in model m, whatever its contact
+// flags (they may change between steps; mj_collision reads them itself): an explicit <pair>, or
+// two geoms on bodies of different weld groups (same weld group: never tested) whose masks pass
+// (contype1 & conaffinity2) || (contype2 & conaffinity1), on a body pair that no <exclude> names.
+// Conservative: the masks are united per body, and MuJoCo's parent-child filter is not applied
+// (a pair it drops still counts).
 bool scene_may_collide(const mjModel* m) {
   if (m->npair > 0) return true;
   // per body, the union of its geoms' masks (a body pair whose unions pass may hold a geom pair
