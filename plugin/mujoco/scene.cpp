@@ -307,10 +307,11 @@ void patch_rod_kinematics(const Scene& s, SceneData& sd, int r) {
     SE3 g;
     if (f.fixed) {
       g = anchor_pose(rd, f.anchor) * f.rel;
-    } else if (rb.site_tendon[k]) {  // site_pose's pose, and the Jacobian patch_tendons needs
+    } else if (const int kp = rb.site_point[k]; kp >= 0) {  // site_pose's pose, and the Jacobian patch_tendons needs
       SceneData::RodScratch& sc = sd.scratch[r];
       const RodSiteDecl& sdl = rb.decl.sites[k];
-      g = rod_pose_and_jacobian(rb.model, rd, 0, sdl.X, s.site_section[id], sc.site_J[k], &sc.site_g_start[k]);
+      if (kp == static_cast<int>(k)) sc.site_center[k] = rod_pose_and_jacobian(rb.model, rd, 0, sdl.X, s.site_section[id], sc.site_J[k], &sc.site_g_start[k]);
+      g = sc.site_center[kp];
       g.u += g.R * sdl.pos;
     } else {
       g = site_pose(rb.model, rd, rb.decl.sites[k]);
@@ -499,9 +500,9 @@ void patch_tendons(const Scene& s, SceneData& sd) {
       }
       const int k_site = s.site_index[site];
       const SceneData::RodScratch& sc = sd.scratch[r];
-      const int col0 = s.rods[r].site_tendon[k_site]
-                           ? point_correction(s, sd, r, s.site_section[site], sc.site_J[k_site], sc.site_g_start[k_site], p, dJ)
-                           : point_correction(s, sd, r, s.site_section[site], sdl.X, p, dJ);
+      const int kp = s.rods[r].site_point[k_site];
+      const int col0 = kp >= 0 ? point_correction(s, sd, r, s.site_section[site], sc.site_J[kp], sc.site_g_start[kp], p, dJ)
+                               : point_correction(s, sd, r, s.site_section[site], sdl.X, p, dJ);
       for (int c = 0; c < dJ.cols(); ++c) d->ten_J[t * m->nv + col0 + c] += grad.dot(dJ.col(c).head<3>());
     }
   }
@@ -630,10 +631,12 @@ SceneData::SceneData(const Scene& s) {
     for (int j = first_ancestor_dof(s.m, s.rods[r].base_body); j >= 0; j = s.m->dof_parentid[j]) sc.anc.push_back(j);
     sc.C.resize(6, static_cast<int>(sc.anc.size()));
     sc.Kv.resize(s.rods[r].model.nv);
-    sc.site_J.assign(s.rods[r].site_id.size(), Mat6X());
-    sc.site_g_start.assign(s.rods[r].site_id.size(), SE3());
-    for (size_t k = 0; k < s.rods[r].site_id.size(); ++k)
-      if (s.rods[r].site_tendon[k]) sc.site_J[k].resize(6, s.rods[r].model.sections[s.site_section[s.rods[r].site_id[k]]].ndof);
+    const RodBinding& rb = s.rods[r];
+    sc.site_center.assign(rb.site_id.size(), SE3());
+    sc.site_J.assign(rb.site_id.size(), Mat6X());
+    sc.site_g_start.assign(rb.site_id.size(), SE3());
+    for (size_t k = 0; k < rb.site_id.size(); ++k)
+      if (rb.site_point[k] == static_cast<int>(k)) sc.site_J[k].resize(6, rb.model.sections[s.site_section[rb.site_id[k]]].ndof);
   }
 }
 
@@ -937,13 +940,23 @@ std::unique_ptr<Scene> compile(const Preprocessed& pre) {
       const auto it = std::find(pb.begin(), pb.end(), body);
       s->site_section[s->rods[r].site_id[k]] = it == pb.end() ? 0 : static_cast<int>(it - pb.begin());
     }
-  // sites on a spatial tendon's path (RodBinding::site_tendon)
+  // sites on a spatial tendon's path, and the first of them at each abscissa and section
+  // (RodBinding::site_point)
   std::vector<char> on_tendon(s->m->nsite, 0);
   for (int w = 0; w < s->m->nwrap; ++w)
     if (s->m->wrap_type[w] == mjWRAP_SITE) on_tendon[s->m->wrap_objid[w]] = 1;
   for (auto& rb : s->rods) {
-    rb.site_tendon.assign(rb.site_id.size(), 0);
-    for (size_t k = 0; k < rb.site_id.size(); ++k) rb.site_tendon[k] = on_tendon[rb.site_id[k]] && !rb.site_fixed[k].fixed;
+    rb.site_point.assign(rb.site_id.size(), -1);
+    for (size_t k = 0; k < rb.site_id.size(); ++k) {
+      if (!on_tendon[rb.site_id[k]] || rb.site_fixed[k].fixed) continue;
+      rb.site_point[k] = static_cast<int>(k);
+      for (size_t j = 0; j < k; ++j)
+        if (rb.site_point[j] == static_cast<int>(j) && rb.decl.sites[j].X == rb.decl.sites[k].X &&
+            s->site_section[rb.site_id[j]] == s->site_section[rb.site_id[k]]) {
+          rb.site_point[k] = static_cast<int>(j);
+          break;
+        }
+    }
   }
   for (size_t r = 0; r < s->rods.size(); ++r)
     for (size_t k = 0; k < s->rods[r].geom_id.size(); ++k) {

@@ -49,10 +49,13 @@ struct RodBinding {
   };
   std::vector<Fixed> geom_fixed;  // per capsule
   std::vector<Fixed> site_fixed;  // per site
-  // per site: a spatial tendon's path point (set at load) off a rigid section. Its pose and its
-  // section Jacobian come from one partial step each evaluation (cosserat::rod_pose_and_jacobian:
-  // the kinematics keep the Jacobian in SceneData::RodScratch for the tendon patch)
-  std::vector<char> site_tendon;
+  // per site (set at load): -1 unless the site is a spatial tendon's path point off a rigid
+  // section. Its centre-line pose and section Jacobian come from one partial step per evaluation
+  // (cosserat::rod_pose_and_jacobian; the kinematics keep them in SceneData::RodScratch for the
+  // tendon patch), shared by the path points at the same abscissa and section (a cable-driven
+  // arm's cables pass each spacer disk at one abscissa): site_point[k] is the first such site,
+  // whose scratch entries hold them (k itself for the first).
+  std::vector<int> site_point;
   bool extensible = false;        // a section with a free axial strain (SceneData::compression)
   // Whether anything reads the cdof_dot of the rod's dofs (patch point 4; set at load): a body with
   // mass below the rod (mj_rne accelerates it with them), another rod hanging below it (its base
@@ -194,8 +197,10 @@ struct SceneData {
     std::vector<int> anc;  // MuJoCo dofs above the rod's base, nearest first
     Mat6X C;               // their base-frame columns (6 x anc.size())
     VecX Kv;
-    // per site with RodBinding::site_tendon: its section Jacobian and pose relative to the section
-    // start (cosserat::section_jacobian's J and g_start_X), from this evaluation's kinematics
+    // per site k with RodBinding::site_point[k] == k: the centre-line pose at its abscissa, the
+    // section Jacobian there and the pose relative to the section start (cosserat::section_jacobian's
+    // J and g_start_X), from this evaluation's kinematics
+    std::vector<SE3> site_center;
     std::vector<Mat6X> site_J;
     std::vector<SE3> site_g_start;
   };

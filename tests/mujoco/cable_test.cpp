@@ -3,6 +3,7 @@
 // must approach as the sites get denser.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <string>
 
@@ -120,3 +121,62 @@ TEST(Cable, TendonJacobianMatchesLengthDifferences) {
 }
 
 }  // namespace
+
+// Three cables through the same cross-sections (an arm's spacer disks: one abscissa, three offsets)
+// share each abscissa's pose and section Jacobian (RodBinding::site_point): every site stays where
+// rod_pose puts it, bit for bit, and every cable's Jacobian row matches its length differences.
+TEST(Cable, CablesThroughOneCrossSectionShareItsPoseAndJacobian) {
+  std::string sites, tendons;
+  const char* offsets[3] = {"0 0 0.006", "0 -0.0052 -0.003", "0 0.0052 -0.003"};
+  for (int c = 0; c < 3; ++c) {
+    tendons += "<spatial name=\"t" + std::to_string(c) + "\">";
+    for (int i = 0; i < 5; ++i) {
+      const std::string name = "s" + std::to_string(c) + std::to_string(i);
+      sites += "<site name=\"" + name + "\" at=\"" + std::to_string(0.07 * i + 0.01) + "\" pos=\"" + offsets[c] + "\"/>";
+      tendons += "<site site=\"" + name + "\"/>";
+    }
+    tendons += "</spatial>";
+  }
+  const std::string xml = R"(<mujoco><option gravity="0 0 0"/><worldbody>
+    <body name="hub" pos="0 0 1"><joint name="yaw" type="hinge" axis="0 0 1"/><geom type="sphere" size="0.02"/>
+      <cosserat name="arm" length="0.3" sections="3" strain="kl" radius="0.01">)" +
+                          sites + "</cosserat></body></worldbody><tendon>" + tendons + "</tendon></mujoco>";
+  auto s = load_scene_string(xml, "/tmp/cosserat_cable_test.xml");
+  const mjModel* m = s->m;
+  const RodBinding& rb = s->rods[0];
+  auto index = [&](int c, int i) {  // the rod's index of site s<c><i>
+    const int id = mj_name2id(m, mjOBJ_SITE, ("s" + std::to_string(c) + std::to_string(i)).c_str());
+    return static_cast<int>(std::find(rb.site_id.begin(), rb.site_id.end(), id) - rb.site_id.begin());
+  };
+  for (int c = 0; c < 3; ++c)  // the first cable's site at each abscissa holds it for all three
+    for (int i = 0; i < 5; ++i) EXPECT_EQ(rb.site_point[index(c, i)], index(0, i)) << "cable " << c << " site " << i;
+  SceneData sd(*s);
+  ASSERT_EQ(m->nq, m->nv);
+  std::vector<double> q0(m->nq), v(m->nv);
+  for (int i = 0; i < m->nq; ++i) q0[i] = 0.6 * std::sin(1.7 * i + 0.3);
+  for (int i = 0; i < m->nv; ++i) v[i] = std::cos(2.3 * i + 0.5);
+  auto lengths_at = [&](double t) {
+    for (int i = 0; i < m->nq; ++i) sd.d->qpos[i] = q0[i] + t * v[i];
+    forward(*s, sd);
+    return std::vector<double>(sd.d->ten_length, sd.d->ten_length + m->ntendon);
+  };
+  const double eps = 1e-6;
+  const std::vector<double> lp = lengths_at(eps), lm = lengths_at(-eps);
+  lengths_at(0.0);
+  for (size_t k = 0; k < rb.site_id.size(); ++k) {
+    const RodSiteDecl& sdl = rb.decl.sites[k];
+    SE3 g = rod_pose(rb.model, sd.rod[0], 0, sdl.X);
+    g.u += g.R * sdl.pos;
+    for (int e = 0; e < 3; ++e) EXPECT_EQ(sd.d->site_xpos[3 * rb.site_id[k] + e], g.u(e)) << "site " << k;
+  }
+  for (int t = 0; t < m->ntendon; ++t) {
+    const double fd = (lp[t] - lm[t]) / (2 * eps);
+    double Jv = 0.0, scale = 0.0;
+    for (int i = 0; i < m->nv; ++i) {
+      Jv += sd.d->ten_J[t * m->nv + i] * v[i];
+      scale += std::abs(sd.d->ten_J[t * m->nv + i] * v[i]);
+    }
+    EXPECT_GT(scale, 1e-3);
+    EXPECT_NEAR(Jv, fd, 1e-7 * scale) << "cable " << t;
+  }
+}
