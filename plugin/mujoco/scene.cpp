@@ -466,14 +466,24 @@ void patch_contacts(const Scene& s, SceneData& sd) {
 }
 
 // Spatial tendons through rod sites: dL/dq gets the true site Jacobians. For a site at path point
-// k, dL/dp_k = u_in - u_out (unit vectors of the segments into and out of it).
+// k, dL/dp_k = (u_in - u_out) / divisor (unit vectors of the segments into and out of it, which
+// start or end at a wrapping geom's tangent point where the cable wraps one: the wrapped length is
+// stationary in the tangent points; divisor: that of the last pulley before it, as mj_tendon counts
+// the branch's length).
 void patch_tendons(const Scene& s, SceneData& sd) {
   const mjModel* m = s.m;
   mjData* d = sd.d;
   thread_local Mat6X dJ;  // scratch: no heap memory once sized
   for (int t = 0; t < m->ntendon; ++t) {
     const int adr = d->ten_wrapadr[t], num = d->ten_wrapnum[t];
+    double divisor = 1.0;
+    int pulley_wrap = m->tendon_adr[t];  // mj_tendon writes a path point -2 per pulley, in order
     for (int k = 0; k < num; ++k) {
+      if (d->wrap_obj[adr + k] == -2) {
+        while (m->wrap_type[pulley_wrap] != mjWRAP_PULLEY) ++pulley_wrap;
+        divisor = m->wrap_prm[pulley_wrap++];
+        continue;
+      }
       if (d->wrap_obj[adr + k] != -1) continue;
       // the site of this path point: match by position among the tendon's wrap objects
       const mjtNum* pk = d->wrap_xpos + 3 * (adr + k);
@@ -503,6 +513,7 @@ void patch_tendons(const Scene& s, SceneData& sd) {
       const int kp = s.rods[r].site_point[k_site];
       const int col0 = kp >= 0 ? point_correction(s, sd, r, s.site_section[site], sc.site_J[kp], sc.site_g_start[kp], p, dJ)
                                : point_correction(s, sd, r, s.site_section[site], sdl.X, p, dJ);
+      grad /= divisor;
       for (int c = 0; c < dJ.cols(); ++c) d->ten_J[t * m->nv + col0 + c] += grad.dot(dJ.col(c).head<3>());
     }
   }

@@ -84,9 +84,37 @@ TEST(Cable, TendonThroughSitesConvergesToContinuousCable) {
   EXPECT_LT(prev, 0.02 * ref.y());
 }
 
-// The tendon's Jacobian row (ten_J, with the coupling's correction for sites that ride on rod
-// cross-sections between the proxies) against a central difference of its length along a random
-// velocity, at a bent state with a rigid hinge above the rod: every dof's column is right.
+// Every tendon's Jacobian row (ten_J, with the coupling's correction for sites that ride on rod
+// cross-sections between the proxies) against a central difference of its length along a velocity
+// v, at the bent state q0 (qpos = qvel coordinates: hinges and strains): every dof's column is
+// right. Leaves the scene evaluated at q0.
+void expect_tendon_rows_match_length_differences(const Scene& s, SceneData& sd) {
+  const mjModel* m = s.m;
+  ASSERT_EQ(m->nq, m->nv);  // hinges and strains: qpos moves linearly with qvel
+  std::vector<double> q0(m->nq), v(m->nv);
+  for (int i = 0; i < m->nq; ++i) q0[i] = 0.6 * std::sin(1.7 * i + 0.3);
+  for (int i = 0; i < m->nv; ++i) v[i] = std::cos(2.3 * i + 0.5);
+  auto lengths_at = [&](double t) {
+    for (int i = 0; i < m->nq; ++i) sd.d->qpos[i] = q0[i] + t * v[i];
+    forward(s, sd);
+    return std::vector<double>(sd.d->ten_length, sd.d->ten_length + m->ntendon);
+  };
+  const double eps = 1e-6;
+  const std::vector<double> lp = lengths_at(eps), lm = lengths_at(-eps);
+  lengths_at(0.0);
+  for (int t = 0; t < m->ntendon; ++t) {
+    const double fd = (lp[t] - lm[t]) / (2 * eps);
+    double Jv = 0.0, scale = 0.0;
+    for (int i = 0; i < m->nv; ++i) {
+      Jv += sd.d->ten_J[t * m->nv + i] * v[i];
+      scale += std::abs(sd.d->ten_J[t * m->nv + i] * v[i]);
+    }
+    EXPECT_GT(scale, 1e-3) << "tendon " << t;
+    EXPECT_NEAR(Jv, fd, 1e-7 * scale) << "tendon " << t;
+  }
+}
+
+// A cable through four sites at a bent state with a rigid hinge above the rod.
 TEST(Cable, TendonJacobianMatchesLengthDifferences) {
   const std::string xml = R"(<mujoco><option gravity="0 0 0"/><worldbody>
     <body name="hub" pos="0 0 1"><joint name="yaw" type="hinge" axis="0 0 1"/><geom type="sphere" size="0.02"/>
@@ -97,30 +125,9 @@ TEST(Cable, TendonJacobianMatchesLengthDifferences) {
     <tendon><spatial name="cable"><site site="a"/><site site="b"/><site site="c"/><site site="d"/></spatial></tendon>
   </mujoco>)";
   auto s = load_scene_string(xml, "/tmp/cosserat_cable_test.xml");
-  const mjModel* m = s->m;
   SceneData sd(*s);
-  ASSERT_EQ(m->nq, m->nv);  // hinge and strains: qpos moves linearly with qvel
-  std::vector<double> q0(m->nq), v(m->nv);
-  for (int i = 0; i < m->nq; ++i) q0[i] = 0.6 * std::sin(1.7 * i + 0.3);
-  for (int i = 0; i < m->nv; ++i) v[i] = std::cos(2.3 * i + 0.5);
-  auto length_at = [&](double t) {
-    for (int i = 0; i < m->nq; ++i) sd.d->qpos[i] = q0[i] + t * v[i];
-    forward(*s, sd);
-    return sd.d->ten_length[0];
-  };
-  const double eps = 1e-6;
-  const double fd = (length_at(eps) - length_at(-eps)) / (2 * eps);
-  length_at(0.0);
-  double Jv = 0.0, scale = 0.0;
-  for (int i = 0; i < m->nv; ++i) {
-    Jv += sd.d->ten_J[i] * v[i];
-    scale += std::abs(sd.d->ten_J[i] * v[i]);
-  }
-  EXPECT_GT(scale, 1e-3);
-  EXPECT_NEAR(Jv, fd, 1e-7 * scale);
+  expect_tendon_rows_match_length_differences(*s, sd);
 }
-
-}  // namespace
 
 // Three cables through the same cross-sections (an arm's spacer disks: one abscissa, three offsets)
 // share each abscissa's pose and section Jacobian (RodBinding::site_point): every site stays where
@@ -151,32 +158,56 @@ TEST(Cable, CablesThroughOneCrossSectionShareItsPoseAndJacobian) {
   for (int c = 0; c < 3; ++c)  // the first cable's site at each abscissa holds it for all three
     for (int i = 0; i < 5; ++i) EXPECT_EQ(rb.site_point[index(c, i)], index(0, i)) << "cable " << c << " site " << i;
   SceneData sd(*s);
-  ASSERT_EQ(m->nq, m->nv);
-  std::vector<double> q0(m->nq), v(m->nv);
-  for (int i = 0; i < m->nq; ++i) q0[i] = 0.6 * std::sin(1.7 * i + 0.3);
-  for (int i = 0; i < m->nv; ++i) v[i] = std::cos(2.3 * i + 0.5);
-  auto lengths_at = [&](double t) {
-    for (int i = 0; i < m->nq; ++i) sd.d->qpos[i] = q0[i] + t * v[i];
-    forward(*s, sd);
-    return std::vector<double>(sd.d->ten_length, sd.d->ten_length + m->ntendon);
-  };
-  const double eps = 1e-6;
-  const std::vector<double> lp = lengths_at(eps), lm = lengths_at(-eps);
-  lengths_at(0.0);
+  expect_tendon_rows_match_length_differences(*s, sd);
   for (size_t k = 0; k < rb.site_id.size(); ++k) {
     const RodSiteDecl& sdl = rb.decl.sites[k];
     SE3 g = rod_pose(rb.model, sd.rod[0], 0, sdl.X);
     g.u += g.R * sdl.pos;
     for (int e = 0; e < 3; ++e) EXPECT_EQ(sd.d->site_xpos[3 * rb.site_id[k] + e], g.u(e)) << "site " << k;
   }
-  for (int t = 0; t < m->ntendon; ++t) {
-    const double fd = (lp[t] - lm[t]) / (2 * eps);
-    double Jv = 0.0, scale = 0.0;
-    for (int i = 0; i < m->nv; ++i) {
-      Jv += sd.d->ten_J[t * m->nv + i] * v[i];
-      scale += std::abs(sd.d->ten_J[t * m->nv + i] * v[i]);
-    }
-    EXPECT_GT(scale, 1e-3);
-    EXPECT_NEAR(Jv, fd, 1e-7 * scale) << "cable " << t;
-  }
 }
+
+// A cable from a fixed anchor around a cylinder (a pulley at the arm's base, sidesite above it) to
+// sites on the rod: the length's derivative by a rod site's position is the unit vector from the
+// path point before it (here the cylinder's tangent point: the wrapped length is stationary in the
+// tangent points), so the rod sites' corrections hold next to a wrapping geom too.
+TEST(Cable, TendonWrappingAGeomNextToARodSiteMatchesLengthDifferences) {
+  const std::string xml = R"(<mujoco><option gravity="0 0 0"/><worldbody>
+    <site name="anchor" pos="-0.08 0 0.985"/><site name="side" pos="-0.03 0 1.03"/>
+    <geom name="pulley" type="cylinder" pos="-0.03 0 0.995" size="0.012 0.01" euler="90 0 0" contype="0" conaffinity="0"/>
+    <body name="hub" pos="0 0 1"><joint name="yaw" type="hinge" axis="0 0 1"/><geom type="sphere" size="0.005" contype="0" conaffinity="0"/>
+      <cosserat name="arm" length="0.3" sections="3" strain="kl" radius="0.01" contype="0" conaffinity="0">
+        <site name="a" at="0.06" pos="0 0.003 0.006"/><site name="b" at="0.17" pos="0 0.006 0.002"/>
+        <site name="c" at="0.28" pos="0 -0.004 0.005"/>
+      </cosserat></body></worldbody>
+    <tendon><spatial name="cable"><site site="anchor"/><geom geom="pulley" sidesite="side"/><site site="a"/>
+      <site site="b"/><site site="c"/></spatial></tendon>
+  </mujoco>)";
+  auto s = load_scene_string(xml, "/tmp/cosserat_cable_test.xml");
+  SceneData sd(*s);
+  expect_tendon_rows_match_length_differences(*s, sd);
+  // the cable wraps the cylinder at that state: two tangent points between the anchor and site a
+  ASSERT_EQ(sd.d->ten_wrapnum[0], 6);
+  EXPECT_EQ(sd.d->wrap_obj[1], mj_name2id(s->m, mjOBJ_GEOM, "pulley"));
+  EXPECT_EQ(sd.d->wrap_obj[2], mj_name2id(s->m, mjOBJ_GEOM, "pulley"));
+}
+
+// A cable with a pulley (MuJoCo's <pulley divisor>: the branches after it count 1/divisor of their
+// length) through rod sites on both sides of it.
+TEST(Cable, TendonWithAPulleyThroughRodSitesMatchesLengthDifferences) {
+  const std::string xml = R"(<mujoco><option gravity="0 0 0"/><worldbody>
+    <site name="anchor" pos="-0.08 0 0.985"/><site name="anchor2" pos="-0.08 0 1.02"/>
+    <body name="hub" pos="0 0 1"><joint name="yaw" type="hinge" axis="0 0 1"/><geom type="sphere" size="0.005"/>
+      <cosserat name="arm" length="0.3" sections="3" strain="kl" radius="0.01">
+        <site name="a" at="0.06" pos="0 0.003 0.006"/><site name="b" at="0.17" pos="0 0.006 0.002"/>
+        <site name="c" at="0.28" pos="0 -0.004 0.005"/>
+      </cosserat></body></worldbody>
+    <tendon><spatial name="cable"><site site="anchor"/><site site="a"/><pulley divisor="2"/><site site="anchor2"/>
+      <site site="b"/><site site="c"/></spatial></tendon>
+  </mujoco>)";
+  auto s = load_scene_string(xml, "/tmp/cosserat_cable_test.xml");
+  SceneData sd(*s);
+  expect_tendon_rows_match_length_differences(*s, sd);
+}
+
+}  // namespace
