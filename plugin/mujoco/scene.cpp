@@ -402,6 +402,16 @@ int point_correction(const Scene& s, const SceneData& sd, int r, int si, double 
   return point_correction(s, sd, r, si, J, g_start_X, p, dJ);
 }
 
+// point_correction for the material point of rod site `site` at world position p (the cached
+// section Jacobian of a tendon path point, RodBinding::site_point, when it has one).
+int site_correction(const Scene& s, const SceneData& sd, int site, const Vec3& p, Mat6X& dJ) {
+  const int r = s.site_rod[site], k = s.site_index[site];
+  const int kp = s.rods[r].site_point[k];
+  const SceneData::RodScratch& sc = sd.scratch[r];
+  return kp >= 0 ? point_correction(s, sd, r, s.site_section[site], sc.site_J[kp], sc.site_g_start[kp], p, dJ)
+                 : point_correction(s, sd, r, s.site_section[site], s.rods[r].decl.sites[k].X, p, dJ);
+}
+
 // Add `val` at (row, col) of efc_J, dense or sparse (the column is in the row's pattern: the
 // section's dofs are in the chain of the contact's body). A sparse efc_J has a transposed copy,
 // efc_JT, made by mj_makeConstraint and used by the solvers (the Newton Hessian): patch it too.
@@ -494,8 +504,6 @@ void patch_tendons(const Scene& s, SceneData& sd) {
           if (mju_dist3(pk, d->site_xpos + 3 * sid) == 0.0) site = sid;
         }
       if (site < 0 || s.site_rod[site] < 0) continue;
-      const int r = s.site_rod[site];
-      const RodSiteDecl& sdl = s.rods[r].decl.sites[s.site_index[site]];
       Vec3 grad = Vec3::Zero();
       const Vec3 p(pk[0], pk[1], pk[2]);
       if (k > 0 && d->wrap_obj[adr + k - 1] != -2) {
@@ -508,11 +516,7 @@ void patch_tendons(const Scene& s, SceneData& sd) {
         const Vec3 u = Vec3(q[0], q[1], q[2]) - p;
         if (u.norm() > 0) grad -= u.normalized();
       }
-      const int k_site = s.site_index[site];
-      const SceneData::RodScratch& sc = sd.scratch[r];
-      const int kp = s.rods[r].site_point[k_site];
-      const int col0 = kp >= 0 ? point_correction(s, sd, r, s.site_section[site], sc.site_J[kp], sc.site_g_start[kp], p, dJ)
-                               : point_correction(s, sd, r, s.site_section[site], sdl.X, p, dJ);
+      const int col0 = site_correction(s, sd, site, p, dJ);
       grad /= divisor;
       for (int c = 0; c < dJ.cols(); ++c) d->ten_J[t * m->nv + col0 + c] += grad.dot(dJ.col(c).head<3>());
     }
@@ -734,6 +738,81 @@ void fwd_velocity(const Scene& s, SceneData& sd) {
   fluid_forces(s, sd);  // fluid hook: qfrc_passive -= D qvel; no-op without the fluid
 }
 
+namespace {
+
+// A rod site whose material point MuJoCo does not move correctly (rigidly with its section's proxy:
+// right only on rigid sections, whose sites RodBinding::site_fixed holds).
+bool moving_rod_site(const Scene& s, int type, int id) {
+  return type == mjOBJ_SITE && id >= 0 && s.site_rod[id] >= 0 && !s.rods[s.site_rod[id]].site_fixed[s.site_index[id]].fixed;
+}
+
+// World-frame velocity of an object's frame in MuJoCo's layout (angular, linear): mj_objectVelocity,
+// plus, for a rod site, the difference between its material point's velocity and MuJoCo's.
+void object_velocity(const Scene& s, const SceneData& sd, int type, int id, mjtNum xvel[6]) {
+  mj_objectVelocity(s.m, sd.d, type, id, xvel, 0);
+  if (!moving_rod_site(s, type, id)) return;
+  thread_local Mat6X dJ;  // scratch: no heap memory once sized
+  const mjtNum* p = sd.d->site_xpos + 3 * id;
+  const int col0 = site_correction(s, sd, id, Vec3(p[0], p[1], p[2]), dJ);
+  for (int c = 0; c < dJ.cols(); ++c) {
+    const double qd = sd.d->qvel[col0 + c];
+    for (int e = 0; e < 3; ++e) {
+      xvel[e] += dJ(3 + e, c) * qd;  // dJ: linear rows, then angular
+      xvel[3 + e] += dJ(e, c) * qd;
+    }
+  }
+}
+
+// An object's frame as MuJoCo's sensors read it (engine_sensor.c's get_xpos_xmat: a body's
+// inertial frame, an xbody's own).
+void object_frame(const mjData* d, int type, int id, const mjtNum** pos, const mjtNum** mat) {
+  switch (type) {
+    case mjOBJ_XBODY: *pos = d->xpos + 3 * id, *mat = d->xmat + 9 * id; break;
+    case mjOBJ_BODY: *pos = d->xipos + 3 * id, *mat = d->ximat + 9 * id; break;
+    case mjOBJ_GEOM: *pos = d->geom_xpos + 3 * id, *mat = d->geom_xmat + 9 * id; break;
+    case mjOBJ_CAMERA: *pos = d->cam_xpos + 3 * id, *mat = d->cam_xmat + 9 * id; break;
+    default: *pos = d->site_xpos + 3 * id, *mat = d->site_xmat + 9 * id; break;
+  }
+}
+
+// Scene::rod_velocity_sensors again, as mj_sensorVel computes them (velocimeter and gyro in the
+// site's frame; framelinvel and frameangvel in the world or relative to a reference frame), with
+// the rod sites' material velocities, then MuJoCo's cutoff of real-valued data.
+void patch_velocity_sensors(const Scene& s, SceneData& sd) {
+  const mjModel* m = s.m;
+  mjData* d = sd.d;
+  if (m->opt.disableflags & mjDSBL_SENSOR) return;
+  for (int i : s.rod_velocity_sensors) {
+    const int type = m->sensor_type[i], objtype = m->sensor_objtype[i], objid = m->sensor_objid[i];
+    mjtNum* out = d->sensordata + m->sensor_adr[i];
+    mjtNum xvel[6];
+    object_velocity(s, sd, objtype, objid, xvel);
+    if (type == mjSENS_VELOCIMETER || type == mjSENS_GYRO) {
+      mju_mulMatTVec(out, d->site_xmat + 9 * objid, type == mjSENS_GYRO ? xvel : xvel + 3, 3, 3);
+    } else {
+      if (const int refid = m->sensor_refid[i]; refid >= 0) {
+        const int reftype = m->sensor_reftype[i];
+        const mjtNum *pos, *mat, *pos_ref, *mat_ref;
+        object_frame(d, objtype, objid, &pos, &mat);
+        object_frame(d, reftype, refid, &pos_ref, &mat_ref);
+        mjtNum xvel_ref[6], rel[6], rvec[3], cross[3];
+        object_velocity(s, sd, reftype, refid, xvel_ref);
+        mju_sub(rel, xvel, xvel_ref, 6);
+        mju_sub3(rvec, pos, pos_ref);  // the rotating reference frame's share of the linear velocity
+        mju_cross(cross, rvec, xvel_ref);
+        mju_addTo3(rel + 3, cross);
+        mju_mulMatTVec(xvel, mat_ref, rel, 3, 3);
+        mju_mulMatTVec(xvel + 3, mat_ref, rel + 3, 3, 3);
+      }
+      mju_copy3(out, type == mjSENS_FRAMELINVEL ? xvel + 3 : xvel);
+    }
+    if (const mjtNum cut = m->sensor_cutoff[i]; cut > 0)
+      for (int e = 0; e < 3; ++e) out[e] = std::clamp(out[e], -cut, cut);
+  }
+}
+
+}  // namespace
+
 void forward(const Scene& s, SceneData& sd, Need need) {
   const mjModel* m = s.m;
   mjData* d = sd.d;
@@ -741,6 +820,7 @@ void forward(const Scene& s, SceneData& sd, Need need) {
   mj_sensorPos(m, d);
   fwd_velocity(s, sd);
   mj_sensorVel(m, d);
+  if (!s.rod_velocity_sensors.empty()) patch_velocity_sensors(s, sd);
   mj_fwdActuation(m, d);
   if (sd.forces_only) {  // no constraints, no acceleration sensors: the forces are all the step needs
     smooth_forces(m, d);
@@ -986,6 +1066,13 @@ std::unique_ptr<Scene> compile(const Preprocessed& pre) {
     for (const RodBinding& rb : s->rods)
       if (!rb.cdof_dot_read)
         for (int b = rb.base_body + 1; b < rb.below_end; ++b) s->velocity_skip[b] = 1;
+  for (int i = 0; i < s->m->nsensor; ++i) {
+    const int t = s->m->sensor_type[i];
+    if ((t == mjSENS_VELOCIMETER || t == mjSENS_GYRO || t == mjSENS_FRAMELINVEL || t == mjSENS_FRAMEANGVEL) &&
+        (moving_rod_site(*s, s->m->sensor_objtype[i], s->m->sensor_objid[i]) ||
+         moving_rod_site(*s, s->m->sensor_reftype[i], s->m->sensor_refid[i])))
+      s->rod_velocity_sensors.push_back(i);
+  }
   setup_fluid(*s);  // fluid hook: may switch MuJoCo's own fluid off (scene_fluid.hpp)
   if (!s->rods.empty()) recompute_invweight0(*s);
   s->integrator = s->rods.empty() ? Integrator::Euler : Integrator::Implicit;

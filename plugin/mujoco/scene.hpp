@@ -88,6 +88,10 @@ struct Scene {
   // accelerations: the step's com-velocity and bias passes (com_velocity_except, rne_except) skip
   // them, leaving their d->cvel and d->cdof_dot uncomputed.
   std::vector<char> velocity_skip;
+  // velocity sensors (velocimeter, gyro, framelinvel, frameangvel) whose object or reference frame
+  // is a rod site off a rigid section (set at load): MuJoCo moves such a site rigidly with its
+  // section's proxy, so the step evaluates them again with the site's material velocity
+  std::vector<int> rod_velocity_sensors;
   std::string path;
   // false when no two geoms of the model can ever touch (scene_may_collide, at load): the step then
   // skips MuJoCo's collision detection, whose broad phase otherwise costs a tenth of a step on a

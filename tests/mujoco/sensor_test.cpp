@@ -1,0 +1,112 @@
+// MuJoCo's sensors on rod sites. A site inside a section rides on the deforming centre line, not
+// rigidly on the section's proxy body (placed at the section's end) as MuJoCo assumes: the
+// velocity sensors that read it must give the material point's own velocity, checked here against
+// central differences of the sites' positions and orientations.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include "scene.hpp"
+
+using namespace cosserat;
+using namespace cosserat::mj;
+
+namespace {
+
+using Mat3 = Eigen::Matrix<double, 3, 3, Eigen::RowMajor>;
+
+Vec3 site_pos(const mjData* d, int id) { return Vec3(d->site_xpos[3 * id], d->site_xpos[3 * id + 1], d->site_xpos[3 * id + 2]); }
+Mat3 site_mat(const mjData* d, int id) { return Eigen::Map<const Mat3>(d->site_xmat + 9 * id); }
+// the axial vector of the skew-symmetric part of W
+Vec3 vee(const Mat3& W) {
+  const Mat3 A = 0.5 * (W - W.transpose());
+  return Vec3(A(2, 1), A(0, 2), A(1, 0));
+}
+
+// Sites: m inside section 1 (off the centre line), e at section 1's end, r inside section 2 (a
+// reference frame), h on the rigid hub; the rod and the hub move (hinge and strain velocities).
+const char* kXml = R"(<mujoco><option gravity="0 0 -9.81"/><worldbody>
+  <body name="hub" pos="0 0 1"><joint name="yaw" type="hinge" axis="0 0.3 1"/><geom type="sphere" size="0.02"/>
+    <site name="h" pos="0.01 0.02 0.03" euler="10 20 30"/>
+    <cosserat name="arm" length="0.3" sections="3" strain="kl" radius="0.01" contype="0" conaffinity="0">
+      <site name="m" at="0.15" pos="0 0.006 0.002"/><site name="e" at="0.2" pos="0 0.006 0.002"/>
+      <site name="r" at="0.27" pos="0.001 -0.004 0.003"/>
+    </cosserat></body></worldbody>
+  <sensor>
+    <framelinvel name="m_lin" objtype="site" objname="m"/>
+    <frameangvel name="m_ang" objtype="site" objname="m"/>
+    <velocimeter name="m_vel" site="m"/>
+    <gyro name="m_gyro" site="m"/>
+    <framelinvel name="m_lin_r" objtype="site" objname="m" reftype="site" refname="r"/>
+    <frameangvel name="m_ang_r" objtype="site" objname="m" reftype="site" refname="r"/>
+    <framelinvel name="h_lin_r" objtype="site" objname="h" reftype="site" refname="r"/>
+    <frameangvel name="h_ang_r" objtype="site" objname="h" reftype="site" refname="r"/>
+    <framelinvel name="e_lin" objtype="site" objname="e"/>
+    <velocimeter name="m_vel_cut" site="m" cutoff="0.05"/>
+  </sensor>
+</mujoco>)";
+
+TEST(Sensors, VelocitySensorsOnRodSitesReadTheMaterialPointsVelocity) {
+  auto s = load_scene_string(kXml, "/tmp/cosserat_sensor_test.xml");
+  const mjModel* m = s->m;
+  SceneData sd(*s);
+  mjData* d = sd.d;
+  ASSERT_EQ(m->nq, m->nv);
+  std::vector<double> q0(m->nq), v(m->nv);
+  for (int i = 0; i < m->nq; ++i) q0[i] = 0.6 * std::sin(1.7 * i + 0.3);
+  for (int i = 0; i < m->nv; ++i) v[i] = std::cos(2.3 * i + 0.5);
+  const int id_m = mj_name2id(m, mjOBJ_SITE, "m"), id_e = mj_name2id(m, mjOBJ_SITE, "e"),
+            id_r = mj_name2id(m, mjOBJ_SITE, "r"), id_h = mj_name2id(m, mjOBJ_SITE, "h");
+  struct Frames {
+    std::vector<Vec3> p;
+    std::vector<Mat3> R;
+  };
+  auto at = [&](double t) {
+    for (int i = 0; i < m->nq; ++i) d->qpos[i] = q0[i] + t * v[i];
+    for (int i = 0; i < m->nv; ++i) d->qvel[i] = v[i];
+    forward(*s, sd);
+    Frames f;
+    for (int id : {id_m, id_e, id_r, id_h}) {
+      f.p.push_back(site_pos(d, id));
+      f.R.push_back(site_mat(d, id));
+    }
+    return f;
+  };
+  const double eps = 1e-6;
+  const Frames fp = at(eps), fm = at(-eps), f0 = at(0.0);
+  std::vector<Vec3> vel, ang;  // world-frame velocities of m, e, r, h from the differences
+  for (int k = 0; k < 4; ++k) {
+    vel.push_back((fp.p[k] - fm.p[k]) / (2 * eps));
+    ang.push_back(vee(((fp.R[k] - fm.R[k]) / (2 * eps)) * f0.R[k].transpose()));
+  }
+  const Mat3 Rr = f0.R[2];
+  // relative to r: d/dt R_r^T (p - p_r), and R_r^T (w - w_r)
+  auto rel_lin = [&](int k) {
+    return Vec3((fp.R[2].transpose() * (fp.p[k] - fp.p[2]) - fm.R[2].transpose() * (fm.p[k] - fm.p[2])) / (2 * eps));
+  };
+  const std::vector<std::pair<const char*, Vec3>> expected = {
+      {"m_lin", vel[0]},
+      {"m_ang", ang[0]},
+      {"m_vel", f0.R[0].transpose() * vel[0]},
+      {"m_gyro", f0.R[0].transpose() * ang[0]},
+      {"m_lin_r", rel_lin(0)},
+      {"m_ang_r", Rr.transpose() * (ang[0] - ang[2])},
+      {"h_lin_r", rel_lin(3)},
+      {"h_ang_r", Rr.transpose() * (ang[3] - ang[2])},
+      {"e_lin", vel[1]},
+  };
+  for (const auto& [name, want] : expected) {
+    const int adr = m->sensor_adr[mj_name2id(m, mjOBJ_SENSOR, name)];
+    const Vec3 got(d->sensordata[adr], d->sensordata[adr + 1], d->sensordata[adr + 2]);
+    EXPECT_GT(want.norm(), 1e-3) << name;
+    EXPECT_LT((got - want).norm(), 1e-7 * want.norm()) << name << ": " << got.transpose() << " against " << want.transpose();
+  }
+  // a cutoff clamps the material point's velocity (not MuJoCo's rigid guess)
+  const Vec3 want = f0.R[0].transpose() * vel[0];
+  const int adr = m->sensor_adr[mj_name2id(m, mjOBJ_SENSOR, "m_vel_cut")];
+  for (int e = 0; e < 3; ++e) EXPECT_NEAR(d->sensordata[adr + e], std::clamp(want(e), -0.05, 0.05), 1e-7) << e;
+}
+
+}  // namespace
