@@ -811,6 +811,68 @@ void patch_velocity_sensors(const Scene& s, SceneData& sd) {
   }
 }
 
+// World-frame acceleration of a rod site's material point in MuJoCo's layout (angular, linear), its
+// linear part counting gravity as MuJoCo's cacc does (the world accelerates by -g). From the
+// section's start frame (the rod's base body or the previous section's proxy, whose cvel and cacc
+// MuJoCo computes exactly: the patched cdof and cdof_dot) and the section's own motion: the twist
+// of the cross-section at X is eta_X = Ad^-1_G eta_s + psi, psi = J qvel (section_jacobian's J,
+// G the pose of X in the start frame), and its rate Ad^-1_G eta_s' + J qacc + Jdot qvel
+// - ad_psi Ad^-1_G eta_s.
+void rod_site_acceleration(const Scene& s, const SceneData& sd, int site, mjtNum out[6]) {
+  const mjModel* m = s.m;
+  const mjData* d = sd.d;
+  const int r = s.site_rod[site], si = s.site_section[site];
+  const RodBinding& rb = s.rods[r];
+  const cosserat::Data& rd = sd.rod[r];
+  const RodSiteDecl& sdl = rb.decl.sites[s.site_index[site]];
+  thread_local Mat6X J, Jdot;  // scratch: no heap memory once sized
+  SE3 G;
+  section_jacobian(rb.model, rd, 0, sdl.X, J, &Jdot, &G, si);
+  const int start = si == 0 ? rb.base_body : rb.proxy_body[si - 1];
+  const SE3 gs = anchor_pose(rd, rb.model.sections[si].start_node);
+  const SE3 C = com_frame(gs, d->subtree_com + 3 * m->body_rootid[start]);
+  const Vec6 eta_s = Ad_inv_apply(G, Ad_inv_apply(C, Eigen::Map<const Vec6>(d->cvel + 6 * start)));
+  const Vec6 acc_s = Ad_inv_apply(G, Ad_inv_apply(C, Eigen::Map<const Vec6>(d->cacc + 6 * start)));
+  const int dof0 = rb.dof0 + rb.model.sections[si].dof0;
+  Vec6 psi = Vec6::Zero(), acc = acc_s;
+  for (int k = 0; k < J.cols(); ++k) {
+    psi += J.col(k) * d->qvel[dof0 + k];
+    acc += J.col(k) * d->qacc[dof0 + k] + Jdot.col(k) * d->qvel[dof0 + k];
+  }
+  acc -= ad_apply(psi, eta_s);
+  const Vec6 eta = eta_s + psi;
+  // the point at the site's offset in the cross-section frame, rotated to the world
+  const Vec3 w = eta.head<3>(), v = eta.tail<3>(), wd = acc.head<3>();
+  const Vec3 a = acc.tail<3>() + wd.cross(sdl.pos) + w.cross(v + w.cross(sdl.pos));
+  const Mat3 R = gs.R * G.R;
+  const Vec3 wd_world = R * wd, a_world = R * a;
+  for (int e = 0; e < 3; ++e) {
+    out[e] = wd_world(e);
+    out[3 + e] = a_world(e);
+  }
+}
+
+// Scene::rod_acceleration_sensors again, as mj_sensorAcc computes them (accelerometer in the site's
+// frame, framelinacc and frameangacc in the world), with the material point's acceleration, then
+// MuJoCo's cutoff.
+void patch_acceleration_sensors(const Scene& s, SceneData& sd) {
+  const mjModel* m = s.m;
+  mjData* d = sd.d;
+  if (m->opt.disableflags & mjDSBL_SENSOR) return;
+  for (int i : s.rod_acceleration_sensors) {
+    const int type = m->sensor_type[i], site = m->sensor_objid[i];
+    mjtNum* out = d->sensordata + m->sensor_adr[i];
+    mjtNum acc[6];
+    rod_site_acceleration(s, sd, site, acc);
+    if (type == mjSENS_ACCELEROMETER)
+      mju_mulMatTVec(out, d->site_xmat + 9 * site, acc + 3, 3, 3);
+    else
+      mju_copy3(out, type == mjSENS_FRAMELINACC ? acc + 3 : acc);
+    if (const mjtNum cut = m->sensor_cutoff[i]; cut > 0)
+      for (int e = 0; e < 3; ++e) out[e] = std::clamp(out[e], -cut, cut);
+  }
+}
+
 }  // namespace
 
 void forward(const Scene& s, SceneData& sd, Need need) {
@@ -831,6 +893,7 @@ void forward(const Scene& s, SceneData& sd, Need need) {
   mj_fwdAcceleration(m, d);
   mj_fwdConstraint(m, d);
   mj_sensorAcc(m, d);
+  if (!s.rod_acceleration_sensors.empty()) patch_acceleration_sensors(s, sd);
 }
 
 // --------------------------------------------------------------------------- load / reset --
@@ -1072,6 +1135,9 @@ std::unique_ptr<Scene> compile(const Preprocessed& pre) {
         (moving_rod_site(*s, s->m->sensor_objtype[i], s->m->sensor_objid[i]) ||
          moving_rod_site(*s, s->m->sensor_reftype[i], s->m->sensor_refid[i])))
       s->rod_velocity_sensors.push_back(i);
+    if ((t == mjSENS_ACCELEROMETER || t == mjSENS_FRAMELINACC || t == mjSENS_FRAMEANGACC) &&
+        moving_rod_site(*s, s->m->sensor_objtype[i], s->m->sensor_objid[i]))
+      s->rod_acceleration_sensors.push_back(i);
   }
   setup_fluid(*s);  // fluid hook: may switch MuJoCo's own fluid off (scene_fluid.hpp)
   if (!s->rods.empty()) recompute_invweight0(*s);

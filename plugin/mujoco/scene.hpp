@@ -92,6 +92,8 @@ struct Scene {
   // is a rod site off a rigid section (set at load): MuJoCo moves such a site rigidly with its
   // section's proxy, so the step evaluates them again with the site's material velocity
   std::vector<int> rod_velocity_sensors;
+  // likewise the acceleration sensors (accelerometer, framelinacc, frameangacc) of such sites
+  std::vector<int> rod_acceleration_sensors;
   std::string path;
   // false when no two geoms of the model can ever touch (scene_may_collide, at load): the step then
   // skips MuJoCo's collision detection, whose broad phase otherwise costs a tenth of a step on a

@@ -1,10 +1,12 @@
 // MuJoCo's sensors on rod sites. A site inside a section rides on the deforming centre line, not
-// rigidly on the section's proxy body (placed at the section's end) as MuJoCo assumes: the
-// velocity sensors that read it must give the material point's own velocity, checked here against
-// central differences of the sites' positions and orientations.
+// rigidly on the section's proxy body (placed at the section's end) as MuJoCo assumes: the velocity
+// and acceleration sensors that read it must give the material point's own motion, checked here
+// against central differences of the sites' positions and orientations, and of their velocities.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -17,7 +19,9 @@ namespace {
 
 using Mat3 = Eigen::Matrix<double, 3, 3, Eigen::RowMajor>;
 
-Vec3 site_pos(const mjData* d, int id) { return Vec3(d->site_xpos[3 * id], d->site_xpos[3 * id + 1], d->site_xpos[3 * id + 2]); }
+Vec3 site_pos(const mjData* d, int id) {
+  return Vec3(d->site_xpos[3 * id], d->site_xpos[3 * id + 1], d->site_xpos[3 * id + 2]);
+}
 Mat3 site_mat(const mjData* d, int id) { return Eigen::Map<const Mat3>(d->site_xmat + 9 * id); }
 // the axial vector of the skew-symmetric part of W
 Vec3 vee(const Mat3& W) {
@@ -48,65 +52,148 @@ const char* kXml = R"(<mujoco><option gravity="0 0 -9.81"/><worldbody>
   </sensor>
 </mujoco>)";
 
+// The model with PCS sections (as written) or GVS sections of order 2.
+std::string with_sections(const std::string& xml, bool gvs) {
+  if (!gvs) return xml;
+  const size_t at = xml.find("strain=\"kl\"");
+  return xml.substr(0, at) + "order=\"2\" " + xml.substr(at);
+}
+
 TEST(Sensors, VelocitySensorsOnRodSitesReadTheMaterialPointsVelocity) {
-  auto s = load_scene_string(kXml, "/tmp/cosserat_sensor_test.xml");
-  const mjModel* m = s->m;
-  SceneData sd(*s);
-  mjData* d = sd.d;
-  ASSERT_EQ(m->nq, m->nv);
-  std::vector<double> q0(m->nq), v(m->nv);
-  for (int i = 0; i < m->nq; ++i) q0[i] = 0.6 * std::sin(1.7 * i + 0.3);
-  for (int i = 0; i < m->nv; ++i) v[i] = std::cos(2.3 * i + 0.5);
-  const int id_m = mj_name2id(m, mjOBJ_SITE, "m"), id_e = mj_name2id(m, mjOBJ_SITE, "e"),
-            id_r = mj_name2id(m, mjOBJ_SITE, "r"), id_h = mj_name2id(m, mjOBJ_SITE, "h");
-  struct Frames {
-    std::vector<Vec3> p;
-    std::vector<Mat3> R;
-  };
-  auto at = [&](double t) {
-    for (int i = 0; i < m->nq; ++i) d->qpos[i] = q0[i] + t * v[i];
-    for (int i = 0; i < m->nv; ++i) d->qvel[i] = v[i];
-    forward(*s, sd);
-    Frames f;
-    for (int id : {id_m, id_e, id_r, id_h}) {
-      f.p.push_back(site_pos(d, id));
-      f.R.push_back(site_mat(d, id));
+  for (bool gvs : {false, true}) {
+    SCOPED_TRACE(gvs ? "GVS order 2" : "PCS");
+    auto s = load_scene_string(with_sections(kXml, gvs), "/tmp/cosserat_sensor_test.xml");
+    const mjModel* m = s->m;
+    SceneData sd(*s);
+    mjData* d = sd.d;
+    ASSERT_EQ(m->nq, m->nv);
+    std::vector<double> q0(m->nq), v(m->nv);
+    for (int i = 0; i < m->nq; ++i) q0[i] = 0.6 * std::sin(1.7 * i + 0.3);
+    for (int i = 0; i < m->nv; ++i) v[i] = std::cos(2.3 * i + 0.5);
+    const int id_m = mj_name2id(m, mjOBJ_SITE, "m"), id_e = mj_name2id(m, mjOBJ_SITE, "e"),
+              id_r = mj_name2id(m, mjOBJ_SITE, "r"), id_h = mj_name2id(m, mjOBJ_SITE, "h");
+    struct Frames {
+      std::vector<Vec3> p;
+      std::vector<Mat3> R;
+    };
+    auto at = [&](double t) {
+      for (int i = 0; i < m->nq; ++i) d->qpos[i] = q0[i] + t * v[i];
+      for (int i = 0; i < m->nv; ++i) d->qvel[i] = v[i];
+      forward(*s, sd);
+      Frames f;
+      for (int id : {id_m, id_e, id_r, id_h}) {
+        f.p.push_back(site_pos(d, id));
+        f.R.push_back(site_mat(d, id));
+      }
+      return f;
+    };
+    const double eps = 1e-6;
+    const Frames fp = at(eps), fm = at(-eps), f0 = at(0.0);
+    std::vector<Vec3> vel,
+        ang;  // world-frame velocities of m, e, r, h from the differences
+    for (int k = 0; k < 4; ++k) {
+      vel.push_back((fp.p[k] - fm.p[k]) / (2 * eps));
+      ang.push_back(vee(((fp.R[k] - fm.R[k]) / (2 * eps)) * f0.R[k].transpose()));
     }
-    return f;
-  };
-  const double eps = 1e-6;
-  const Frames fp = at(eps), fm = at(-eps), f0 = at(0.0);
-  std::vector<Vec3> vel, ang;  // world-frame velocities of m, e, r, h from the differences
-  for (int k = 0; k < 4; ++k) {
-    vel.push_back((fp.p[k] - fm.p[k]) / (2 * eps));
-    ang.push_back(vee(((fp.R[k] - fm.R[k]) / (2 * eps)) * f0.R[k].transpose()));
+    const Mat3 Rr = f0.R[2];
+    // relative to r: d/dt R_r^T (p - p_r), and R_r^T (w - w_r)
+    auto rel_lin = [&](int k) {
+      return Vec3((fp.R[2].transpose() * (fp.p[k] - fp.p[2]) - fm.R[2].transpose() * (fm.p[k] - fm.p[2])) / (2 * eps));
+    };
+    const std::vector<std::pair<const char*, Vec3>> expected = {
+        {"m_lin", vel[0]},
+        {"m_ang", ang[0]},
+        {"m_vel", f0.R[0].transpose() * vel[0]},
+        {"m_gyro", f0.R[0].transpose() * ang[0]},
+        {"m_lin_r", rel_lin(0)},
+        {"m_ang_r", Rr.transpose() * (ang[0] - ang[2])},
+        {"h_lin_r", rel_lin(3)},
+        {"h_ang_r", Rr.transpose() * (ang[3] - ang[2])},
+        {"e_lin", vel[1]},
+    };
+    for (const auto& [name, want] : expected) {
+      const int adr = m->sensor_adr[mj_name2id(m, mjOBJ_SENSOR, name)];
+      const Vec3 got(d->sensordata[adr], d->sensordata[adr + 1], d->sensordata[adr + 2]);
+      EXPECT_GT(want.norm(), 1e-3) << name;
+      EXPECT_LT((got - want).norm(), 1e-7 * want.norm())
+          << name << ": " << got.transpose() << " against " << want.transpose();
+    }
+    // a cutoff clamps the material point's velocity (not MuJoCo's rigid guess)
+    const Vec3 want = f0.R[0].transpose() * vel[0];
+    const int adr = m->sensor_adr[mj_name2id(m, mjOBJ_SENSOR, "m_vel_cut")];
+    for (int e = 0; e < 3; ++e) EXPECT_NEAR(d->sensordata[adr + e], std::clamp(want(e), -0.05, 0.05), 1e-7) << e;
   }
-  const Mat3 Rr = f0.R[2];
-  // relative to r: d/dt R_r^T (p - p_r), and R_r^T (w - w_r)
-  auto rel_lin = [&](int k) {
-    return Vec3((fp.R[2].transpose() * (fp.p[k] - fp.p[2]) - fm.R[2].transpose() * (fm.p[k] - fm.p[2])) / (2 * eps));
-  };
-  const std::vector<std::pair<const char*, Vec3>> expected = {
-      {"m_lin", vel[0]},
-      {"m_ang", ang[0]},
-      {"m_vel", f0.R[0].transpose() * vel[0]},
-      {"m_gyro", f0.R[0].transpose() * ang[0]},
-      {"m_lin_r", rel_lin(0)},
-      {"m_ang_r", Rr.transpose() * (ang[0] - ang[2])},
-      {"h_lin_r", rel_lin(3)},
-      {"h_ang_r", Rr.transpose() * (ang[3] - ang[2])},
-      {"e_lin", vel[1]},
-  };
-  for (const auto& [name, want] : expected) {
-    const int adr = m->sensor_adr[mj_name2id(m, mjOBJ_SENSOR, name)];
-    const Vec3 got(d->sensordata[adr], d->sensordata[adr + 1], d->sensordata[adr + 2]);
-    EXPECT_GT(want.norm(), 1e-3) << name;
-    EXPECT_LT((got - want).norm(), 1e-7 * want.norm()) << name << ": " << got.transpose() << " against " << want.transpose();
+}
+
+// Acceleration sensors on rod sites (a in section 0, m in section 1, e at section 1's end): the
+// material point's acceleration, from central differences of its (checked) velocity sensors along
+// the motion (q, v) -> (q + t v, v + t qacc). MuJoCo's linear accelerations count gravity as an
+// upward acceleration (cacc of the world is -g).
+TEST(Sensors, AccelerationSensorsOnRodSitesReadTheMaterialPointsAcceleration) {
+  const char* xml = R"(<mujoco><option gravity="0 0 -9.81"/><worldbody>
+  <body name="hub" pos="0 0 1"><joint name="yaw" type="hinge" axis="0 0.3 1"/><geom type="sphere" size="0.02"/>
+    <cosserat name="arm" length="0.3" sections="3" strain="kl" radius="0.01" contype="0" conaffinity="0">
+      <site name="m" at="0.15" pos="0 0.006 0.002"/><site name="a" at="0.04" pos="0.001 -0.003 0.002"/>
+      <site name="e" at="0.2" pos="0 0.006 0.002"/>
+    </cosserat></body></worldbody>
+  <sensor>
+    <framelinvel name="m_lin" objtype="site" objname="m"/><frameangvel name="m_ang" objtype="site" objname="m"/>
+    <framelinvel name="a_lin" objtype="site" objname="a"/><frameangvel name="a_ang" objtype="site" objname="a"/>
+    <framelinvel name="e_lin" objtype="site" objname="e"/><frameangvel name="e_ang" objtype="site" objname="e"/>
+    <framelinacc name="m_linacc" objtype="site" objname="m"/><frameangacc name="m_angacc" objtype="site" objname="m"/>
+    <accelerometer name="m_acc" site="m"/>
+    <framelinacc name="a_linacc" objtype="site" objname="a"/><frameangacc name="a_angacc" objtype="site" objname="a"/>
+    <framelinacc name="e_linacc" objtype="site" objname="e"/><frameangacc name="e_angacc" objtype="site" objname="e"/>
+    <accelerometer name="m_acc_cut" site="m" cutoff="2"/>
+  </sensor>
+</mujoco>)";
+  for (bool gvs : {false, true}) {
+    SCOPED_TRACE(gvs ? "GVS order 2" : "PCS");
+    auto s = load_scene_string(with_sections(xml, gvs), "/tmp/cosserat_sensor_test.xml");
+    const mjModel* m = s->m;
+    SceneData sd(*s);
+    mjData* d = sd.d;
+    ASSERT_EQ(m->nq, m->nv);
+    std::vector<double> q0(m->nq), v0(m->nv);
+    for (int i = 0; i < m->nq; ++i) q0[i] = 0.6 * std::sin(1.7 * i + 0.3);
+    for (int i = 0; i < m->nv; ++i) v0[i] = std::cos(2.3 * i + 0.5);
+    auto set = [&](double t, const std::vector<double>& a) {
+      for (int i = 0; i < m->nq; ++i) d->qpos[i] = q0[i] + t * v0[i];
+      for (int i = 0; i < m->nv; ++i) d->qvel[i] = v0[i] + t * a[i];
+      forward(*s, sd);
+    };
+    auto sensor = [&](const char* name) {
+      const int adr = m->sensor_adr[mj_name2id(m, mjOBJ_SENSOR, name)];
+      return Vec3(d->sensordata[adr], d->sensordata[adr + 1], d->sensordata[adr + 2]);
+    };
+    set(0.0, std::vector<double>(m->nv, 0.0));
+    const std::vector<double> a0(d->qacc, d->qacc + m->nv);
+    const double eps = 1e-6;
+    std::map<std::string, Vec3> plus, minus;
+    const char* vel[] = {"m_lin", "m_ang", "a_lin", "a_ang", "e_lin", "e_ang"};
+    set(eps, a0);
+    for (const char* n : vel) plus[n] = sensor(n);
+    set(-eps, a0);
+    for (const char* n : vel) minus[n] = sensor(n);
+    set(0.0, a0);
+    auto rate = [&](const char* n) { return Vec3((plus[n] - minus[n]) / (2 * eps)); };
+    const Vec3 up(0, 0, 9.81);
+    const int id_m = mj_name2id(m, mjOBJ_SITE, "m");
+    const Mat3 Rm = site_mat(d, id_m);
+    const std::vector<std::pair<const char*, Vec3>> expected = {
+        {"m_linacc", rate("m_lin") + up}, {"m_angacc", rate("m_ang")}, {"m_acc", Rm.transpose() * (rate("m_lin") + up)},
+        {"a_linacc", rate("a_lin") + up}, {"a_angacc", rate("a_ang")}, {"e_linacc", rate("e_lin") + up},
+        {"e_angacc", rate("e_ang")},
+    };
+    for (const auto& [name, want] : expected) {
+      const Vec3 got = sensor(name);
+      EXPECT_GT(want.norm(), 1e-2) << name;
+      EXPECT_LT((got - want).norm(), 1e-6 * want.norm())
+          << name << ": " << got.transpose() << " against " << want.transpose();
+    }
+    const Vec3 want = Rm.transpose() * (rate("m_lin") + up), got = sensor("m_acc_cut");
+    for (int e = 0; e < 3; ++e) EXPECT_NEAR(got(e), std::clamp(want(e), -2.0, 2.0), 1e-6) << e;
   }
-  // a cutoff clamps the material point's velocity (not MuJoCo's rigid guess)
-  const Vec3 want = f0.R[0].transpose() * vel[0];
-  const int adr = m->sensor_adr[mj_name2id(m, mjOBJ_SENSOR, "m_vel_cut")];
-  for (int e = 0; e < 3; ++e) EXPECT_NEAR(d->sensordata[adr + e], std::clamp(want(e), -0.05, 0.05), 1e-7) << e;
 }
 
 }  // namespace
