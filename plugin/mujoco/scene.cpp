@@ -646,6 +646,7 @@ SceneData::SceneData(const Scene& s) {
     for (int j = first_ancestor_dof(s.m, s.rods[r].base_body); j >= 0; j = s.m->dof_parentid[j]) sc.anc.push_back(j);
     sc.C.resize(6, static_cast<int>(sc.anc.size()));
     sc.Kv.resize(s.rods[r].model.nv);
+    sc.tau.resize(s.rods[r].model.nv);
     const RodBinding& rb = s.rods[r];
     sc.site_center.assign(rb.site_id.size(), SE3());
     sc.site_J.assign(rb.site_id.size(), Mat6X());
@@ -873,6 +874,69 @@ void patch_acceleration_sensors(const Scene& s, SceneData& sd) {
   }
 }
 
+// MuJoCo's cfrc_int (mj_rnePostConstraint: the wrench each body's parent supplies to its subtree,
+// com-based) counts rigid bodies only; a rod's proxies are massless. Each rod adds the wrench that
+// moves it (its inverse dynamics at the step's qacc, its base accelerating by MuJoCo's cacc, which
+// counts gravity as an upward acceleration of the world) to its base body and every ancestor, and
+// the part of the rod from a section's end on to that section's proxy and helpers. Leaves the
+// rod's node wrenches (cosserat::Data::F) for the force sensors on rod sites.
+void patch_cfrc_int(const Scene& s, SceneData& sd) {
+  const mjModel* m = s.m;
+  mjData* d = sd.d;
+  auto add = [d](int body, const Vec6& W) {
+    for (int e = 0; e < 6; ++e) d->cfrc_int[6 * body + e] += W(e);
+  };
+  for (size_t r = 0; r < s.rods.size(); ++r) {
+    const RodBinding& rb = s.rods[r];
+    cosserat::Data& rd = sd.rod[r];
+    const mjtNum* c = d->subtree_com + 3 * m->body_rootid[rb.base_body];
+    const SE3 G = com_frame(rd.base_pose, c);
+    const Vec6 bias_accel = rd.base_accel;  // the bias pass's (qacc = 0): restored below
+    rd.base_accel = Ad_inv_apply(G, Eigen::Map<const Vec6>(d->cacc + 6 * rb.base_body));
+    cosserat::rnea(rb.model, rd, Eigen::Map<const VecX>(d->qacc + rb.dof0, rb.model.nv), false, false,
+                   sd.scratch[r].tau);
+    rd.base_accel = bias_accel;
+    const Vec6 W = coAd_apply(G, rd.f_base);
+    for (int b = rb.base_body; b > 0; b = m->body_parentid[b]) add(b, W);
+    for (size_t i = 0; i < rb.proxy_body.size(); ++i) {
+      const int k = rb.model.sections[i].end_node;
+      const Vec6 Wi = coAd_apply(com_frame(rd.g[k], c), rd.F[k]);
+      add(rb.proxy_body[i], Wi);
+      for (int h : rb.helper_body[i]) add(h, Wi);
+    }
+  }
+}
+
+// Scene::force_sensors again, as mj_sensorAcc computes them (cfrc_int of the site's body, to the
+// site's frame), from the patched cfrc_int. A site on a rod section reads the wrench transmitted
+// into the rod from its abscissa on (the nodes at or beyond it) instead of from the section's end,
+// plus what MuJoCo's bodies below add (tip bodies; contacts on the capsules of the site's section
+// and beyond).
+void patch_force_sensors(const Scene& s, SceneData& sd) {
+  const mjModel* m = s.m;
+  mjData* d = sd.d;
+  if (m->opt.disableflags & mjDSBL_SENSOR) return;
+  patch_cfrc_int(s, sd);
+  for (int i : s.force_sensors) {
+    const int site = m->sensor_objid[i], body = m->site_bodyid[site];
+    const mjtNum* c = d->subtree_com + 3 * m->body_rootid[body];
+    Vec6 cf = Eigen::Map<const Vec6>(d->cfrc_int + 6 * body);
+    if (const int r = s.site_rod[site]; r >= 0 && body != s.rods[r].base_body) {
+      const RodBinding& rb = s.rods[r];
+      const cosserat::Data& rd = sd.rod[r];
+      const int k = rb.model.rod_node_at(0, rb.decl.sites[s.site_index[site]].X);
+      const int k_end = rb.model.sections[s.site_section[site]].end_node;
+      cf += coAd_apply(com_frame(rd.g[k], c), rd.F[k]) - coAd_apply(com_frame(rd.g[k_end], c), rd.F[k_end]);
+    }
+    mjtNum tmp[6];
+    mju_transformSpatial(tmp, cf.data(), 1, d->site_xpos + 3 * site, c, d->site_xmat + 9 * site);
+    mjtNum* out = d->sensordata + m->sensor_adr[i];
+    mju_copy3(out, m->sensor_type[i] == mjSENS_FORCE ? tmp + 3 : tmp);
+    if (const mjtNum cut = m->sensor_cutoff[i]; cut > 0)
+      for (int e = 0; e < 3; ++e) out[e] = std::clamp(out[e], -cut, cut);
+  }
+}
+
 }  // namespace
 
 void forward(const Scene& s, SceneData& sd, Need need) {
@@ -894,6 +958,7 @@ void forward(const Scene& s, SceneData& sd, Need need) {
   mj_fwdConstraint(m, d);
   mj_sensorAcc(m, d);
   if (!s.rod_acceleration_sensors.empty()) patch_acceleration_sensors(s, sd);
+  if (!s.force_sensors.empty()) patch_force_sensors(s, sd);
 }
 
 // --------------------------------------------------------------------------- load / reset --
@@ -1138,6 +1203,7 @@ std::unique_ptr<Scene> compile(const Preprocessed& pre) {
     if ((t == mjSENS_ACCELEROMETER || t == mjSENS_FRAMELINACC || t == mjSENS_FRAMEANGACC) &&
         moving_rod_site(*s, s->m->sensor_objtype[i], s->m->sensor_objid[i]))
       s->rod_acceleration_sensors.push_back(i);
+    if ((t == mjSENS_FORCE || t == mjSENS_TORQUE) && !s->rods.empty()) s->force_sensors.push_back(i);
   }
   setup_fluid(*s);  // fluid hook: may switch MuJoCo's own fluid off (scene_fluid.hpp)
   if (!s->rods.empty()) recompute_invweight0(*s);

@@ -94,6 +94,10 @@ struct Scene {
   std::vector<int> rod_velocity_sensors;
   // likewise the acceleration sensors (accelerometer, framelinacc, frameangacc) of such sites
   std::vector<int> rod_acceleration_sensors;
+  // force and torque sensors, when the model has rods: MuJoCo's cfrc_int counts rigid bodies only
+  // (the rods' mass lives in their solver), so the step adds each rod's inverse dynamics to it and
+  // evaluates these sensors again
+  std::vector<int> force_sensors;
   std::string path;
   // false when no two geoms of the model can ever touch (scene_may_collide, at load): the step then
   // skips MuJoCo's collision detection, whose broad phase otherwise costs a tenth of a step on a
@@ -203,6 +207,7 @@ struct SceneData {
     std::vector<int> anc;  // MuJoCo dofs above the rod's base, nearest first
     Mat6X C;               // their base-frame columns (6 x anc.size())
     VecX Kv;
+    VecX tau;  // scratch of the rod's inverse dynamics for cfrc_int (nv)
     // per site k with RodBinding::site_point[k] == k: the centre-line pose at its abscissa, the
     // section Jacobian there and the pose relative to the section start (cosserat::section_jacobian's
     // J and g_start_X), from this evaluation's kinematics

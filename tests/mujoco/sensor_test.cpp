@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "scene.hpp"
+#include "scene_statics.hpp"
 
 using namespace cosserat;
 using namespace cosserat::mj;
@@ -193,6 +194,91 @@ TEST(Sensors, AccelerationSensorsOnRodSitesReadTheMaterialPointsAcceleration) {
     }
     const Vec3 want = Rm.transpose() * (rate("m_lin") + up), got = sensor("m_acc_cut");
     for (int e = 0; e < 3; ++e) EXPECT_NEAR(got(e), std::clamp(want(e), -2.0, 2.0), 1e-6) << e;
+  }
+}
+
+// Force and torque sensors count the rods' mass (MuJoCo's cfrc_int counts rigid bodies only; the
+// rods' proxies are massless). A rod of rigid sections on a hinged hub against the native body with
+// its inertia: the sensors at the hub and at the rod's base agree at a moving state.
+TEST(Sensors, ForceAndTorqueSensorsAboveARigidRodMatchTheNativeBody) {
+  const double m = 1000.0 * M_PI * 0.01 * 0.01 * 0.3;
+  const double ixx = 0.5 * m * 1e-4, iyy = 0.25 * m * 1e-4 + m * 0.09 / 12.0;
+  const std::string head = R"(<mujoco><option gravity="0 0 -9.81"/><worldbody>
+    <body name="hub" pos="0 0 1"><joint name="j" type="hinge" axis="0.3 1 0"/>
+      <inertial pos="0 0 0" mass="0.05" diaginertia="1e-5 1e-5 1e-5"/><site name="ft" pos="0.01 0 0.005" euler="0 30 0"/>)";
+  const std::string tail = R"(</body></worldbody>
+    <sensor><force site="ft"/><torque site="ft"/><force site="rb"/><torque site="rb"/></sensor></mujoco>)";
+  const std::string rod = R"(<cosserat name="rod" pos="0.02 0 0" length="0.3" sections="3" strain="rigid" radius="0.01" density="1000">
+      </cosserat><site name="rb" pos="0.02 0 0"/>)";
+  char native[512];
+  std::snprintf(native, sizeof native,
+                R"(<body name="rod" pos="0.02 0 0"><inertial pos="0.15 0 0" mass="%.17g" diaginertia="%.17g %.17g %.17g"/></body>
+      <site name="rb" pos="0.02 0 0"/>)",
+                m, ixx, iyy, iyy);
+  auto sr = load_scene_string(head + rod + tail, "/tmp/cosserat_sensor_test.xml");
+  auto sn = load_scene_string(head + native + tail, "/tmp/cosserat_sensor_test.xml");
+  SceneData dr(*sr), dn(*sn);
+  for (SceneData* sd : {&dr, &dn}) {
+    sd->d->qpos[0] = 0.7;
+    sd->d->qvel[0] = 2.0;
+  }
+  forward(*sr, dr);
+  forward(*sn, dn);
+  ASSERT_EQ(sr->m->nsensordata, 12);
+  double scale = 0.0;
+  for (int i = 0; i < 12; ++i) scale = std::max(scale, std::abs(dn.d->sensordata[i]));
+  EXPECT_GT(scale, 0.3);  // the rod's weight and swing: about 1 N
+  for (int i = 0; i < 12; ++i) EXPECT_NEAR(dr.d->sensordata[i], dn.d->sensordata[i], 1e-9 * scale) << i;
+}
+
+// A soft rod hanging at rest (static equilibrium) with a tip weight: a force sensor reads the
+// weight of everything beyond it, a torque sensor its moment about the site (node masses on the
+// centre line, the tip body at its centre of mass), at the hub, at the rod's base, at a section
+// boundary and inside a section.
+TEST(Sensors, ForceAndTorqueSensorsOnAHangingSoftRodReadTheWeightBeyondThem) {
+  const char* xml = R"(<mujoco><option gravity="0 0 -9.81"/><worldbody>
+  <body name="hub" pos="0 0 1"><geom type="sphere" size="0.02" mass="0.2" contype="0" conaffinity="0"/>
+    <site name="hub_s" pos="0.005 0 0"/>
+    <cosserat name="arm" pos="0.02 0 0" length="0.3" sections="3" strain="kl" radius="0.01" density="1000" young="2e6"
+              contype="0" conaffinity="0">
+      <site name="x0" at="0"/><site name="x10" at="0.1" pos="0 0.003 0.004"/><site name="x15" at="0.15"/>
+      <body name="weight"><geom type="sphere" pos="0.01 0 0" size="0.01" mass="0.03" contype="0" conaffinity="0"/></body>
+    </cosserat></body></worldbody>
+  <sensor><force site="hub_s"/><torque site="hub_s"/><force site="x0"/><torque site="x0"/>
+    <force site="x10"/><torque site="x10"/><force site="x15"/><torque site="x15"/></sensor>
+</mujoco>)";
+  auto s = load_scene_string(xml, "/tmp/cosserat_sensor_test.xml");
+  const mjModel* m = s->m;
+  SceneData sd(*s);
+  ASSERT_TRUE(equilibrium(*s, sd).converged);
+  forward(*s, sd);
+  const mjData* d = sd.d;
+  const RodBinding& rb = s->rods[0];
+  const cosserat::Data& rd = sd.rod[0];
+  const Vec3 up(0, 0, 9.81);
+  const int weight = mj_name2id(m, mjOBJ_BODY, "weight");
+  const Vec3 weight_com(d->xipos[3 * weight], d->xipos[3 * weight + 1], d->xipos[3 * weight + 2]);
+  // (name, abscissa from which the rod counts; -1: all of it, and the hub's own mass too)
+  const std::vector<std::pair<const char*, double>> sites = {{"hub_s", -1}, {"x0", 0.0}, {"x10", 0.1}, {"x15", 0.15}};
+  int adr = 0;
+  for (const auto& [name, X] : sites) {
+    const int id = mj_name2id(m, mjOBJ_SITE, name);
+    const Vec3 p = site_pos(d, id);
+    Vec3 f = m->body_mass[weight] * up, tau = (weight_com - p).cross(m->body_mass[weight] * up);
+    for (size_t k = 0; k < rb.model.nodes.size(); ++k) {
+      const cosserat::Node& n = rb.model.nodes[k];
+      if (n.X < X) continue;
+      const double mk = n.inertia(3, 3);
+      f += mk * up;
+      tau += (rd.g[k].u - p).cross(mk * up);
+    }
+    if (X < 0) f += 0.2 * up;  // the hub's sphere, centred at the hub's origin
+    if (X < 0) tau += (Vec3(0, 0, 1) - p).cross(0.2 * up);
+    const Mat3 R = site_mat(d, id);
+    const Vec3 f_got(d->sensordata + adr), tau_got(d->sensordata + adr + 3);
+    adr += 6;
+    EXPECT_LT((f_got - R.transpose() * f).norm(), 1e-6 * f.norm()) << name << ": " << f_got.transpose();
+    EXPECT_LT((tau_got - R.transpose() * tau).norm(), 1e-6 * f.norm() * 0.3) << name << ": " << tau_got.transpose();
   }
 }
 
