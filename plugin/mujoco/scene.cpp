@@ -412,6 +412,60 @@ int site_correction(const Scene& s, const SceneData& sd, int site, const Vec3& p
                  : point_correction(s, sd, r, s.site_section[site], s.rods[r].decl.sites[k].X, p, dJ);
 }
 
+// A rod site whose material point MuJoCo does not move correctly (rigidly with its section's proxy:
+// right only on rigid sections, whose sites RodBinding::site_fixed holds).
+bool moving_rod_site(const Scene& s, int type, int id) {
+  return type == mjOBJ_SITE && id >= 0 && s.site_rod[id] >= 0 && !s.rods[s.site_rod[id]].site_fixed[s.site_index[id]].fixed;
+}
+
+// Actuator moment arms through rod sites (Scene::rod_site_actuators), MuJoCo's mj_transmission with
+// the true site Jacobians: moment += gear^T (the actuator's wrench or length gradient) times the
+// sites' point_correction (the section's dofs only).
+//   site:         moment = J^T [R gear_force; R gear_torque] at the site (J: translation, rotation)
+//   slider-crank: length = a.v - sqrt((a.v)^2 + r^2 - v.v), v = crank - slider, a the slider's z
+//                 axis; dlength = dldv . (dp_crank - dp_slider) + dlda . (w_slider x a)
+void patch_site_transmissions(const Scene& s, SceneData& sd) {
+  const mjModel* m = s.m;
+  mjData* d = sd.d;
+  thread_local Mat6X dJ;  // scratch: no heap memory once sized
+  auto add = [&](int i, int site, const Vec3& f_lin, const Vec3& f_rot) {  // moment += f . dJ
+    if (!moving_rod_site(s, mjOBJ_SITE, site)) return;
+    const mjtNum* p = d->site_xpos + 3 * site;
+    const int col0 = site_correction(s, sd, site, Vec3(p[0], p[1], p[2]), dJ);
+    for (int c = 0; c < dJ.cols(); ++c)
+      d->actuator_moment[i * m->nv + col0 + c] += f_lin.dot(dJ.col(c).head<3>()) + f_rot.dot(dJ.col(c).tail<3>());
+  };
+  for (int i : s.rod_site_actuators) {
+    const mjtNum* gear = m->actuator_gear + 6 * i;
+    const int id = m->actuator_trnid[2 * i];
+    if (m->actuator_trntype[i] == mjTRN_SITE) {
+      Eigen::Map<const Mat3r> R(d->site_xmat + 9 * id);
+      add(i, id, R * Vec3(gear[0], gear[1], gear[2]), R * Vec3(gear[3], gear[4], gear[5]));
+      continue;
+    }
+    // slider-crank: trnid = (crank site, slider site)
+    const int slider = m->actuator_trnid[2 * i + 1];
+    const Vec3 a(d->site_xmat[9 * slider + 2], d->site_xmat[9 * slider + 5], d->site_xmat[9 * slider + 8]);
+    const Vec3 v = Vec3(d->site_xpos[3 * id], d->site_xpos[3 * id + 1], d->site_xpos[3 * id + 2]) -
+                   Vec3(d->site_xpos[3 * slider], d->site_xpos[3 * slider + 1], d->site_xpos[3 * slider + 2]);
+    const double r = m->actuator_cranklength[i], av = a.dot(v);
+    double det = av * av + r * r - v.dot(v);
+    Vec3 dlda, dldv;
+    if (det <= 0) {  // degenerate: MuJoCo's length is a.v
+      dlda = v;
+      dldv = a;
+    } else {
+      det = std::sqrt(det);
+      const double factor = 1 - av / det;
+      dlda = factor * v;
+      dldv = factor * a + v / det;
+    }
+    add(i, id, gear[0] * dldv, Vec3::Zero());
+    // d a / dq = w x a: dlda . (w x a) = (a x dlda) . w
+    add(i, slider, -gear[0] * dldv, gear[0] * a.cross(dlda));
+  }
+}
+
 // Add `val` at (row, col) of efc_J, dense or sparse (the column is in the row's pattern: the
 // section's dofs are in the chain of the contact's body). A sparse efc_J has a transposed copy,
 // efc_JT, made by mj_makeConstraint and used by the solvers (the Newton Hessian): patch it too.
@@ -716,6 +770,7 @@ void fwd_position(const Scene& s, SceneData& sd, Need need) {
   mj_makeConstraint(m, d);
   if (d->ncon && !s.rods.empty()) patch_contacts(s, sd);
   mj_transmission(m, d);
+  if (!s.rod_site_actuators.empty()) patch_site_transmissions(s, sd);
   sd.forces_only = need == Need::Forces && d->nefc == 0 && !has_acceleration_sensors(m);
   if (sd.forces_only) return;
   mj_factorM(m, d);
@@ -740,12 +795,6 @@ void fwd_velocity(const Scene& s, SceneData& sd) {
 }
 
 namespace {
-
-// A rod site whose material point MuJoCo does not move correctly (rigidly with its section's proxy:
-// right only on rigid sections, whose sites RodBinding::site_fixed holds).
-bool moving_rod_site(const Scene& s, int type, int id) {
-  return type == mjOBJ_SITE && id >= 0 && s.site_rod[id] >= 0 && !s.rods[s.site_rod[id]].site_fixed[s.site_index[id]].fixed;
-}
 
 // World-frame velocity of an object's frame in MuJoCo's layout (angular, linear): mj_objectVelocity,
 // plus, for a rod site, the difference between its material point's velocity and MuJoCo's.
@@ -1204,6 +1253,13 @@ std::unique_ptr<Scene> compile(const Preprocessed& pre) {
         moving_rod_site(*s, s->m->sensor_objtype[i], s->m->sensor_objid[i]))
       s->rod_acceleration_sensors.push_back(i);
     if ((t == mjSENS_FORCE || t == mjSENS_TORQUE) && !s->rods.empty()) s->force_sensors.push_back(i);
+  }
+  for (int i = 0; i < s->m->nu; ++i) {
+    const int t = s->m->actuator_trntype[i];
+    if ((t == mjTRN_SITE && moving_rod_site(*s, mjOBJ_SITE, s->m->actuator_trnid[2 * i])) ||
+        (t == mjTRN_SLIDERCRANK && (moving_rod_site(*s, mjOBJ_SITE, s->m->actuator_trnid[2 * i]) ||
+                                    moving_rod_site(*s, mjOBJ_SITE, s->m->actuator_trnid[2 * i + 1]))))
+      s->rod_site_actuators.push_back(i);
   }
   setup_fluid(*s);  // fluid hook: may switch MuJoCo's own fluid off (scene_fluid.hpp)
   if (!s->rods.empty()) recompute_invweight0(*s);

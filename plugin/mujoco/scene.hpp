@@ -98,6 +98,10 @@ struct Scene {
   // (the rods' mass lives in their solver), so the step adds each rod's inverse dynamics to it and
   // evaluates these sensors again
   std::vector<int> force_sensors;
+  // actuators with a site (or slider-crank) transmission through a rod site off a rigid section (set
+  // at load): MuJoCo's moment arms move that site rigidly with its section's proxy, the step
+  // corrects them to the material point's Jacobian
+  std::vector<int> rod_site_actuators;
   std::string path;
   // false when no two geoms of the model can ever touch (scene_may_collide, at load): the step then
   // skips MuJoCo's collision detection, whose broad phase otherwise costs a tenth of a step on a

@@ -1,0 +1,98 @@
+// Actuator transmissions through rod sites: MuJoCo computes a site's moment arm as if the site were
+// rigid with its section's proxy (placed at the section's end); the coupling corrects it to the
+// material point's Jacobian. Checked against central differences of the sites' motion.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include "scene.hpp"
+
+using namespace cosserat;
+using namespace cosserat::mj;
+
+namespace {
+
+using Mat3 = Eigen::Matrix<double, 3, 3, Eigen::RowMajor>;
+
+// A hinged hub with a bent, moving rod; sites inside sections (m, s) and on the hub (h).
+std::string arm(const std::string& sites_on_hub, const std::string& actuators) {
+  return R"(<mujoco><option gravity="0 0 -9.81"/><worldbody>
+    <body name="hub" pos="0 0 1"><joint name="yaw" type="hinge" axis="0 0.3 1"/><geom type="sphere" size="0.02"/>)" +
+         sites_on_hub + R"(
+      <cosserat name="arm" length="0.3" sections="3" strain="kl" radius="0.01">
+        <site name="m" at="0.15" pos="0 0.006 0.002"/><site name="s" at="0.25" pos="0.001 -0.004 0.003"/>
+      </cosserat></body></worldbody><actuator>)" +
+         actuators + "</actuator></mujoco>";
+}
+
+// The state q0 + t v (hinges and strains: qpos moves linearly with qvel), evaluated.
+struct Motion {
+  std::unique_ptr<Scene> s;
+  std::unique_ptr<SceneData> sd;
+  std::vector<double> q0, v;
+  explicit Motion(const std::string& xml) : s(load_scene_string(xml, "/tmp/cosserat_transmission_test.xml")) {
+    sd = std::make_unique<SceneData>(*s);
+    const mjModel* m = s->m;
+    EXPECT_EQ(m->nq, m->nv);
+    q0.resize(m->nq);
+    v.resize(m->nv);
+    for (int i = 0; i < m->nq; ++i) q0[i] = 0.6 * std::sin(1.7 * i + 0.3);
+    for (int i = 0; i < m->nv; ++i) v[i] = std::cos(2.3 * i + 0.5);
+  }
+  const mjData* at(double t) {
+    for (int i = 0; i < s->m->nq; ++i) sd->d->qpos[i] = q0[i] + t * v[i];
+    forward(*s, *sd);
+    return sd->d;
+  }
+  double moment_times_v(int actuator) const {
+    double mv = 0.0;
+    for (int i = 0; i < s->m->nv; ++i) mv += sd->d->actuator_moment[actuator * s->m->nv + i] * v[i];
+    return mv;
+  }
+};
+
+// A site transmission applies the force R gear[0:3] and torque R gear[3:6] at the site (R its
+// frame): its moment arm times v is their virtual power at the site's velocity and spin.
+TEST(Transmission, SiteActuatorOnARodSiteHasTheMaterialPointsMomentArm) {
+  Motion mo(arm("", R"(<motor site="m" gear="0.3 -0.5 1 0.02 0.01 -0.03"/>)"));
+  const int id = mj_name2id(mo.s->m, mjOBJ_SITE, "m");
+  const double eps = 1e-6;
+  auto pose = [&](double t) {
+    const mjData* d = mo.at(t);
+    return std::make_pair(Vec3(d->site_xpos + 3 * id), Mat3(Eigen::Map<const Mat3>(d->site_xmat + 9 * id)));
+  };
+  const auto [pp, Rp] = pose(eps);
+  const auto [pm, Rm] = pose(-eps);
+  const auto [p0, R0] = pose(0.0);
+  const Vec3 vel = (pp - pm) / (2 * eps);
+  const Mat3 W = ((Rp - Rm) / (2 * eps)) * R0.transpose();
+  const Vec3 w(0.5 * (W(2, 1) - W(1, 2)), 0.5 * (W(0, 2) - W(2, 0)), 0.5 * (W(1, 0) - W(0, 1)));
+  const Vec3 f = R0 * Vec3(0.3, -0.5, 1), tau = R0 * Vec3(0.02, 0.01, -0.03);
+  const double power = f.dot(vel) + tau.dot(w);
+  EXPECT_GT(std::abs(power), 1e-2);
+  EXPECT_NEAR(mo.moment_times_v(0), power, 1e-7 * std::abs(power));
+}
+
+// A slider-crank's moment arm is the derivative of its length: crank and slider sites on the rod,
+// and a crank on the rod with the slider on the hub.
+TEST(Transmission, SliderCrankThroughRodSitesHasItsLengthsDerivative) {
+  Motion mo(arm(R"(<site name="h" pos="0.01 0.02 0.03" euler="10 20 30"/>)",
+                R"(<motor cranksite="m" slidersite="s" cranklength="0.2" gear="2.5"/>
+                   <motor cranksite="s" slidersite="h" cranklength="0.3" gear="1.5"/>)"));
+  const double eps = 1e-6;
+  std::vector<double> lp, lm;
+  const mjData* d = mo.at(eps);
+  lp.assign(d->actuator_length, d->actuator_length + 2);
+  d = mo.at(-eps);
+  lm.assign(d->actuator_length, d->actuator_length + 2);
+  mo.at(0.0);
+  for (int a = 0; a < 2; ++a) {
+    const double rate = (lp[a] - lm[a]) / (2 * eps);
+    EXPECT_GT(std::abs(rate), 1e-3) << a;
+    EXPECT_NEAR(mo.moment_times_v(a), rate, 1e-6 * std::abs(rate)) << a;
+  }
+}
+
+}  // namespace
