@@ -986,6 +986,64 @@ void patch_force_sensors(const Scene& s, SceneData& sd) {
   }
 }
 
+// Body b's subtree with the rods hanging in it (their mass lives in the solver): its mass, centre of
+// mass and, with `velocities`, the linear velocity of that centre and the angular momentum about
+// it, from MuJoCo's rigid-body subtree quantities and the rods' own (cosserat::center_of_mass,
+// cosserat::momentum: about the world origin, world axes).
+struct Subtree {
+  double mass = 0.0;
+  Vec3 com, linvel, angmom;
+};
+Subtree subtree_with_rods(const Scene& s, const SceneData& sd, int b, bool velocities) {
+  const mjModel* m = s.m;
+  const mjData* d = sd.d;
+  const double M0 = m->body_subtreemass[b];
+  const Vec3 c0(d->subtree_com[3 * b], d->subtree_com[3 * b + 1], d->subtree_com[3 * b + 2]);
+  Subtree st;
+  st.mass = M0;
+  Vec3 mc = M0 * c0;
+  for (size_t r = 0; r < s.rods.size(); ++r)
+    if (is_descendant(m, s.rods[r].base_body, b)) {
+      double mr = 0.0;
+      const Vec3 cr = cosserat::center_of_mass(s.rods[r].model, sd.rod[r], &mr);
+      st.mass += mr;
+      mc += mr * cr;
+    }
+  st.com = st.mass > 0 ? Vec3(mc / st.mass) : c0;
+  if (!velocities) return st;
+  const Vec3 v0(d->subtree_linvel[3 * b], d->subtree_linvel[3 * b + 1], d->subtree_linvel[3 * b + 2]);
+  Vec3 P = M0 * v0;
+  Vec3 L = Vec3(d->subtree_angmom[3 * b], d->subtree_angmom[3 * b + 1], d->subtree_angmom[3 * b + 2]) +
+           (c0 - st.com).cross(P);
+  for (size_t r = 0; r < s.rods.size(); ++r)
+    if (is_descendant(m, s.rods[r].base_body, b)) {
+      const Vec6 h = cosserat::momentum(s.rods[r].model, sd.rod[r]);
+      P += h.tail<3>();
+      L += h.head<3>() - st.com.cross(h.tail<3>());
+    }
+  st.linvel = st.mass > 0 ? Vec3(P / st.mass) : v0;
+  st.angmom = L;
+  return st;
+}
+
+// Scene::subtree_sensors of the stage just computed (mjSTAGE_POS: subtreecom; mjSTAGE_VEL:
+// subtreelinvel, subtreeangmom) again, with the rods, then MuJoCo's cutoff.
+void patch_subtree_sensors(const Scene& s, SceneData& sd, int stage) {
+  const mjModel* m = s.m;
+  mjData* d = sd.d;
+  if (m->opt.disableflags & mjDSBL_SENSOR) return;
+  for (int i : s.subtree_sensors) {
+    if (m->sensor_needstage[i] != stage) continue;
+    const int type = m->sensor_type[i];
+    const Subtree st = subtree_with_rods(s, sd, m->sensor_objid[i], stage == mjSTAGE_VEL);
+    const Vec3& v = type == mjSENS_SUBTREECOM ? st.com : type == mjSENS_SUBTREELINVEL ? st.linvel : st.angmom;
+    mjtNum* out = d->sensordata + m->sensor_adr[i];
+    for (int e = 0; e < 3; ++e) out[e] = v(e);
+    if (const mjtNum cut = m->sensor_cutoff[i]; cut > 0)
+      for (int e = 0; e < 3; ++e) out[e] = std::clamp(out[e], -cut, cut);
+  }
+}
+
 }  // namespace
 
 void forward(const Scene& s, SceneData& sd, Need need) {
@@ -993,9 +1051,11 @@ void forward(const Scene& s, SceneData& sd, Need need) {
   mjData* d = sd.d;
   fwd_position(s, sd, need);
   mj_sensorPos(m, d);
+  if (!s.subtree_sensors.empty()) patch_subtree_sensors(s, sd, mjSTAGE_POS);
   fwd_velocity(s, sd);
   mj_sensorVel(m, d);
   if (!s.rod_velocity_sensors.empty()) patch_velocity_sensors(s, sd);
+  if (!s.subtree_sensors.empty()) patch_subtree_sensors(s, sd, mjSTAGE_VEL);
   mj_fwdActuation(m, d);
   if (sd.forces_only) {  // no constraints, no acceleration sensors: the forces are all the step needs
     smooth_forces(m, d);
@@ -1253,6 +1313,12 @@ std::unique_ptr<Scene> compile(const Preprocessed& pre) {
         moving_rod_site(*s, s->m->sensor_objtype[i], s->m->sensor_objid[i]))
       s->rod_acceleration_sensors.push_back(i);
     if ((t == mjSENS_FORCE || t == mjSENS_TORQUE) && !s->rods.empty()) s->force_sensors.push_back(i);
+    if (t == mjSENS_SUBTREECOM || t == mjSENS_SUBTREELINVEL || t == mjSENS_SUBTREEANGMOM)
+      for (const RodBinding& rb : s->rods)
+        if (is_descendant(s->m, rb.base_body, s->m->sensor_objid[i])) {
+          s->subtree_sensors.push_back(i);
+          break;
+        }
   }
   for (int i = 0; i < s->m->nu; ++i) {
     const int t = s->m->actuator_trntype[i];

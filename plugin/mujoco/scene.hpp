@@ -98,6 +98,10 @@ struct Scene {
   // (the rods' mass lives in their solver), so the step adds each rod's inverse dynamics to it and
   // evaluates these sensors again
   std::vector<int> force_sensors;
+  // subtreecom, subtreelinvel and subtreeangmom sensors of bodies with a rod in their subtree:
+  // MuJoCo's subtree quantities count rigid bodies only, the step adds the rods to these sensors
+  // (MuJoCo's own d->subtree_* arrays keep the rigid bodies: they are its com-based reference)
+  std::vector<int> subtree_sensors;
   // actuators with a site (or slider-crank) transmission through a rod site off a rigid section (set
   // at load): MuJoCo's moment arms move that site rigidly with its section's proxy, the step
   // corrects them to the material point's Jacobian

@@ -282,4 +282,42 @@ TEST(Sensors, ForceAndTorqueSensorsOnAHangingSoftRodReadTheWeightBeyondThem) {
   }
 }
 
+// Subtree sensors count the rods' mass: a rigid rod (with a weight at its tip) on a free hub against
+// the native body with its inertia, at a moving state, for the hub's and the world's subtrees.
+TEST(Sensors, SubtreeSensorsCountTheRodLikeTheNativeBody) {
+  const double m = 1000.0 * M_PI * 0.01 * 0.01 * 0.3;
+  const double ixx = 0.5 * m * 1e-4, iyy = 0.25 * m * 1e-4 + m * 0.09 / 12.0;
+  const std::string head = R"(<mujoco><option gravity="0 0 -9.81"/><worldbody>
+    <body name="hub" pos="0 0 1"><freejoint/><inertial pos="0.01 0 0" mass="0.05" diaginertia="1e-5 2e-5 3e-5"/>)";
+  const std::string tip = R"(<body name="weight"><geom type="sphere" pos="0.01 0 0" size="0.01" mass="0.03"/></body>)";
+  const std::string tail = R"(</body></worldbody><sensor>
+    <subtreecom body="hub"/><subtreelinvel body="hub"/><subtreeangmom body="hub"/>
+    <subtreecom body="world"/><subtreelinvel body="world"/><subtreeangmom body="world"/>
+    <subtreeangmom body="weight"/></sensor></mujoco>)";
+  const std::string rod =
+      R"(<cosserat name="rod" pos="0.02 0 0" length="0.3" sections="3" strain="rigid" radius="0.01" density="1000">)" + tip +
+      "</cosserat>";
+  char native[512];
+  std::snprintf(native, sizeof native,
+                R"(<body name="rod" pos="0.02 0 0"><inertial pos="0.15 0 0" mass="%.17g" diaginertia="%.17g %.17g %.17g"/>
+      <body name="tipframe" pos="0.3 0 0">%s</body></body>)",
+                m, ixx, iyy, iyy, tip.c_str());
+  auto sr = load_scene_string(head + rod + tail, "/tmp/cosserat_sensor_test.xml");
+  auto sn = load_scene_string(head + native + tail, "/tmp/cosserat_sensor_test.xml");
+  SceneData dr(*sr), dn(*sn);
+  const double qvel[6] = {0.1, -0.2, 0.3, 1.0, 2.0, -0.5};
+  for (SceneData* sd : {&dr, &dn}) {
+    sd->d->qpos[3] = std::cos(0.3);
+    sd->d->qpos[5] = std::sin(0.3);
+    for (int i = 0; i < 6; ++i) sd->d->qvel[i] = qvel[i];
+  }
+  forward(*sr, dr);
+  forward(*sn, dn);
+  ASSERT_EQ(sr->m->nsensordata, 21);
+  for (int i = 0; i < 21; ++i) {
+    const double ref = dn.d->sensordata[i];
+    EXPECT_NEAR(dr.d->sensordata[i], ref, 1e-9 * std::max(1.0, std::abs(ref))) << i;
+  }
+}
+
 }  // namespace
