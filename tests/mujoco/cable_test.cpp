@@ -11,6 +11,7 @@
 #include "kinematics.hpp"
 #include "scene.hpp"
 #include "statics.hpp"
+#include "support/bent_motion.hpp"
 
 using namespace cosserat;
 using namespace cosserat::mj;
@@ -85,18 +86,15 @@ TEST(Cable, TendonThroughSitesConvergesToContinuousCable) {
 }
 
 // Every tendon's Jacobian row (ten_J, with the coupling's correction for sites that ride on rod
-// cross-sections between the proxies) against a central difference of its length along a velocity
-// v, at the bent state q0 (qpos = qvel coordinates: hinges and strains): every dof's column is
-// right. Leaves the scene evaluated at q0.
+// cross-sections between the proxies) against a central difference of its length along the
+// velocity of cosserat::testing::BentMotion: every dof's column is right. Leaves the scene evaluated there.
 void expect_tendon_rows_match_length_differences(const Scene& s, SceneData& sd) {
   const mjModel* m = s.m;
   ASSERT_EQ(m->nq, m->nv);  // hinges and strains: qpos moves linearly with qvel
-  std::vector<double> q0(m->nq), v(m->nv);
-  for (int i = 0; i < m->nq; ++i) q0[i] = 0.6 * std::sin(1.7 * i + 0.3);
-  for (int i = 0; i < m->nv; ++i) v[i] = std::cos(2.3 * i + 0.5);
+  const cosserat::testing::BentMotion motion(m);
+  const std::vector<double>& v = motion.v;
   auto lengths_at = [&](double t) {
-    for (int i = 0; i < m->nq; ++i) sd.d->qpos[i] = q0[i] + t * v[i];
-    forward(s, sd);
+    motion.at(s, sd, t);
     return std::vector<double>(sd.d->ten_length, sd.d->ten_length + m->ntendon);
   };
   const double eps = 1e-6;

@@ -6,12 +6,14 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <map>
 #include <string>
 #include <vector>
 
 #include "scene.hpp"
 #include "scene_statics.hpp"
+#include "support/bent_motion.hpp"
 
 using namespace cosserat;
 using namespace cosserat::mj;
@@ -53,24 +55,26 @@ const char* kXml = R"(<mujoco><option gravity="0 0 -9.81"/><worldbody>
   </sensor>
 </mujoco>)";
 
-// The model with PCS sections (as written) or GVS sections of order 2.
-std::string with_sections(const std::string& xml, bool gvs) {
-  if (!gvs) return xml;
-  const size_t at = xml.find("strain=\"kl\"");
-  return xml.substr(0, at) + "order=\"2\" " + xml.substr(at);
+// check(scene, data, motion) on the model with PCS sections (as written) and with GVS sections of
+// order 2, along cosserat::testing::BentMotion.
+void on_pcs_and_gvs(const std::string& xml,
+                    const std::function<void(const Scene&, SceneData&, const cosserat::testing::BentMotion&)>& check) {
+  for (bool gvs : {false, true}) {
+    SCOPED_TRACE(gvs ? "GVS order 2" : "PCS");
+    const size_t at = xml.find("strain=\"kl\"");
+    auto s = load_scene_string(gvs ? xml.substr(0, at) + "order=\"2\" " + xml.substr(at) : xml,
+                               "/tmp/cosserat_sensor_test.xml");
+    SceneData sd(*s);
+    ASSERT_EQ(s->m->nq, s->m->nv);
+    check(*s, sd, cosserat::testing::BentMotion(s->m));
+  }
 }
 
 TEST(Sensors, VelocitySensorsOnRodSitesReadTheMaterialPointsVelocity) {
-  for (bool gvs : {false, true}) {
-    SCOPED_TRACE(gvs ? "GVS order 2" : "PCS");
-    auto s = load_scene_string(with_sections(kXml, gvs), "/tmp/cosserat_sensor_test.xml");
+  on_pcs_and_gvs(kXml, [](const Scene& scene, SceneData& sd, const cosserat::testing::BentMotion& motion) {
+    const Scene* s = &scene;
     const mjModel* m = s->m;
-    SceneData sd(*s);
     mjData* d = sd.d;
-    ASSERT_EQ(m->nq, m->nv);
-    std::vector<double> q0(m->nq), v(m->nv);
-    for (int i = 0; i < m->nq; ++i) q0[i] = 0.6 * std::sin(1.7 * i + 0.3);
-    for (int i = 0; i < m->nv; ++i) v[i] = std::cos(2.3 * i + 0.5);
     const int id_m = mj_name2id(m, mjOBJ_SITE, "m"), id_e = mj_name2id(m, mjOBJ_SITE, "e"),
               id_r = mj_name2id(m, mjOBJ_SITE, "r"), id_h = mj_name2id(m, mjOBJ_SITE, "h");
     struct Frames {
@@ -78,9 +82,7 @@ TEST(Sensors, VelocitySensorsOnRodSitesReadTheMaterialPointsVelocity) {
       std::vector<Mat3> R;
     };
     auto at = [&](double t) {
-      for (int i = 0; i < m->nq; ++i) d->qpos[i] = q0[i] + t * v[i];
-      for (int i = 0; i < m->nv; ++i) d->qvel[i] = v[i];
-      forward(*s, sd);
+      motion.at(*s, sd, t);
       Frames f;
       for (int id : {id_m, id_e, id_r, id_h}) {
         f.p.push_back(site_pos(d, id));
@@ -123,7 +125,7 @@ TEST(Sensors, VelocitySensorsOnRodSitesReadTheMaterialPointsVelocity) {
     const Vec3 want = f0.R[0].transpose() * vel[0];
     const int adr = m->sensor_adr[mj_name2id(m, mjOBJ_SENSOR, "m_vel_cut")];
     for (int e = 0; e < 3; ++e) EXPECT_NEAR(d->sensordata[adr + e], std::clamp(want(e), -0.05, 0.05), 1e-7) << e;
-  }
+  });
 }
 
 // Acceleration sensors on rod sites (a in section 0, m in section 1, e at section 1's end): the
@@ -148,21 +150,11 @@ TEST(Sensors, AccelerationSensorsOnRodSitesReadTheMaterialPointsAcceleration) {
     <accelerometer name="m_acc_cut" site="m" cutoff="2"/>
   </sensor>
 </mujoco>)";
-  for (bool gvs : {false, true}) {
-    SCOPED_TRACE(gvs ? "GVS order 2" : "PCS");
-    auto s = load_scene_string(with_sections(xml, gvs), "/tmp/cosserat_sensor_test.xml");
+  on_pcs_and_gvs(xml, [](const Scene& scene, SceneData& sd, const cosserat::testing::BentMotion& motion) {
+    const Scene* s = &scene;
     const mjModel* m = s->m;
-    SceneData sd(*s);
     mjData* d = sd.d;
-    ASSERT_EQ(m->nq, m->nv);
-    std::vector<double> q0(m->nq), v0(m->nv);
-    for (int i = 0; i < m->nq; ++i) q0[i] = 0.6 * std::sin(1.7 * i + 0.3);
-    for (int i = 0; i < m->nv; ++i) v0[i] = std::cos(2.3 * i + 0.5);
-    auto set = [&](double t, const std::vector<double>& a) {
-      for (int i = 0; i < m->nq; ++i) d->qpos[i] = q0[i] + t * v0[i];
-      for (int i = 0; i < m->nv; ++i) d->qvel[i] = v0[i] + t * a[i];
-      forward(*s, sd);
-    };
+    auto set = [&](double t, const std::vector<double>& a) { motion.at(*s, sd, t, &a); };
     auto sensor = [&](const char* name) {
       const int adr = m->sensor_adr[mj_name2id(m, mjOBJ_SENSOR, name)];
       return Vec3(d->sensordata[adr], d->sensordata[adr + 1], d->sensordata[adr + 2]);
@@ -194,7 +186,7 @@ TEST(Sensors, AccelerationSensorsOnRodSitesReadTheMaterialPointsAcceleration) {
     }
     const Vec3 want = Rm.transpose() * (rate("m_lin") + up), got = sensor("m_acc_cut");
     for (int e = 0; e < 3; ++e) EXPECT_NEAR(got(e), std::clamp(want(e), -2.0, 2.0), 1e-6) << e;
-  }
+  });
 }
 
 // Force and torque sensors count the rods' mass (MuJoCo's cfrc_int counts rigid bodies only; the

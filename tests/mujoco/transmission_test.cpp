@@ -4,10 +4,12 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <memory>
 #include <string>
 #include <vector>
 
 #include "scene.hpp"
+#include "support/bent_motion.hpp"
 
 using namespace cosserat;
 using namespace cosserat::mj;
@@ -27,28 +29,23 @@ std::string arm(const std::string& sites_on_hub, const std::string& actuators) {
          actuators + "</actuator></mujoco>";
 }
 
-// The state q0 + t v (hinges and strains: qpos moves linearly with qvel), evaluated.
+// The scene along cosserat::testing::BentMotion.
 struct Motion {
   std::unique_ptr<Scene> s;
   std::unique_ptr<SceneData> sd;
-  std::vector<double> q0, v;
+  std::unique_ptr<cosserat::testing::BentMotion> motion;
   explicit Motion(const std::string& xml) : s(load_scene_string(xml, "/tmp/cosserat_transmission_test.xml")) {
     sd = std::make_unique<SceneData>(*s);
-    const mjModel* m = s->m;
-    EXPECT_EQ(m->nq, m->nv);
-    q0.resize(m->nq);
-    v.resize(m->nv);
-    for (int i = 0; i < m->nq; ++i) q0[i] = 0.6 * std::sin(1.7 * i + 0.3);
-    for (int i = 0; i < m->nv; ++i) v[i] = std::cos(2.3 * i + 0.5);
+    EXPECT_EQ(s->m->nq, s->m->nv);
+    motion = std::make_unique<cosserat::testing::BentMotion>(s->m);
   }
   const mjData* at(double t) {
-    for (int i = 0; i < s->m->nq; ++i) sd->d->qpos[i] = q0[i] + t * v[i];
-    forward(*s, *sd);
+    motion->at(*s, *sd, t);
     return sd->d;
   }
   double moment_times_v(int actuator) const {
     double mv = 0.0;
-    for (int i = 0; i < s->m->nv; ++i) mv += sd->d->actuator_moment[actuator * s->m->nv + i] * v[i];
+    for (int i = 0; i < s->m->nv; ++i) mv += sd->d->actuator_moment[actuator * s->m->nv + i] * motion->v[i];
     return mv;
   }
 };
