@@ -188,7 +188,7 @@ void composite(const Model& m, Data& d, NodeMatrix which, MatX& out_M, Mat6& out
 void crba(const Model& m, Data& d) { composite(m, d, NodeMatrix::Inertia, d.M, d.Ic_base, d.F_base); }
 
 void rnea(const Model& m, Data& d, const Eigen::Ref<const VecX>& qacc, bool gravity, bool external,
-          Eigen::Ref<VecX> tau) {
+          Eigen::Ref<VecX> tau, bool every_node) {
   const int nn = static_cast<int>(m.nodes.size());
   // the base accelerates by base_accel; gravity enters as an upward base acceleration
   Vec6 a0 = d.base_accel;
@@ -196,7 +196,8 @@ void rnea(const Model& m, Data& d, const Eigen::Ref<const VecX>& qacc, bool grav
   for (int i = 0; i < nn; ++i) {
     const Node& n = m.nodes[i];
     Vec6 f = Vec6::Zero();
-    if (inside_fixed_subtree(m, n)) {
+    const bool lumped = n.fixed_subtree && !every_node;  // a fixed subtree moving as one body
+    if (lumped && inside_fixed_subtree(m, n)) {
       // inside a fixed subtree: its root carries the subtree's inertia; only loads remain here
     } else {
       Vec6 a = Ad_inv_apply(d.g_rel[i], n.parent < 0 ? a0 : d.acc[n.parent]) + d.cbias[i];
@@ -204,7 +205,7 @@ void rnea(const Model& m, Data& d, const Eigen::Ref<const VecX>& qacc, bool grav
       d.acc[i] = a;
       // Newton-Euler in the body frame: f = M acc + ad*_eta M eta - f_ext (for the root of a fixed
       // subtree, with the subtree's composite inertia: its parts move rigidly with it)
-      const Mat6& I = n.fixed_subtree ? n.inertia_sub : n.inertia;
+      const Mat6& I = lumped ? n.inertia_sub : n.inertia;
       const Vec6 h = I * d.eta[i];
       f = I * a + coad_apply(d.eta[i], h);
     }
@@ -221,7 +222,7 @@ void rnea(const Model& m, Data& d, const Eigen::Ref<const VecX>& qacc, bool grav
   for (int i = nn - 1; i >= 0; --i) {
     const Node& n = m.nodes[i];
     if (n.ndof > 0) tau.segment(n.dof0, n.ndof).noalias() += d.S[i].transpose() * d.F[i];
-    if (n.fixed_subtree && d.F[i].isZero(0.0)) continue;  // nothing to transmit (no load inside)
+    if (n.fixed_subtree && !every_node && d.F[i].isZero(0.0)) continue;  // nothing to transmit (no load inside)
     (n.parent >= 0 ? d.F[n.parent] : d.f_base) += coAd_apply(d.g_rel[i], d.F[i]);
   }
 }

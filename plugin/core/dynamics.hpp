@@ -23,9 +23,13 @@ enum class NodeMatrix { Inertia, Drag };
 void composite(const Model& m, Data& d, NodeMatrix which, MatX& out_M, Mat6& out_base, Mat6X& out_F_base);
 // Recursive Newton-Euler: tau = M qacc + C v + gravity - external loads. After fwd_velocity.
 // `gravity` and `external` switch those contributions on; the base moves as d.base_twist/accel.
-// d.f_base receives the base-frame wrench the base must supply to the tree (its inverse dynamics).
+// d.f_base receives the base-frame wrench the base must supply to the tree (its inverse dynamics),
+// d.F[i] the wrench node i's parent supplies to node i's subtree (node frame). A fixed subtree
+// (Node::fixed_subtree) moves as one body with its root's composite inertia, so its inner nodes'
+// F hold their loads only; `every_node` computes every node's own motion and wrench instead (the
+// same tau and f_base; for the internal wrenches across a rigid part).
 void rnea(const Model& m, Data& d, const Eigen::Ref<const VecX>& qacc, bool gravity, bool external,
-          Eigen::Ref<VecX> tau);
+          Eigen::Ref<VecX> tau, bool every_node = false);
 // -K (q - q_ref) - D v into d.qfrc_passive.
 void passive(const Model& m, Data& d);
 // Generalised force of the actuators for d.ctrl into d.qfrc_actuator. After fwd_position.

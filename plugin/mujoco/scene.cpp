@@ -943,7 +943,7 @@ void patch_cfrc_int(const Scene& s, SceneData& sd) {
     const Vec6 bias_accel = rd.base_accel;  // the bias pass's (qacc = 0): restored below
     rd.base_accel = Ad_inv_apply(G, Eigen::Map<const Vec6>(d->cacc + 6 * rb.base_body));
     cosserat::rnea(rb.model, rd, Eigen::Map<const VecX>(d->qacc + rb.dof0, rb.model.nv), false, false,
-                   sd.scratch[r].tau);
+                   sd.scratch[r].tau, true);  // every node: the wrenches across rigid sections too
     rd.base_accel = bias_accel;
     const Vec6 W = coAd_apply(G, rd.f_base);
     for (int b = rb.base_body; b > 0; b = m->body_parentid[b]) add(b, W);

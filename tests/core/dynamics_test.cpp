@@ -325,4 +325,45 @@ TEST(Dynamics, MassQuadraturesCountEveryPointOnce) {
   }
 }
 
+// rnea's every_node mode: the same tau and base wrench as the fixed subtrees' lumped inertia, and
+// node wrenches across a rigid part that carry the part beyond (at rest under gravity: its weight).
+TEST(Dynamics, InverseDynamicsOfEveryNodeCarriesTheWrenchesAcrossRigidSections) {
+  RodSpec spec = rod_spec("sr", 1, 0, 0.4, 0.01);
+  SectionSpec pcs = spec.section, rigid = pcs;
+  rigid.dofs = *strain_mask_from_name("rigid");
+  spec.overrides = {pcs, pcs, rigid, rigid};  // a rigid tip part: a fixed subtree
+  Model m;
+  m.gravity = Vec3(0, 0, -9.81);
+  const int r = m.add_rod(-1, SE3::Identity(), spec);
+  m.finalize();
+  Data d(m);
+  randomize(d, 7);
+  d.base_twist << 0.1, -0.2, 0.3, 0.05, 0.0, -0.1;
+  d.base_accel << 0.3, 0.1, -0.2, 0.0, 0.4, 0.2;
+  fwd_position(m, d);
+  fwd_velocity(m, d);
+  VecX qacc = VecX::LinSpaced(m.nv, -1.0, 1.0), tau_lumped(m.nv), tau_every(m.nv);
+  rnea(m, d, qacc, true, false, tau_lumped);
+  const Vec6 f_lumped = d.f_base;
+  rnea(m, d, qacc, true, false, tau_every, true);
+  EXPECT_LT((tau_every - tau_lumped).norm(), 1e-12 * tau_lumped.norm());
+  EXPECT_LT((d.f_base - f_lumped).norm(), 1e-12 * f_lumped.norm());
+  // at rest: the wrench into each node's subtree is the weight beyond it (world z)
+  d.v.setZero();
+  d.base_twist.setZero();
+  d.base_accel.setZero();
+  fwd_velocity(m, d);
+  rnea(m, d, VecX::Zero(m.nv), true, false, tau_every, true);
+  const Rod& rod = m.rods[r];
+  int inside_rigid = 0;
+  for (int i = rod.first_node; i <= rod.tip_node; ++i) {
+    double beyond = 0.0;
+    for (int j = i; j <= rod.tip_node; ++j) beyond += m.nodes[j].inertia(3, 3);
+    const Vec3 force_world = d.g[i].R * d.F[i].tail<3>();
+    EXPECT_LT((force_world - Vec3(0, 0, 9.81 * beyond)).norm(), 1e-12) << "node " << i;
+    if (m.nodes[i].fixed_subtree && m.nodes[i].parent >= 0 && m.nodes[m.nodes[i].parent].fixed_subtree) ++inside_rigid;
+  }
+  EXPECT_GT(inside_rigid, 0);  // the check covers nodes inside a fixed subtree
+}
+
 }  // namespace

@@ -200,13 +200,15 @@ TEST(Sensors, ForceAndTorqueSensorsAboveARigidRodMatchTheNativeBody) {
       <inertial pos="0 0 0" mass="0.05" diaginertia="1e-5 1e-5 1e-5"/><site name="ft" pos="0.01 0 0.005" euler="0 30 0"/>)";
   const std::string tail = R"(</body></worldbody>
     <sensor><force site="ft"/><torque site="ft"/><force site="rb"/><torque site="rb"/></sensor></mujoco>)";
-  const std::string rod = R"(<cosserat name="rod" pos="0.02 0 0" length="0.3" sections="3" strain="rigid" radius="0.01" density="1000">
+  const std::string rod =
+      R"(<cosserat name="rod" pos="0.02 0 0" length="0.3" sections="3" strain="rigid" radius="0.01" density="1000">
       </cosserat><site name="rb" pos="0.02 0 0"/>)";
   char native[512];
-  std::snprintf(native, sizeof native,
-                R"(<body name="rod" pos="0.02 0 0"><inertial pos="0.15 0 0" mass="%.17g" diaginertia="%.17g %.17g %.17g"/></body>
+  std::snprintf(
+      native, sizeof native,
+      R"(<body name="rod" pos="0.02 0 0"><inertial pos="0.15 0 0" mass="%.17g" diaginertia="%.17g %.17g %.17g"/></body>
       <site name="rb" pos="0.02 0 0"/>)",
-                m, ixx, iyy, iyy);
+      m, ixx, iyy, iyy);
   auto sr = load_scene_string(head + rod + tail, "/tmp/cosserat_sensor_test.xml");
   auto sn = load_scene_string(head + native + tail, "/tmp/cosserat_sensor_test.xml");
   SceneData dr(*sr), dn(*sn);
@@ -223,12 +225,14 @@ TEST(Sensors, ForceAndTorqueSensorsAboveARigidRodMatchTheNativeBody) {
   for (int i = 0; i < 12; ++i) EXPECT_NEAR(dr.d->sensordata[i], dn.d->sensordata[i], 1e-9 * scale) << i;
 }
 
-// A soft rod hanging at rest (static equilibrium) with a tip weight: a force sensor reads the
-// weight of everything beyond it, a torque sensor its moment about the site (node masses on the
-// centre line, the tip body at its centre of mass), at the hub, at the rod's base, at a section
-// boundary and inside a section.
-TEST(Sensors, ForceAndTorqueSensorsOnAHangingSoftRodReadTheWeightBeyondThem) {
-  const char* xml = R"(<mujoco><option gravity="0 0 -9.81"/><worldbody>
+// A rod hanging at rest (a soft one at static equilibrium, a rigid one) with a tip weight: a force
+// sensor reads the weight of everything beyond it, a torque sensor its moment about the site (node
+// masses on the centre line, the tip body at its centre of mass), at the hub, at the rod's base, at
+// a section boundary and inside a section.
+TEST(Sensors, ForceAndTorqueSensorsOnAHangingRodReadTheWeightBeyondThem) {
+  for (const std::string strain : {"kl", "rigid"}) {
+    SCOPED_TRACE(strain);
+    std::string xml = R"(<mujoco><option gravity="0 0 -9.81"/><worldbody>
   <body name="hub" pos="0 0 1"><geom type="sphere" size="0.02" mass="0.2" contype="0" conaffinity="0"/>
     <site name="hub_s" pos="0.005 0 0"/>
     <cosserat name="arm" pos="0.02 0 0" length="0.3" sections="3" strain="kl" radius="0.01" density="1000" young="2e6"
@@ -239,38 +243,40 @@ TEST(Sensors, ForceAndTorqueSensorsOnAHangingSoftRodReadTheWeightBeyondThem) {
   <sensor><force site="hub_s"/><torque site="hub_s"/><force site="x0"/><torque site="x0"/>
     <force site="x10"/><torque site="x10"/><force site="x15"/><torque site="x15"/></sensor>
 </mujoco>)";
-  auto s = load_scene_string(xml, "/tmp/cosserat_sensor_test.xml");
-  const mjModel* m = s->m;
-  SceneData sd(*s);
-  ASSERT_TRUE(equilibrium(*s, sd).converged);
-  forward(*s, sd);
-  const mjData* d = sd.d;
-  const RodBinding& rb = s->rods[0];
-  const cosserat::Data& rd = sd.rod[0];
-  const Vec3 up(0, 0, 9.81);
-  const int weight = mj_name2id(m, mjOBJ_BODY, "weight");
-  const Vec3 weight_com(d->xipos[3 * weight], d->xipos[3 * weight + 1], d->xipos[3 * weight + 2]);
-  // (name, abscissa from which the rod counts; -1: all of it, and the hub's own mass too)
-  const std::vector<std::pair<const char*, double>> sites = {{"hub_s", -1}, {"x0", 0.0}, {"x10", 0.1}, {"x15", 0.15}};
-  int adr = 0;
-  for (const auto& [name, X] : sites) {
-    const int id = mj_name2id(m, mjOBJ_SITE, name);
-    const Vec3 p = site_pos(d, id);
-    Vec3 f = m->body_mass[weight] * up, tau = (weight_com - p).cross(m->body_mass[weight] * up);
-    for (size_t k = 0; k < rb.model.nodes.size(); ++k) {
-      const cosserat::Node& n = rb.model.nodes[k];
-      if (n.X < X) continue;
-      const double mk = n.inertia(3, 3);
-      f += mk * up;
-      tau += (rd.g[k].u - p).cross(mk * up);
+    xml.replace(xml.find("strain=\"kl\""), 11, "strain=\"" + strain + "\"");
+    auto s = load_scene_string(xml, "/tmp/cosserat_sensor_test.xml");
+    const mjModel* m = s->m;
+    SceneData sd(*s);
+    if (m->nv > 0) ASSERT_TRUE(equilibrium(*s, sd).converged);
+    forward(*s, sd);
+    const mjData* d = sd.d;
+    const RodBinding& rb = s->rods[0];
+    const cosserat::Data& rd = sd.rod[0];
+    const Vec3 up(0, 0, 9.81);
+    const int weight = mj_name2id(m, mjOBJ_BODY, "weight");
+    const Vec3 weight_com(d->xipos[3 * weight], d->xipos[3 * weight + 1], d->xipos[3 * weight + 2]);
+    // (name, abscissa from which the rod counts; -1: all of it, and the hub's own mass too)
+    const std::vector<std::pair<const char*, double>> sites = {{"hub_s", -1}, {"x0", 0.0}, {"x10", 0.1}, {"x15", 0.15}};
+    int adr = 0;
+    for (const auto& [name, X] : sites) {
+      const int id = mj_name2id(m, mjOBJ_SITE, name);
+      const Vec3 p = site_pos(d, id);
+      Vec3 f = m->body_mass[weight] * up, tau = (weight_com - p).cross(m->body_mass[weight] * up);
+      for (size_t k = 0; k < rb.model.nodes.size(); ++k) {
+        const cosserat::Node& n = rb.model.nodes[k];
+        if (n.X < X) continue;
+        const double mk = n.inertia(3, 3);
+        f += mk * up;
+        tau += (rd.g[k].u - p).cross(mk * up);
+      }
+      if (X < 0) f += 0.2 * up;  // the hub's sphere, centred at the hub's origin
+      if (X < 0) tau += (Vec3(0, 0, 1) - p).cross(0.2 * up);
+      const Mat3 R = site_mat(d, id);
+      const Vec3 f_got(d->sensordata + adr), tau_got(d->sensordata + adr + 3);
+      adr += 6;
+      EXPECT_LT((f_got - R.transpose() * f).norm(), 1e-6 * f.norm()) << name << ": " << f_got.transpose();
+      EXPECT_LT((tau_got - R.transpose() * tau).norm(), 1e-6 * f.norm() * 0.3) << name << ": " << tau_got.transpose();
     }
-    if (X < 0) f += 0.2 * up;  // the hub's sphere, centred at the hub's origin
-    if (X < 0) tau += (Vec3(0, 0, 1) - p).cross(0.2 * up);
-    const Mat3 R = site_mat(d, id);
-    const Vec3 f_got(d->sensordata + adr), tau_got(d->sensordata + adr + 3);
-    adr += 6;
-    EXPECT_LT((f_got - R.transpose() * f).norm(), 1e-6 * f.norm()) << name << ": " << f_got.transpose();
-    EXPECT_LT((tau_got - R.transpose() * tau).norm(), 1e-6 * f.norm() * 0.3) << name << ": " << tau_got.transpose();
   }
 }
 
@@ -287,13 +293,14 @@ TEST(Sensors, SubtreeSensorsCountTheRodLikeTheNativeBody) {
     <subtreecom body="world"/><subtreelinvel body="world"/><subtreeangmom body="world"/>
     <subtreeangmom body="weight"/></sensor></mujoco>)";
   const std::string rod =
-      R"(<cosserat name="rod" pos="0.02 0 0" length="0.3" sections="3" strain="rigid" radius="0.01" density="1000">)" + tip +
-      "</cosserat>";
+      R"(<cosserat name="rod" pos="0.02 0 0" length="0.3" sections="3" strain="rigid" radius="0.01" density="1000">)" +
+      tip + "</cosserat>";
   char native[512];
-  std::snprintf(native, sizeof native,
-                R"(<body name="rod" pos="0.02 0 0"><inertial pos="0.15 0 0" mass="%.17g" diaginertia="%.17g %.17g %.17g"/>
+  std::snprintf(
+      native, sizeof native,
+      R"(<body name="rod" pos="0.02 0 0"><inertial pos="0.15 0 0" mass="%.17g" diaginertia="%.17g %.17g %.17g"/>
       <body name="tipframe" pos="0.3 0 0">%s</body></body>)",
-                m, ixx, iyy, iyy, tip.c_str());
+      m, ixx, iyy, iyy, tip.c_str());
   auto sr = load_scene_string(head + rod + tail, "/tmp/cosserat_sensor_test.xml");
   auto sn = load_scene_string(head + native + tail, "/tmp/cosserat_sensor_test.xml");
   SceneData dr(*sr), dn(*sn);
