@@ -141,7 +141,8 @@ int Model::add_rod(int parent, const SE3& placement, const RodSpec& spec) {
   double X0 = 0.0;
   std::vector<double> gx, gw;
   for (const auto& ss : specs) {
-    require(ss.order >= 0 && ss.order <= 20, "rod '" + spec.name + "': order must be in [0, 20]");
+    require(ss.order >= 0 && ss.order <= kMaxSectionOrder,
+            "rod '" + spec.name + "': order must be in [0, " + std::to_string(kMaxSectionOrder) + "]");
     require(ss.material.density > 0 && ss.material.young > 0,
             "rod '" + spec.name + "': density and Young's modulus must be positive");
     require(ss.material.poisson > -1.0 && ss.material.poisson <= 0.5,

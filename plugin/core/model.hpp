@@ -43,11 +43,16 @@ struct RodMaterial {
   double viscosity = 0.0;   // Kelvin-Voigt mu [Pa s]: Upsilon = mu diag(Jx, 3Iy, 3Iz, 3A, A, A)
 };
 
+// The largest GVS order of a section, and so the most dofs a section can have (6 strains, each a
+// Legendre series of order + 1 terms): fixed-capacity scratch for per-section Jacobians.
+constexpr int kMaxSectionOrder = 20;
+constexpr int kMaxSectionDofs = 6 * (kMaxSectionOrder + 1);
+
 // A section of a rod (DESIGN.md section 7: nested <section> overrides).
 struct SectionSpec {
   double length = 0.0;  // [m]; 0: the rod's length divided evenly
   StrainMask dofs{true, true, true, true, true, true};
-  int order = 0;  // 0: piecewise constant strain (PCS); > 0: GVS Legendre order
+  int order = 0;  // 0: piecewise constant strain (PCS); > 0: GVS Legendre order, <= kMaxSectionOrder
   Vec6 rest_strain = (Vec6() << 0, 0, 0, 1, 0, 0).finished();
   RodMaterial material;
   int quadrature = 0;  // Gauss points of the mass quadrature; 0: order + 2

@@ -36,6 +36,9 @@ constexpr int kMaxNewtonMemory = 4;  // Scene::newton_memory is clamped to this
 
 using Vec3m = Eigen::Map<Vec3>;
 using Mat3r = Eigen::Matrix<double, 3, 3, Eigen::RowMajor>;  // MuJoCo's xmat layout
+// 6 x (a section's dofs) with fixed capacity: scratch that points on sections of different sizes
+// share without touching the heap
+using SectionCols = Eigen::Matrix<double, 6, Eigen::Dynamic, 0, 6, cosserat::kMaxSectionDofs>;
 
 // ---------------------------------------------------------------------------------- loading --
 
@@ -374,7 +377,7 @@ void patch_cdof_dot(const Scene& s, SceneData& sd, int r) {
 // The same from the section Jacobian J at X and the pose g_start_X of X in the section's start
 // frame (section_jacobian's).
 int point_correction(const Scene& s, const SceneData& sd, int r, int si, const Mat6X& J, const SE3& g_start_X,
-                     const Vec3& p, Mat6X& dJ) {
+                     const Vec3& p, SectionCols& dJ) {
   const mjData* d = sd.d;
   const RodBinding& rb = s.rods[r];
   const cosserat::Data& rd = sd.rod[r];
@@ -395,8 +398,8 @@ int point_correction(const Scene& s, const SceneData& sd, int r, int si, const M
   return rb.dof0 + sec.dof0;
 }
 
-int point_correction(const Scene& s, const SceneData& sd, int r, int si, double X, const Vec3& p, Mat6X& dJ) {
-  thread_local Mat6X J;  // scratch: no heap memory once sized
+int point_correction(const Scene& s, const SceneData& sd, int r, int si, double X, const Vec3& p, SectionCols& dJ) {
+  Mat6X& J = sd.scratch[r].section_J[si];
   SE3 g_start_X;
   section_jacobian(s.rods[r].model, sd.rod[r], 0, X, J, nullptr, &g_start_X, si);
   return point_correction(s, sd, r, si, J, g_start_X, p, dJ);
@@ -404,7 +407,7 @@ int point_correction(const Scene& s, const SceneData& sd, int r, int si, double 
 
 // point_correction for the material point of rod site `site` at world position p (the cached
 // section Jacobian of a tendon path point, RodBinding::site_point, when it has one).
-int site_correction(const Scene& s, const SceneData& sd, int site, const Vec3& p, Mat6X& dJ) {
+int site_correction(const Scene& s, const SceneData& sd, int site, const Vec3& p, SectionCols& dJ) {
   const int r = s.site_rod[site], k = s.site_index[site];
   const int kp = s.rods[r].site_point[k];
   const SceneData::RodScratch& sc = sd.scratch[r];
@@ -427,7 +430,7 @@ bool moving_rod_site(const Scene& s, int type, int id) {
 void patch_site_transmissions(const Scene& s, SceneData& sd) {
   const mjModel* m = s.m;
   mjData* d = sd.d;
-  thread_local Mat6X dJ;  // scratch: no heap memory once sized
+  thread_local SectionCols dJ;  // scratch: no heap memory
   auto add = [&](int i, int site, const Vec3& f_lin, const Vec3& f_rot) {  // moment += f . dJ
     if (!moving_rod_site(s, mjOBJ_SITE, site)) return;
     const mjtNum* p = d->site_xpos + 3 * site;
@@ -492,7 +495,7 @@ void efc_add(const mjModel* m, mjData* d, int row, int col, double val) {
 void patch_contacts(const Scene& s, SceneData& sd) {
   const mjModel* m = s.m;
   mjData* d = sd.d;
-  thread_local Mat6X dJ, C;  // scratch: no heap memory once sized
+  thread_local SectionCols dJ, C;  // scratch: no heap memory
   for (int i = 0; i < d->ncon; ++i) {
     const mjContact& con = d->contact[i];
     if (con.efc_address < 0) continue;
@@ -537,7 +540,7 @@ void patch_contacts(const Scene& s, SceneData& sd) {
 void patch_tendons(const Scene& s, SceneData& sd) {
   const mjModel* m = s.m;
   mjData* d = sd.d;
-  thread_local Mat6X dJ;  // scratch: no heap memory once sized
+  thread_local SectionCols dJ;  // scratch: no heap memory
   for (int t = 0; t < m->ntendon; ++t) {
     const int adr = d->ten_wrapadr[t], num = d->ten_wrapnum[t];
     double divisor = 1.0;
@@ -707,6 +710,10 @@ SceneData::SceneData(const Scene& s) {
     sc.site_g_start.assign(rb.site_id.size(), SE3());
     for (size_t k = 0; k < rb.site_id.size(); ++k)
       if (rb.site_point[k] == static_cast<int>(k)) sc.site_J[k].resize(6, rb.model.sections[s.site_section[rb.site_id[k]]].ndof);
+    for (const Section& sec : rb.model.sections) {
+      sc.section_J.emplace_back(6, sec.ndof);
+      sc.section_Jdot.emplace_back(6, sec.ndof);
+    }
   }
 }
 
@@ -801,7 +808,7 @@ namespace {
 void object_velocity(const Scene& s, const SceneData& sd, int type, int id, mjtNum xvel[6]) {
   mj_objectVelocity(s.m, sd.d, type, id, xvel, 0);
   if (!moving_rod_site(s, type, id)) return;
-  thread_local Mat6X dJ;  // scratch: no heap memory once sized
+  thread_local SectionCols dJ;  // scratch: no heap memory
   const mjtNum* p = sd.d->site_xpos + 3 * id;
   const int col0 = site_correction(s, sd, id, Vec3(p[0], p[1], p[2]), dJ);
   for (int c = 0; c < dJ.cols(); ++c) {
@@ -875,7 +882,8 @@ void rod_site_acceleration(const Scene& s, const SceneData& sd, int site, mjtNum
   const RodBinding& rb = s.rods[r];
   const cosserat::Data& rd = sd.rod[r];
   const RodSiteDecl& sdl = rb.decl.sites[s.site_index[site]];
-  thread_local Mat6X J, Jdot;  // scratch: no heap memory once sized
+  Mat6X& J = sd.scratch[r].section_J[si];
+  Mat6X& Jdot = sd.scratch[r].section_Jdot[si];
   SE3 G;
   section_jacobian(rb.model, rd, 0, sdl.X, J, &Jdot, &G, si);
   const int start = si == 0 ? rb.base_body : rb.proxy_body[si - 1];

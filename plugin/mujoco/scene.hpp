@@ -222,6 +222,10 @@ struct SceneData {
     std::vector<SE3> site_center;
     std::vector<Mat6X> site_J;
     std::vector<SE3> site_g_start;
+    // per section: a section Jacobian and its rate at some abscissa (6 x the section's ndof: sized
+    // here, so that points on sections of different sizes reallocate nothing), scratch of the
+    // contact, tendon, sensor and actuator patches
+    mutable std::vector<Mat6X> section_J, section_Jdot;
   };
   std::vector<RodScratch> scratch;  // per rod
   // the implicit step's factor (A = M + theta h D + theta^2 h^2 K, MuJoCo's qLD layout)

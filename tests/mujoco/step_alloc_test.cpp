@@ -73,4 +73,45 @@ TEST(SceneStepAlloc, NoHeapAllocationInStep) {
   }
 }
 
+// The same with what reads rod sites through MuJoCo: nested rods (GVS, PCS, rigid), a tendon with a
+// pulley, site and slider-crank actuators on rod sites, and every sensor kind that the step
+// evaluates again on rod sites (velocities, accelerations, forces, subtrees).
+TEST(SceneStepAlloc, NoHeapAllocationWithSensorsAndActuatorsOnRodSites) {
+  const char* xml = R"(<mujoco><option gravity="0 0 -9.81" timestep="0.001"/><worldbody>
+  <body name="hub" pos="0 0 1"><freejoint/><geom type="sphere" size="0.02" mass="0.1" contype="0" conaffinity="0"/>
+    <site name="hs"/>
+    <cosserat name="outer" length="0.3" sections="3" strain="ikl" order="2" radius="0.01" young="1e6" viscosity="1e3">
+      <site name="o1" at="0.05" pos="0 0.004 0"/><site name="o2" at="0.1"/>
+      <body name="joint_mass"><geom type="sphere" size="0.008" mass="0.02" contype="0" conaffinity="0"/>
+        <cosserat name="inner" length="0.1" sections="2" strain="kl" radius="0.004" young="1e6">
+          <site name="i1" at="0.03" pos="0.001 0 0.002"/><site name="i2" at="0.1"/>
+        </cosserat>
+      </body>
+    </cosserat>
+    <cosserat name="rigidrod" euler="0 0 90" length="0.2" sections="2" strain="rigid" radius="0.01" contype="0" conaffinity="0">
+      <site name="r1" at="0.07"/>
+    </cosserat>
+  </body></worldbody>
+  <tendon><spatial name="t"><site site="hs"/><site site="o1"/><pulley divisor="2"/><site site="o2"/><site site="i1"/></spatial></tendon>
+  <actuator><motor tendon="t"/><motor site="i1" gear="0 1 0 0 0 0"/><motor cranksite="o1" slidersite="i1" cranklength="0.5"/></actuator>
+  <sensor><velocimeter site="o1"/><gyro site="i1"/><accelerometer site="i1"/><framelinacc objtype="site" objname="o1"/>
+    <force site="i1"/><torque site="r1"/><force site="hs"/><framelinvel objtype="site" objname="o1" reftype="site" refname="i1"/>
+    <subtreecom body="hub"/><subtreelinvel body="joint_mass"/><subtreeangmom body="world"/></sensor>
+</mujoco>)";
+  auto s = load_scene_string(xml, "/tmp/cosserat_step_alloc_test.xml");
+  for (Integrator it : {Integrator::Implicit, Integrator::Trapezoidal}) {
+    SceneData sd(*s);
+    for (int i = 0; i < s->m->nu; ++i) sd.d->ctrl[i] = 0.05;
+    for (int k = 0; k < 5; ++k) ASSERT_EQ(step(*s, sd, it), Status::Ok);  // scratch reaches its size
+    alloc_probe::arm();
+    Status st = Status::Ok;
+    for (int k = 0; k < 20 && st == Status::Ok; ++k) st = step(*s, sd, it);
+    alloc_probe::disarm();
+    EXPECT_EQ(st, Status::Ok);
+    EXPECT_EQ(alloc_probe::g_malloc_calls, 0) << "heap allocations in 20 steps";
+    EXPECT_EQ(alloc_probe::g_new_calls, 0) << "operator new calls in 20 steps";
+    if (alloc_probe::g_malloc_calls > 0 || alloc_probe::g_new_calls > 0) alloc_probe::print_first_allocation();
+  }
+}
+
 }  // namespace
