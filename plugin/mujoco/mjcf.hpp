@@ -81,6 +81,8 @@ struct Preprocessed {
   // the <key> elements of <keyframe>, in order (MuJoCo's keyframe errors name the key's index,
   // "key N: ...", and no line)
   std::vector<SourceLine> key_origin;
+  // the children of the <sensor> elements, in order (MuJoCo's sensor ids)
+  std::vector<SourceLine> sensor_origin;
 };
 
 // Reads `path`, expands <include file=...> recursively (relative to the including file), and

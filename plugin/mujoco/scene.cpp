@@ -1252,6 +1252,28 @@ void check_keyframes(const Preprocessed& pre, const mjModel* m) {
   }
 }
 
+// Frame sensors of velocity or acceleration whose object or reference frame is a rod capsule: a
+// capsule spans a chord of the rod (its frame is no material frame) and MuJoCo would move it
+// rigidly with its proxy; refused, pointing at a site instead. After geom_rod is set.
+void check_sensors(const Preprocessed& pre, const Scene& s) {
+  const mjModel* m = s.m;
+  for (int i = 0; i < m->nsensor; ++i) {
+    const int t = m->sensor_type[i];
+    if (t != mjSENS_FRAMELINVEL && t != mjSENS_FRAMEANGVEL && t != mjSENS_FRAMELINACC && t != mjSENS_FRAMEANGACC)
+      continue;
+    for (const auto& [type, id] : {std::pair{m->sensor_objtype[i], m->sensor_objid[i]},
+                                   std::pair{m->sensor_reftype[i], m->sensor_refid[i]}})
+      if (type == mjOBJ_GEOM && id >= 0 && s.geom_rod[id] >= 0) {
+        const SourceLine where =
+            i < static_cast<int>(pre.sensor_origin.size()) ? pre.sensor_origin[i] : SourceLine{pre.path, 0};
+        throw LoadError(where.file, where.line,
+                        "<sensor>: the motion of rod capsule '" + std::string(mj_id2name(m, mjOBJ_GEOM, id)) +
+                            "' is not a material frame's (a capsule spans a chord of the rod): put a <site> on "
+                            "the rod at the abscissa to measure and name it instead");
+      }
+  }
+}
+
 std::unique_ptr<Scene> compile(const Preprocessed& pre) {
   auto s = std::make_unique<Scene>();
   s->path = pre.path;
@@ -1299,6 +1321,7 @@ std::unique_ptr<Scene> compile(const Preprocessed& pre) {
       s->geom_rod[s->rods[r].geom_id[k]] = static_cast<int>(r);
       s->geom_index[s->rods[r].geom_id[k]] = static_cast<int>(k);
     }
+  check_sensors(pre, *s);
   s->may_collide = scene_may_collide(s->m);
   s->body_by_rod.assign(s->m->nbody, 0);
   for (const RodBinding& rb : s->rods)

@@ -155,6 +155,17 @@ TEST(Scene, MujocoCompileErrorsPointAtTheUsersFileAndLine) {
   expect_load_error(rod2 + "<key qpos=\"1 2\"/>\n</keyframe>\n</mujoco>\n", dir, "keys.xml", 7, "key 1");
   expect_load_error(rod2 + "<key time=\"nan\"/>\n</keyframe>\n</mujoco>\n", dir, "nan_key.xml", 7,
                     "'time' holds a value that is not a finite number");
+  // a velocity sensor of a rod capsule (no material frame) is refused at its line; of a site, not
+  const std::string rod2s = "<mujoco>\n<worldbody>\n<cosserat name=\"rod\" length=\"0.3\" sections=\"2\">\n"
+                            "<site name=\"m\" at=\"0.1\"/>\n</cosserat>\n</worldbody>\n<sensor>\n";
+  expect_load_error(rod2s + "<framepos objtype=\"geom\" objname=\"rod/s0/g0\"/>\n"
+                            "<framelinvel objtype=\"geom\" objname=\"rod/s0/g0\"/>\n</sensor>\n</mujoco>\n",
+                    dir, "capsule_sensor.xml", 9, "rod capsule 'rod/s0/g0'");
+  expect_load_error(rod2s + "<frameangacc objtype=\"site\" objname=\"m\"/>\n<framelinvel objtype=\"site\" "
+                            "objname=\"m\" reftype=\"geom\" refname=\"rod/s1/g1\"/>\n</sensor>\n</mujoco>\n",
+                    dir, "capsule_ref.xml", 9, "rod capsule 'rod/s1/g1'");
+  EXPECT_NO_THROW(load_scene_string(rod2s + "<framelinvel objtype=\"site\" objname=\"m\"/>\n</sensor>\n</mujoco>\n",
+                                    dir + "/site_sensor.xml"));
 }
 
 // ---- soft-rigid trees: MuJoCo-coupled against the standalone core --------------------------
