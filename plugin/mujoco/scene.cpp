@@ -310,10 +310,12 @@ void patch_rod_kinematics(const Scene& s, SceneData& sd, int r) {
     SE3 g;
     if (f.fixed) {
       g = anchor_pose(rd, f.anchor) * f.rel;
-    } else if (const int kp = rb.site_point[k]; kp >= 0) {  // site_pose's pose, and the Jacobian patch_tendons needs
+    } else if (const int kp = rb.site_point[k]; kp >= 0) {  // site_pose's pose, and patch_tendons' Jacobian
       SceneData::RodScratch& sc = sd.scratch[r];
       const RodSiteDecl& sdl = rb.decl.sites[k];
-      if (kp == static_cast<int>(k)) sc.site_center[k] = rod_pose_and_jacobian(rb.model, rd, 0, sdl.X, s.site_section[id], sc.site_J[k], &sc.site_g_start[k]);
+      if (kp == static_cast<int>(k))  // the first path point at this abscissa: evaluated for all
+        sc.site_center[k] =
+            rod_pose_and_jacobian(rb.model, rd, 0, sdl.X, s.site_section[id], sc.site_J[k], &sc.site_g_start[k]);
       g = sc.site_center[kp];
       g.u += g.R * sdl.pos;
     } else {
@@ -418,7 +420,8 @@ int site_correction(const Scene& s, const SceneData& sd, int site, const Vec3& p
 // A rod site whose material point MuJoCo does not move correctly (rigidly with its section's proxy:
 // right only on rigid sections, whose sites RodBinding::site_fixed holds).
 bool moving_rod_site(const Scene& s, int type, int id) {
-  return type == mjOBJ_SITE && id >= 0 && s.site_rod[id] >= 0 && !s.rods[s.site_rod[id]].site_fixed[s.site_index[id]].fixed;
+  return type == mjOBJ_SITE && id >= 0 && s.site_rod[id] >= 0 &&
+         !s.rods[s.site_rod[id]].site_fixed[s.site_index[id]].fixed;
 }
 
 // Actuator moment arms through rod sites (Scene::rod_site_actuators), MuJoCo's mj_transmission with
@@ -709,7 +712,8 @@ SceneData::SceneData(const Scene& s) {
     sc.site_J.assign(rb.site_id.size(), Mat6X());
     sc.site_g_start.assign(rb.site_id.size(), SE3());
     for (size_t k = 0; k < rb.site_id.size(); ++k)
-      if (rb.site_point[k] == static_cast<int>(k)) sc.site_J[k].resize(6, rb.model.sections[s.site_section[rb.site_id[k]]].ndof);
+      if (rb.site_point[k] == static_cast<int>(k))
+        sc.site_J[k].resize(6, rb.model.sections[s.site_section[rb.site_id[k]]].ndof);
     for (const Section& sec : rb.model.sections) {
       sc.section_J.emplace_back(6, sec.ndof);
       sc.section_Jdot.emplace_back(6, sec.ndof);
@@ -803,6 +807,13 @@ void fwd_velocity(const Scene& s, SceneData& sd) {
 
 namespace {
 
+// MuJoCo's cutoff of a 3-vector sensor's real-valued data (engine_sensor.c's apply_cutoff), for
+// the sensors the step evaluates again.
+void apply_cutoff(const mjModel* m, int sensor, mjtNum out[3]) {
+  if (const mjtNum cut = m->sensor_cutoff[sensor]; cut > 0)
+    for (int e = 0; e < 3; ++e) out[e] = std::clamp(out[e], -cut, cut);
+}
+
 // World-frame velocity of an object's frame in MuJoCo's layout (angular, linear): mj_objectVelocity,
 // plus, for a rod site, the difference between its material point's velocity and MuJoCo's.
 void object_velocity(const Scene& s, const SceneData& sd, int type, int id, mjtNum xvel[6]) {
@@ -863,8 +874,7 @@ void patch_velocity_sensors(const Scene& s, SceneData& sd) {
       }
       mju_copy3(out, type == mjSENS_FRAMELINVEL ? xvel + 3 : xvel);
     }
-    if (const mjtNum cut = m->sensor_cutoff[i]; cut > 0)
-      for (int e = 0; e < 3; ++e) out[e] = std::clamp(out[e], -cut, cut);
+    apply_cutoff(m, i, out);
   }
 }
 
@@ -926,8 +936,7 @@ void patch_acceleration_sensors(const Scene& s, SceneData& sd) {
       mju_mulMatTVec(out, d->site_xmat + 9 * site, acc + 3, 3, 3);
     else
       mju_copy3(out, type == mjSENS_FRAMELINACC ? acc + 3 : acc);
-    if (const mjtNum cut = m->sensor_cutoff[i]; cut > 0)
-      for (int e = 0; e < 3; ++e) out[e] = std::clamp(out[e], -cut, cut);
+    apply_cutoff(m, i, out);
   }
 }
 
@@ -989,8 +998,7 @@ void patch_force_sensors(const Scene& s, SceneData& sd) {
     mju_transformSpatial(tmp, cf.data(), 1, d->site_xpos + 3 * site, c, d->site_xmat + 9 * site);
     mjtNum* out = d->sensordata + m->sensor_adr[i];
     mju_copy3(out, m->sensor_type[i] == mjSENS_FORCE ? tmp + 3 : tmp);
-    if (const mjtNum cut = m->sensor_cutoff[i]; cut > 0)
-      for (int e = 0; e < 3; ++e) out[e] = std::clamp(out[e], -cut, cut);
+    apply_cutoff(m, i, out);
   }
 }
 
@@ -1047,8 +1055,7 @@ void patch_subtree_sensors(const Scene& s, SceneData& sd, int stage) {
     const Vec3& v = type == mjSENS_SUBTREECOM ? st.com : type == mjSENS_SUBTREELINVEL ? st.linvel : st.angmom;
     mjtNum* out = d->sensordata + m->sensor_adr[i];
     for (int e = 0; e < 3; ++e) out[e] = v(e);
-    if (const mjtNum cut = m->sensor_cutoff[i]; cut > 0)
-      for (int e = 0; e < 3; ++e) out[e] = std::clamp(out[e], -cut, cut);
+    apply_cutoff(m, i, out);
   }
 }
 
