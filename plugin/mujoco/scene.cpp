@@ -424,10 +424,92 @@ bool moving_rod_site(const Scene& s, int type, int id) {
          !s.rods[s.site_rod[id]].site_fixed[s.site_index[id]].fixed;
 }
 
+// Body b's subtree with the rods hanging in it (their mass lives in the solver): its mass, centre of
+// mass and, with `velocities`, the linear velocity of that centre and the angular momentum about
+// it, from MuJoCo's rigid-body subtree quantities and the rods' own (cosserat::center_of_mass,
+// cosserat::momentum: about the world origin, world axes).
+struct Subtree {
+  double mass = 0.0;
+  Vec3 com, linvel, angmom;
+};
+Subtree subtree_with_rods(const Scene& s, const SceneData& sd, int b, bool velocities) {
+  const mjModel* m = s.m;
+  const mjData* d = sd.d;
+  const double M0 = m->body_subtreemass[b];
+  const Vec3 c0(d->subtree_com[3 * b], d->subtree_com[3 * b + 1], d->subtree_com[3 * b + 2]);
+  Subtree st;
+  st.mass = M0;
+  Vec3 mc = M0 * c0;
+  for (size_t r = 0; r < s.rods.size(); ++r)
+    if (is_descendant(m, s.rods[r].base_body, b)) {
+      double mr = 0.0;
+      const Vec3 cr = cosserat::center_of_mass(s.rods[r].model, sd.rod[r], &mr);
+      st.mass += mr;
+      mc += mr * cr;
+    }
+  st.com = st.mass > 0 ? Vec3(mc / st.mass) : c0;
+  if (!velocities) return st;
+  const Vec3 v0(d->subtree_linvel[3 * b], d->subtree_linvel[3 * b + 1], d->subtree_linvel[3 * b + 2]);
+  Vec3 P = M0 * v0;
+  Vec3 L = Vec3(d->subtree_angmom[3 * b], d->subtree_angmom[3 * b + 1], d->subtree_angmom[3 * b + 2]) +
+           (c0 - st.com).cross(P);
+  for (size_t r = 0; r < s.rods.size(); ++r)
+    if (is_descendant(m, s.rods[r].base_body, b)) {
+      const Vec6 h = cosserat::momentum(s.rods[r].model, sd.rod[r]);
+      P += h.tail<3>();
+      L += h.head<3>() - st.com.cross(h.tail<3>());
+    }
+  st.linvel = st.mass > 0 ? Vec3(P / st.mass) : v0;
+  st.angmom = L;
+  return st;
+}
+
+// Cameras and lights that follow or look at a subtree's centre of mass (Scene::com_cameras,
+// com_lights: trackcom, targetbodycom) with rods in that subtree, placed as mj_camlight places
+// them but from the centre of mass with the rods (subtree_with_rods; their offsets cam_poscom0 and
+// light_poscom0 are set from it at load, recompute_invweight0).
+void patch_com_tracking(const Scene& s, SceneData& sd) {
+  const mjModel* m = s.m;
+  mjData* d = sd.d;
+  for (int i : s.com_cameras) {
+    if (m->cam_mode[i] == mjCAMLIGHT_TRACKCOM) {
+      const Vec3 c = subtree_with_rods(s, sd, m->cam_bodyid[i], false).com;
+      for (int e = 0; e < 3; ++e) d->cam_xpos[3 * i + e] = c(e) + m->cam_poscom0[3 * i + e];
+      continue;
+    }
+    // targetbodycom: the camera's z axis away from the target, x orthogonal to it and to world z
+    const Vec3 c = subtree_with_rods(s, sd, m->cam_targetbodyid[i], false).com;
+    mjtNum matT[9], pos[3] = {c(0), c(1), c(2)};
+    mju_sub3(matT + 6, d->cam_xpos + 3 * i, pos);
+    mju_normalize3(matT + 6);
+    matT[3] = 0;
+    matT[4] = 0;
+    matT[5] = 1;
+    mju_cross(matT, matT + 3, matT + 6);
+    mju_normalize3(matT);
+    mju_cross(matT + 3, matT + 6, matT);
+    mju_normalize3(matT + 3);
+    mju_transpose(d->cam_xmat + 9 * i, matT, 3, 3);
+  }
+  for (int i : s.com_lights) {
+    if (m->light_mode[i] == mjCAMLIGHT_TRACKCOM) {
+      const Vec3 c = subtree_with_rods(s, sd, m->light_bodyid[i], false).com;
+      for (int e = 0; e < 3; ++e) d->light_xpos[3 * i + e] = c(e) + m->light_poscom0[3 * i + e];
+      continue;
+    }
+    const Vec3 c = subtree_with_rods(s, sd, m->light_targetbodyid[i], false).com;
+    mjtNum pos[3] = {c(0), c(1), c(2)};
+    mju_sub3(d->light_xdir + 3 * i, pos, d->light_xpos + 3 * i);
+    mju_normalize3(d->light_xdir + 3 * i);
+  }
+}
+
 // Actuator moment arms through rod sites (Scene::rod_site_actuators), MuJoCo's mj_transmission with
 // the true site Jacobians: moment += gear^T (the actuator's wrench or length gradient) times the
 // sites' point_correction (the section's dofs only).
-//   site:         moment = J^T [R gear_force; R gear_torque] at the site (J: translation, rotation)
+//   site:         moment = J^T [R gear_force; R gear_torque] at the site (J: translation, rotation);
+//                 with a refsite, (J - J_ref)^T [..] with R the reference's frame
+//                 (mj_transmission: the reference frame's own rotation is not differentiated)
 //   slider-crank: length = a.v - sqrt((a.v)^2 + r^2 - v.v), v = crank - slider, a the slider's z
 //                 axis; dlength = dldv . (dp_crank - dp_slider) + dlda . (w_slider x a)
 void patch_site_transmissions(const Scene& s, SceneData& sd) {
@@ -445,8 +527,13 @@ void patch_site_transmissions(const Scene& s, SceneData& sd) {
     const mjtNum* gear = m->actuator_gear + 6 * i;
     const int id = m->actuator_trnid[2 * i];
     if (m->actuator_trntype[i] == mjTRN_SITE) {
-      Eigen::Map<const Mat3r> R(d->site_xmat + 9 * id);
-      add(i, id, R * Vec3(gear[0], gear[1], gear[2]), R * Vec3(gear[3], gear[4], gear[5]));
+      // the gear in the site's frame, or with a reference site (refsite) in the reference's frame,
+      // acting on the site's motion relative to the reference's
+      const int ref = m->actuator_trnid[2 * i + 1];
+      Eigen::Map<const Mat3r> R(d->site_xmat + 9 * (ref >= 0 ? ref : id));
+      const Vec3 f = R * Vec3(gear[0], gear[1], gear[2]), t = R * Vec3(gear[3], gear[4], gear[5]);
+      add(i, id, f, t);
+      if (ref >= 0) add(i, ref, -f, -t);
       continue;
     }
     // slider-crank: trnid = (crank site, slider site)
@@ -769,6 +856,7 @@ void fwd_position(const Scene& s, SceneData& sd, Need need) {
   mjData* d = sd.d;
   fwd_inertia(s, sd);
   mj_camlight(m, d);
+  if (!s.com_cameras.empty() || !s.com_lights.empty()) patch_com_tracking(s, sd);
   mj_tendon(m, d);
   if (m->ntendon && !s.rods.empty()) patch_tendons(s, sd);
   fluid_damping(s, sd);  // fluid hook: damping matrix (scene_fluid.hpp); no-op without the fluid
@@ -1002,46 +1090,6 @@ void patch_force_sensors(const Scene& s, SceneData& sd) {
   }
 }
 
-// Body b's subtree with the rods hanging in it (their mass lives in the solver): its mass, centre of
-// mass and, with `velocities`, the linear velocity of that centre and the angular momentum about
-// it, from MuJoCo's rigid-body subtree quantities and the rods' own (cosserat::center_of_mass,
-// cosserat::momentum: about the world origin, world axes).
-struct Subtree {
-  double mass = 0.0;
-  Vec3 com, linvel, angmom;
-};
-Subtree subtree_with_rods(const Scene& s, const SceneData& sd, int b, bool velocities) {
-  const mjModel* m = s.m;
-  const mjData* d = sd.d;
-  const double M0 = m->body_subtreemass[b];
-  const Vec3 c0(d->subtree_com[3 * b], d->subtree_com[3 * b + 1], d->subtree_com[3 * b + 2]);
-  Subtree st;
-  st.mass = M0;
-  Vec3 mc = M0 * c0;
-  for (size_t r = 0; r < s.rods.size(); ++r)
-    if (is_descendant(m, s.rods[r].base_body, b)) {
-      double mr = 0.0;
-      const Vec3 cr = cosserat::center_of_mass(s.rods[r].model, sd.rod[r], &mr);
-      st.mass += mr;
-      mc += mr * cr;
-    }
-  st.com = st.mass > 0 ? Vec3(mc / st.mass) : c0;
-  if (!velocities) return st;
-  const Vec3 v0(d->subtree_linvel[3 * b], d->subtree_linvel[3 * b + 1], d->subtree_linvel[3 * b + 2]);
-  Vec3 P = M0 * v0;
-  Vec3 L = Vec3(d->subtree_angmom[3 * b], d->subtree_angmom[3 * b + 1], d->subtree_angmom[3 * b + 2]) +
-           (c0 - st.com).cross(P);
-  for (size_t r = 0; r < s.rods.size(); ++r)
-    if (is_descendant(m, s.rods[r].base_body, b)) {
-      const Vec6 h = cosserat::momentum(s.rods[r].model, sd.rod[r]);
-      P += h.tail<3>();
-      L += h.head<3>() - st.com.cross(h.tail<3>());
-    }
-  st.linvel = st.mass > 0 ? Vec3(P / st.mass) : v0;
-  st.angmom = L;
-  return st;
-}
-
 // Scene::subtree_sensors of the stage just computed (mjSTAGE_POS: subtreecom; mjSTAGE_VEL:
 // subtreelinvel, subtreeangmom) again, with the rods, then MuJoCo's cutoff.
 void patch_subtree_sensors(const Scene& s, SceneData& sd, int stage) {
@@ -1094,7 +1142,8 @@ void recompute_invweight0(Scene& s) {
   fwd_position(s, sd);
   // camera and light offsets for tracking modes (as mj_setConst computes them, which it did with
   // the proxies' temporary masses): from the static placement at qpos0, relative to the body and
-  // to its subtree's centre of mass (MuJoCo's, which counts rigid bodies only)
+  // to its subtree's centre of mass (MuJoCo's, which counts rigid bodies only; with the rods for
+  // Scene::com_cameras and com_lights, which the step places from that centre of mass)
   for (int i = 0; i < m->ncam; ++i) {
     const int b = m->cam_bodyid[i];
     mjtNum xpos[3], xmat[9], qmat[9];
@@ -1106,6 +1155,11 @@ void recompute_invweight0(Scene& s) {
     mju_sub3(m->cam_poscom0 + 3 * i, xpos, sd.d->subtree_com + 3 * b);
     mju_copy(m->cam_mat0 + 9 * i, xmat, 9);
   }
+  for (int i : s.com_cameras) {
+    if (m->cam_mode[i] != mjCAMLIGHT_TRACKCOM) continue;
+    const Vec3 c = subtree_with_rods(s, sd, m->cam_bodyid[i], false).com;
+    for (int e = 0; e < 3; ++e) m->cam_poscom0[3 * i + e] += sd.d->subtree_com[3 * m->cam_bodyid[i] + e] - c(e);
+  }
   for (int i = 0; i < m->nlight; ++i) {
     const int b = m->light_bodyid[i];
     mjtNum xpos[3];
@@ -1114,6 +1168,11 @@ void recompute_invweight0(Scene& s) {
     mju_sub3(m->light_pos0 + 3 * i, xpos, sd.d->xpos + 3 * b);
     mju_sub3(m->light_poscom0 + 3 * i, xpos, sd.d->subtree_com + 3 * b);
     mju_rotVecMat(m->light_dir0 + 3 * i, m->light_dir + 3 * i, sd.d->xmat + 9 * b);
+  }
+  for (int i : s.com_lights) {
+    if (m->light_mode[i] != mjCAMLIGHT_TRACKCOM) continue;
+    const Vec3 c = subtree_with_rods(s, sd, m->light_bodyid[i], false).com;
+    for (int e = 0; e < 3; ++e) m->light_poscom0[3 * i + e] += sd.d->subtree_com[3 * m->light_bodyid[i] + e] - c(e);
   }
   const int nv = m->nv;
   Eigen::MatrixXd Minv(nv, nv);
@@ -1358,11 +1417,24 @@ std::unique_ptr<Scene> compile(const Preprocessed& pre) {
           break;
         }
   }
+  auto rods_below = [&s](int body) {
+    return body >= 0 && std::any_of(s->rods.begin(), s->rods.end(),
+                                    [&](const RodBinding& rb) { return is_descendant(s->m, rb.base_body, body); });
+  };
+  for (int i = 0; i < s->m->ncam; ++i)
+    if ((s->m->cam_mode[i] == mjCAMLIGHT_TRACKCOM && rods_below(s->m->cam_bodyid[i])) ||
+        (s->m->cam_mode[i] == mjCAMLIGHT_TARGETBODYCOM && rods_below(s->m->cam_targetbodyid[i])))
+      s->com_cameras.push_back(i);
+  for (int i = 0; i < s->m->nlight; ++i)
+    if ((s->m->light_mode[i] == mjCAMLIGHT_TRACKCOM && rods_below(s->m->light_bodyid[i])) ||
+        (s->m->light_mode[i] == mjCAMLIGHT_TARGETBODYCOM && rods_below(s->m->light_targetbodyid[i])))
+      s->com_lights.push_back(i);
   for (int i = 0; i < s->m->nu; ++i) {
     const int t = s->m->actuator_trntype[i];
-    if ((t == mjTRN_SITE && moving_rod_site(*s, mjOBJ_SITE, s->m->actuator_trnid[2 * i])) ||
-        (t == mjTRN_SLIDERCRANK && (moving_rod_site(*s, mjOBJ_SITE, s->m->actuator_trnid[2 * i]) ||
-                                    moving_rod_site(*s, mjOBJ_SITE, s->m->actuator_trnid[2 * i + 1]))))
+    // site (and its refsite) or slider-crank (crank and slider sites)
+    if ((t == mjTRN_SITE || t == mjTRN_SLIDERCRANK) &&
+        (moving_rod_site(*s, mjOBJ_SITE, s->m->actuator_trnid[2 * i]) ||
+         moving_rod_site(*s, mjOBJ_SITE, s->m->actuator_trnid[2 * i + 1])))
       s->rod_site_actuators.push_back(i);
   }
   setup_fluid(*s);  // fluid hook: may switch MuJoCo's own fluid off (scene_fluid.hpp)

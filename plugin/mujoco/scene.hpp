@@ -106,6 +106,9 @@ struct Scene {
   // at load): MuJoCo's moment arms move that site rigidly with its section's proxy, the step
   // corrects them to the material point's Jacobian
   std::vector<int> rod_site_actuators;
+  // cameras and lights following (trackcom) or looking at (targetbodycom) the centre of mass of a
+  // subtree with rods: placed from the centre of mass with the rods (MuJoCo's counts rigid bodies)
+  std::vector<int> com_cameras, com_lights;
   std::string path;
   // false when no two geoms of the model can ever touch (scene_may_collide, at load): the step then
   // skips MuJoCo's collision detection, whose broad phase otherwise costs a tenth of a step on a

@@ -450,6 +450,32 @@ TEST(Scene, TrackingCamerasStartWhereTheyArePlaced) {
   }
 }
 
+// Cameras and lights that follow (trackcom) or look at (targetbodycom) a subtree's centre of mass
+// count the rod in it: as in the native scene with the rod's inertia, at qpos0 and moved.
+TEST(Scene, CentreOfMassTrackingCountsTheRod) {
+  const std::string j =
+      "<joint type=\"hinge\" axis=\"0.3 1 0\"/><camera name=\"c\" mode=\"trackcom\" pos=\"0.1 -0.5 0.2\"/>"
+      "<light name=\"l\" mode=\"trackcom\" pos=\"0 0 0.5\"/>";
+  const std::string extra =
+      "<worldbody><camera name=\"t\" mode=\"targetbodycom\" target=\"hub\" pos=\"0.5 -0.5 1.5\"/>"
+      "<light name=\"tl\" mode=\"targetbodycom\" target=\"hub\" pos=\"-0.5 0.3 2\"/></worldbody>";
+  auto sr = load_scene_string(rigid_rod_scene(false, j, "0 0 -9.81", extra), kPath);
+  auto sn = load_scene_string(rigid_rod_scene(true, j, "0 0 -9.81", extra), kPath);
+  EXPECT_EQ(sr->com_cameras.size(), 2u);
+  EXPECT_EQ(sr->com_lights.size(), 2u);
+  SceneData dr(*sr), dn(*sn);
+  for (double q : {0.0, 0.7}) {
+    SCOPED_TRACE(q);
+    dr.d->qpos[0] = dn.d->qpos[0] = q;
+    forward(*sr, dr);
+    forward(*sn, dn);
+    for (int k = 0; k < 6; ++k) EXPECT_NEAR(dr.d->cam_xpos[k], dn.d->cam_xpos[k], 1e-12) << k;
+    for (int k = 0; k < 18; ++k) EXPECT_NEAR(dr.d->cam_xmat[k], dn.d->cam_xmat[k], 1e-12) << k;
+    for (int k = 0; k < 6; ++k) EXPECT_NEAR(dr.d->light_xpos[k], dn.d->light_xpos[k], 1e-12) << k;
+    for (int k = 0; k < 6; ++k) EXPECT_NEAR(dr.d->light_xdir[k], dn.d->light_xdir[k], 1e-12) << k;
+  }
+}
+
 TEST(Scene, RigidRodOnHingeBehavesLikeNativeBody) {
   for (const char* g : {"0 0 -9.81", "0 0 0"})
     expect_rigid_equivalence("<joint type=\"hinge\" axis=\"0.3 1 0\"/>", g, {2.0});

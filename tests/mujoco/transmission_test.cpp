@@ -51,25 +51,44 @@ struct Motion {
 };
 
 // A site transmission applies the force R gear[0:3] and torque R gear[3:6] at the site (R its
-// frame): its moment arm times v is their virtual power at the site's velocity and spin.
+// frame): its moment arm times v is their virtual power at the site's velocity and spin. With a
+// reference site (refsite), R is the reference's frame and the motion the site's relative to the
+// reference's (mj_transmission's formula). Sites on the rod (m, s) and on the hub (h).
 TEST(Transmission, SiteActuatorOnARodSiteHasTheMaterialPointsMomentArm) {
-  Motion mo(arm("", R"(<motor site="m" gear="0.3 -0.5 1 0.02 0.01 -0.03"/>)"));
-  const int id = mj_name2id(mo.s->m, mjOBJ_SITE, "m");
+  const char* gear = "0.3 -0.5 1 0.02 0.01 -0.03";
+  Motion mo(arm(R"(<site name="h" pos="0.01 0.02 0.03" euler="10 20 30"/>)",
+                std::string("<motor site=\"m\" gear=\"") + gear + "\"/><motor site=\"m\" refsite=\"s\" gear=\"" + gear +
+                    "\"/><motor site=\"h\" refsite=\"m\" gear=\"" + gear + "\"/>"));
   const double eps = 1e-6;
-  auto pose = [&](double t) {
-    const mjData* d = mo.at(t);
-    return std::make_pair(Vec3(d->site_xpos + 3 * id), Mat3(Eigen::Map<const Mat3>(d->site_xmat + 9 * id)));
+  struct Motion3 {
+    Vec3 vel, w;
+    Mat3 R;
   };
-  const auto [pp, Rp] = pose(eps);
-  const auto [pm, Rm] = pose(-eps);
-  const auto [p0, R0] = pose(0.0);
-  const Vec3 vel = (pp - pm) / (2 * eps);
-  const Mat3 W = ((Rp - Rm) / (2 * eps)) * R0.transpose();
-  const Vec3 w(0.5 * (W(2, 1) - W(1, 2)), 0.5 * (W(0, 2) - W(2, 0)), 0.5 * (W(1, 0) - W(0, 1)));
-  const Vec3 f = R0 * Vec3(0.3, -0.5, 1), tau = R0 * Vec3(0.02, 0.01, -0.03);
-  const double power = f.dot(vel) + tau.dot(w);
-  EXPECT_GT(std::abs(power), 1e-2);
-  EXPECT_NEAR(mo.moment_times_v(0), power, 1e-7 * std::abs(power));
+  auto motion_of = [&](const char* name) {  // velocity and spin from central differences, frame
+    const int id = mj_name2id(mo.s->m, mjOBJ_SITE, name);
+    auto pose = [&](double t) {
+      const mjData* d = mo.at(t);
+      return std::make_pair(Vec3(d->site_xpos + 3 * id), Mat3(Eigen::Map<const Mat3>(d->site_xmat + 9 * id)));
+    };
+    const auto [pp, Rp] = pose(eps);
+    const auto [pm, Rm] = pose(-eps);
+    const auto [p0, R0] = pose(0.0);
+    const Mat3 W = ((Rp - Rm) / (2 * eps)) * R0.transpose();
+    return Motion3{(pp - pm) / (2 * eps), Vec3(0.5 * (W(2, 1) - W(1, 2)), 0.5 * (W(0, 2) - W(2, 0)), 0.5 * (W(1, 0) - W(0, 1))),
+                   R0};
+  };
+  const Motion3 m = motion_of("m"), sr = motion_of("s"), h = motion_of("h");
+  mo.at(0.0);
+  auto power = [](const Motion3& site, const Motion3* ref) {
+    const Mat3& R = ref ? ref->R : site.R;
+    const Vec3 f = R * Vec3(0.3, -0.5, 1), tau = R * Vec3(0.02, 0.01, -0.03);
+    return f.dot(site.vel - (ref ? ref->vel : Vec3::Zero())) + tau.dot(site.w - (ref ? ref->w : Vec3::Zero()));
+  };
+  const double expected[3] = {power(m, nullptr), power(m, &sr), power(h, &m)};
+  for (int a = 0; a < 3; ++a) {
+    EXPECT_GT(std::abs(expected[a]), 1e-2) << a;
+    EXPECT_NEAR(mo.moment_times_v(a), expected[a], 1e-7 * std::abs(expected[a])) << a;
+  }
 }
 
 // A slider-crank's moment arm is the derivative of its length: crank and slider sites on the rod,
