@@ -471,16 +471,21 @@ Subtree subtree_with_rods(const Scene& s, const SceneData& sd, int b, bool veloc
 void patch_com_tracking(const Scene& s, SceneData& sd) {
   const mjModel* m = s.m;
   mjData* d = sd.d;
+  auto com = [&](int body, mjtNum out[3]) {  // the subtree's centre of mass with its rods
+    const Vec3 c = subtree_with_rods(s, sd, body, false).com;
+    for (int e = 0; e < 3; ++e) out[e] = c(e);
+  };
+  mjtNum c[3];
   for (int i : s.com_cameras) {
-    if (m->cam_mode[i] == mjCAMLIGHT_TRACKCOM) {
-      const Vec3 c = subtree_with_rods(s, sd, m->cam_bodyid[i], false).com;
-      for (int e = 0; e < 3; ++e) d->cam_xpos[3 * i + e] = c(e) + m->cam_poscom0[3 * i + e];
+    const bool track = m->cam_mode[i] == mjCAMLIGHT_TRACKCOM;
+    com(track ? m->cam_bodyid[i] : m->cam_targetbodyid[i], c);
+    if (track) {
+      mju_add3(d->cam_xpos + 3 * i, c, m->cam_poscom0 + 3 * i);
       continue;
     }
     // targetbodycom: the camera's z axis away from the target, x orthogonal to it and to world z
-    const Vec3 c = subtree_with_rods(s, sd, m->cam_targetbodyid[i], false).com;
-    mjtNum matT[9], pos[3] = {c(0), c(1), c(2)};
-    mju_sub3(matT + 6, d->cam_xpos + 3 * i, pos);
+    mjtNum matT[9];
+    mju_sub3(matT + 6, d->cam_xpos + 3 * i, c);
     mju_normalize3(matT + 6);
     matT[3] = 0;
     matT[4] = 0;
@@ -492,15 +497,14 @@ void patch_com_tracking(const Scene& s, SceneData& sd) {
     mju_transpose(d->cam_xmat + 9 * i, matT, 3, 3);
   }
   for (int i : s.com_lights) {
-    if (m->light_mode[i] == mjCAMLIGHT_TRACKCOM) {
-      const Vec3 c = subtree_with_rods(s, sd, m->light_bodyid[i], false).com;
-      for (int e = 0; e < 3; ++e) d->light_xpos[3 * i + e] = c(e) + m->light_poscom0[3 * i + e];
-      continue;
+    const bool track = m->light_mode[i] == mjCAMLIGHT_TRACKCOM;
+    com(track ? m->light_bodyid[i] : m->light_targetbodyid[i], c);
+    if (track) {
+      mju_add3(d->light_xpos + 3 * i, c, m->light_poscom0 + 3 * i);
+    } else {  // targetbodycom: pointing at it
+      mju_sub3(d->light_xdir + 3 * i, c, d->light_xpos + 3 * i);
+      mju_normalize3(d->light_xdir + 3 * i);
     }
-    const Vec3 c = subtree_with_rods(s, sd, m->light_targetbodyid[i], false).com;
-    mjtNum pos[3] = {c(0), c(1), c(2)};
-    mju_sub3(d->light_xdir + 3 * i, pos, d->light_xpos + 3 * i);
-    mju_normalize3(d->light_xdir + 3 * i);
   }
 }
 
