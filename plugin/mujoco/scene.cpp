@@ -1,13 +1,16 @@
 // Rods inside MuJoCo 2.2.2: loading and the staged, strongly coupled step (DESIGN.md section 6).
 //
 // The step is MuJoCo's own pipeline, stage by stage, with the rod patches in between:
-//   position: kinematics | patch poses | comPos | patch cdof | camlight | tendon | patch ten_J |
-//             crb | patch qM | fluid damping | collision | makeConstraint |
-//             patch contact rows | transmission | factorM | projectConstraint
+//   position: kinematics | patch poses | comPos | patch cdof | camlight (| com tracking) |
+//             tendon | patch ten_J | crb | patch qM | fluid damping | collision |
+//             makeConstraint | patch contact rows | transmission (| site transmissions) |
+//             factorM | projectConstraint; then sensorPos (| sensors)
 //   velocity: ten/actuator velocity | comVel | patch cdof_dot | passive | referenceConstraint |
-//             rne | patch bias (+ rod elastic and damping forces) | fluid forces
-//   then actuation, acceleration, constraint, and an integrator of ours (the fluid's damping
-//   implicit in euler and implicit: scene_fluid.hpp). The implicit steps need only the forces:
+//             rne | patch bias (+ rod elastic and damping forces) | fluid forces; sensorVel
+//   then actuation, acceleration, constraint, sensorAcc (| sensors), and an integrator of ours
+//   (the fluid's damping implicit in euler and implicit: scene_fluid.hpp). The stages in
+//   parentheses are MuJoCo's features that read rod sites or mass, made to read the rod's material
+//   (scene_sites.hpp). The implicit steps need only the forces:
 //   without constraint rows and acceleration sensors they skip factorM, the acceleration and the
 //   constraint stages (Need::Forces), one factorisation of M per evaluation less.
 // Rod inertia enters as an articulated subtree on the rod's parent body: the core provides the
@@ -27,6 +30,7 @@
 #include "dynamics.hpp"
 #include "kinematics.hpp"
 #include "mujoco_ports.hpp"
+#include "scene_sites.hpp"
 #include "tree_ldl.hpp"
 
 namespace cosserat::mj {
@@ -36,9 +40,6 @@ constexpr int kMaxNewtonMemory = 4;  // Scene::newton_memory is clamped to this
 
 using Vec3m = Eigen::Map<Vec3>;
 using Mat3r = Eigen::Matrix<double, 3, 3, Eigen::RowMajor>;  // MuJoCo's xmat layout
-// 6 x (a section's dofs) with fixed capacity: scratch that points on sections of different sizes
-// share without touching the heap
-using SectionCols = Eigen::Matrix<double, 6, Eigen::Dynamic, 0, 6, cosserat::kMaxSectionDofs>;
 
 // ---------------------------------------------------------------------------------- loading --
 
@@ -92,11 +93,15 @@ int require_id(const mjModel* m, int type, const std::string& name, const RodDec
   return id;
 }
 
+}  // namespace
+
 bool is_descendant(const mjModel* m, int b, int ancestor) {
   for (; b > 0; b = m->body_parentid[b])
     if (b == ancestor) return true;
   return ancestor == 0;
 }
+
+namespace {
 
 // Pose of a capsule along the chord a-b of its stretch of centreline, its local x from the
 // cross-section frame Rm at its end (MuJoCo capsules lie along local z; the roll about the axis
@@ -124,7 +129,11 @@ SE3 site_pose(const cosserat::Model& m, const cosserat::Data& d, const RodSiteDe
   return g;
 }
 
+}  // namespace
+
 const SE3& anchor_pose(const cosserat::Data& d, int anchor) { return anchor < 0 ? d.base_pose : d.g[anchor]; }
+
+namespace {
 
 // RodBinding::geom_fixed and site_fixed: placements on rigid sections, from the rest state (they
 // do not depend on the state).
@@ -329,8 +338,12 @@ void patch_rod_kinematics(const Scene& s, SceneData& sd, int r) {
   attached_kinematics(m, d, rb.below_begin, rb.below_end);
 }
 
+}  // namespace
+
 // Spatial transform MuJoCo's com-based vectors live in, for a frame g: G = (R, p - c).
 SE3 com_frame(const SE3& g, const mjtNum* c) { return SE3{g.R, g.u - Vec3(c[0], c[1], c[2])}; }
+
+namespace {
 
 // Patch point 2: cdof of each strain dof = twist of its section's end per unit dof velocity.
 void patch_cdof(const Scene& s, SceneData& sd, int r) {
@@ -407,6 +420,8 @@ int point_correction(const Scene& s, const SceneData& sd, int r, int si, double 
   return point_correction(s, sd, r, si, J, g_start_X, p, dJ);
 }
 
+}  // namespace
+
 // point_correction for the material point of rod site `site` at world position p (the cached
 // section Jacobian of a tendon path point, RodBinding::site_point, when it has one).
 int site_correction(const Scene& s, const SceneData& sd, int site, const Vec3& p, SectionCols& dJ) {
@@ -417,151 +432,7 @@ int site_correction(const Scene& s, const SceneData& sd, int site, const Vec3& p
                  : point_correction(s, sd, r, s.site_section[site], s.rods[r].decl.sites[k].X, p, dJ);
 }
 
-// A rod site whose material point MuJoCo does not move correctly (rigidly with its section's proxy:
-// right only on rigid sections, whose sites RodBinding::site_fixed holds).
-bool moving_rod_site(const Scene& s, int type, int id) {
-  return type == mjOBJ_SITE && id >= 0 && s.site_rod[id] >= 0 &&
-         !s.rods[s.site_rod[id]].site_fixed[s.site_index[id]].fixed;
-}
-
-// Body b's subtree with the rods hanging in it (their mass lives in the solver): its mass, centre of
-// mass and, with `velocities`, the linear velocity of that centre and the angular momentum about
-// it, from MuJoCo's rigid-body subtree quantities and the rods' own (cosserat::center_of_mass,
-// cosserat::momentum: about the world origin, world axes).
-struct Subtree {
-  double mass = 0.0;
-  Vec3 com, linvel, angmom;
-};
-Subtree subtree_with_rods(const Scene& s, const SceneData& sd, int b, bool velocities) {
-  const mjModel* m = s.m;
-  const mjData* d = sd.d;
-  const double M0 = m->body_subtreemass[b];
-  const Vec3 c0(d->subtree_com[3 * b], d->subtree_com[3 * b + 1], d->subtree_com[3 * b + 2]);
-  Subtree st;
-  st.mass = M0;
-  Vec3 mc = M0 * c0;
-  for (size_t r = 0; r < s.rods.size(); ++r)
-    if (is_descendant(m, s.rods[r].base_body, b)) {
-      double mr = 0.0;
-      const Vec3 cr = cosserat::center_of_mass(s.rods[r].model, sd.rod[r], &mr);
-      st.mass += mr;
-      mc += mr * cr;
-    }
-  st.com = st.mass > 0 ? Vec3(mc / st.mass) : c0;
-  if (!velocities) return st;
-  const Vec3 v0(d->subtree_linvel[3 * b], d->subtree_linvel[3 * b + 1], d->subtree_linvel[3 * b + 2]);
-  Vec3 P = M0 * v0;
-  Vec3 L = Vec3(d->subtree_angmom[3 * b], d->subtree_angmom[3 * b + 1], d->subtree_angmom[3 * b + 2]) +
-           (c0 - st.com).cross(P);
-  for (size_t r = 0; r < s.rods.size(); ++r)
-    if (is_descendant(m, s.rods[r].base_body, b)) {
-      const Vec6 h = cosserat::momentum(s.rods[r].model, sd.rod[r]);
-      P += h.tail<3>();
-      L += h.head<3>() - st.com.cross(h.tail<3>());
-    }
-  st.linvel = st.mass > 0 ? Vec3(P / st.mass) : v0;
-  st.angmom = L;
-  return st;
-}
-
-// Cameras and lights that follow or look at a subtree's centre of mass (Scene::com_cameras,
-// com_lights: trackcom, targetbodycom) with rods in that subtree, placed as mj_camlight places
-// them but from the centre of mass with the rods (subtree_with_rods; their offsets cam_poscom0 and
-// light_poscom0 are set from it at load, recompute_invweight0).
-void patch_com_tracking(const Scene& s, SceneData& sd) {
-  const mjModel* m = s.m;
-  mjData* d = sd.d;
-  auto com = [&](int body, mjtNum out[3]) {  // the subtree's centre of mass with its rods
-    const Vec3 c = subtree_with_rods(s, sd, body, false).com;
-    for (int e = 0; e < 3; ++e) out[e] = c(e);
-  };
-  mjtNum c[3];
-  for (int i : s.com_cameras) {
-    const bool track = m->cam_mode[i] == mjCAMLIGHT_TRACKCOM;
-    com(track ? m->cam_bodyid[i] : m->cam_targetbodyid[i], c);
-    if (track) {
-      mju_add3(d->cam_xpos + 3 * i, c, m->cam_poscom0 + 3 * i);
-      continue;
-    }
-    // targetbodycom: the camera's z axis away from the target, x orthogonal to it and to world z
-    mjtNum matT[9];
-    mju_sub3(matT + 6, d->cam_xpos + 3 * i, c);
-    mju_normalize3(matT + 6);
-    matT[3] = 0;
-    matT[4] = 0;
-    matT[5] = 1;
-    mju_cross(matT, matT + 3, matT + 6);
-    mju_normalize3(matT);
-    mju_cross(matT + 3, matT + 6, matT);
-    mju_normalize3(matT + 3);
-    mju_transpose(d->cam_xmat + 9 * i, matT, 3, 3);
-  }
-  for (int i : s.com_lights) {
-    const bool track = m->light_mode[i] == mjCAMLIGHT_TRACKCOM;
-    com(track ? m->light_bodyid[i] : m->light_targetbodyid[i], c);
-    if (track) {
-      mju_add3(d->light_xpos + 3 * i, c, m->light_poscom0 + 3 * i);
-    } else {  // targetbodycom: pointing at it
-      mju_sub3(d->light_xdir + 3 * i, c, d->light_xpos + 3 * i);
-      mju_normalize3(d->light_xdir + 3 * i);
-    }
-  }
-}
-
-// Actuator moment arms through rod sites (Scene::rod_site_actuators), MuJoCo's mj_transmission with
-// the true site Jacobians: moment += gear^T (the actuator's wrench or length gradient) times the
-// sites' point_correction (the section's dofs only).
-//   site:         moment = J^T [R gear_force; R gear_torque] at the site (J: translation, rotation);
-//                 with a refsite, (J - J_ref)^T [..] with R the reference's frame
-//                 (mj_transmission: the reference frame's own rotation is not differentiated)
-//   slider-crank: length = a.v - sqrt((a.v)^2 + r^2 - v.v), v = crank - slider, a the slider's z
-//                 axis; dlength = dldv . (dp_crank - dp_slider) + dlda . (w_slider x a)
-void patch_site_transmissions(const Scene& s, SceneData& sd) {
-  const mjModel* m = s.m;
-  mjData* d = sd.d;
-  thread_local SectionCols dJ;  // scratch: no heap memory
-  auto add = [&](int i, int site, const Vec3& f_lin, const Vec3& f_rot) {  // moment += f . dJ
-    if (!moving_rod_site(s, mjOBJ_SITE, site)) return;
-    const mjtNum* p = d->site_xpos + 3 * site;
-    const int col0 = site_correction(s, sd, site, Vec3(p[0], p[1], p[2]), dJ);
-    for (int c = 0; c < dJ.cols(); ++c)
-      d->actuator_moment[i * m->nv + col0 + c] += f_lin.dot(dJ.col(c).head<3>()) + f_rot.dot(dJ.col(c).tail<3>());
-  };
-  for (int i : s.rod_site_actuators) {
-    const mjtNum* gear = m->actuator_gear + 6 * i;
-    const int id = m->actuator_trnid[2 * i];
-    if (m->actuator_trntype[i] == mjTRN_SITE) {
-      // the gear in the site's frame, or with a reference site (refsite) in the reference's frame,
-      // acting on the site's motion relative to the reference's
-      const int ref = m->actuator_trnid[2 * i + 1];
-      Eigen::Map<const Mat3r> R(d->site_xmat + 9 * (ref >= 0 ? ref : id));
-      const Vec3 f = R * Vec3(gear[0], gear[1], gear[2]), t = R * Vec3(gear[3], gear[4], gear[5]);
-      add(i, id, f, t);
-      if (ref >= 0) add(i, ref, -f, -t);
-      continue;
-    }
-    // slider-crank: trnid = (crank site, slider site)
-    const int slider = m->actuator_trnid[2 * i + 1];
-    const Vec3 a(d->site_xmat[9 * slider + 2], d->site_xmat[9 * slider + 5], d->site_xmat[9 * slider + 8]);
-    const Vec3 v = Vec3(d->site_xpos[3 * id], d->site_xpos[3 * id + 1], d->site_xpos[3 * id + 2]) -
-                   Vec3(d->site_xpos[3 * slider], d->site_xpos[3 * slider + 1], d->site_xpos[3 * slider + 2]);
-    const double r = m->actuator_cranklength[i], av = a.dot(v);
-    double det = av * av + r * r - v.dot(v);
-    Vec3 dlda, dldv;
-    if (det <= 0) {  // degenerate: MuJoCo's length is a.v
-      dlda = v;
-      dldv = a;
-    } else {
-      det = std::sqrt(det);
-      const double factor = 1 - av / det;
-      dlda = factor * v;
-      dldv = factor * a + v / det;
-    }
-    add(i, id, gear[0] * dldv, Vec3::Zero());
-    // d a / dq = w x a: dlda . (w x a) = (a x dlda) . w
-    add(i, slider, -gear[0] * dldv, gear[0] * a.cross(dlda));
-  }
-}
+namespace {
 
 // Add `val` at (row, col) of efc_J, dense or sparse (the column is in the row's pattern: the
 // section's dofs are in the chain of the contact's body). A sparse efc_J has a transposed copy,
@@ -897,232 +768,15 @@ void fwd_velocity(const Scene& s, SceneData& sd) {
   fluid_forces(s, sd);  // fluid hook: qfrc_passive -= D qvel; no-op without the fluid
 }
 
-namespace {
-
-// MuJoCo's cutoff of a 3-vector sensor's real-valued data (engine_sensor.c's apply_cutoff), for
-// the sensors the step evaluates again.
-void apply_cutoff(const mjModel* m, int sensor, mjtNum out[3]) {
-  if (const mjtNum cut = m->sensor_cutoff[sensor]; cut > 0)
-    for (int e = 0; e < 3; ++e) out[e] = std::clamp(out[e], -cut, cut);
-}
-
-// World-frame velocity of an object's frame in MuJoCo's layout (angular, linear): mj_objectVelocity,
-// plus, for a rod site, the difference between its material point's velocity and MuJoCo's.
-void object_velocity(const Scene& s, const SceneData& sd, int type, int id, mjtNum xvel[6]) {
-  mj_objectVelocity(s.m, sd.d, type, id, xvel, 0);
-  if (!moving_rod_site(s, type, id)) return;
-  thread_local SectionCols dJ;  // scratch: no heap memory
-  const mjtNum* p = sd.d->site_xpos + 3 * id;
-  const int col0 = site_correction(s, sd, id, Vec3(p[0], p[1], p[2]), dJ);
-  for (int c = 0; c < dJ.cols(); ++c) {
-    const double qd = sd.d->qvel[col0 + c];
-    for (int e = 0; e < 3; ++e) {
-      xvel[e] += dJ(3 + e, c) * qd;  // dJ: linear rows, then angular
-      xvel[3 + e] += dJ(e, c) * qd;
-    }
-  }
-}
-
-// An object's frame as MuJoCo's sensors read it (engine_sensor.c's get_xpos_xmat: a body's
-// inertial frame, an xbody's own).
-void object_frame(const mjData* d, int type, int id, const mjtNum** pos, const mjtNum** mat) {
-  switch (type) {
-    case mjOBJ_XBODY: *pos = d->xpos + 3 * id, *mat = d->xmat + 9 * id; break;
-    case mjOBJ_BODY: *pos = d->xipos + 3 * id, *mat = d->ximat + 9 * id; break;
-    case mjOBJ_GEOM: *pos = d->geom_xpos + 3 * id, *mat = d->geom_xmat + 9 * id; break;
-    case mjOBJ_CAMERA: *pos = d->cam_xpos + 3 * id, *mat = d->cam_xmat + 9 * id; break;
-    default: *pos = d->site_xpos + 3 * id, *mat = d->site_xmat + 9 * id; break;
-  }
-}
-
-// Scene::rod_velocity_sensors again, as mj_sensorVel computes them (velocimeter and gyro in the
-// site's frame; framelinvel and frameangvel in the world or relative to a reference frame), with
-// the rod sites' material velocities, then MuJoCo's cutoff of real-valued data.
-void patch_velocity_sensors(const Scene& s, SceneData& sd) {
-  const mjModel* m = s.m;
-  mjData* d = sd.d;
-  if (m->opt.disableflags & mjDSBL_SENSOR) return;
-  for (int i : s.rod_velocity_sensors) {
-    const int type = m->sensor_type[i], objtype = m->sensor_objtype[i], objid = m->sensor_objid[i];
-    mjtNum* out = d->sensordata + m->sensor_adr[i];
-    mjtNum xvel[6];
-    object_velocity(s, sd, objtype, objid, xvel);
-    if (type == mjSENS_VELOCIMETER || type == mjSENS_GYRO) {
-      mju_mulMatTVec(out, d->site_xmat + 9 * objid, type == mjSENS_GYRO ? xvel : xvel + 3, 3, 3);
-    } else {
-      if (const int refid = m->sensor_refid[i]; refid >= 0) {
-        const int reftype = m->sensor_reftype[i];
-        const mjtNum *pos, *mat, *pos_ref, *mat_ref;
-        object_frame(d, objtype, objid, &pos, &mat);
-        object_frame(d, reftype, refid, &pos_ref, &mat_ref);
-        mjtNum xvel_ref[6], rel[6], rvec[3], cross[3];
-        object_velocity(s, sd, reftype, refid, xvel_ref);
-        mju_sub(rel, xvel, xvel_ref, 6);
-        mju_sub3(rvec, pos, pos_ref);  // the rotating reference frame's share of the linear velocity
-        mju_cross(cross, rvec, xvel_ref);
-        mju_addTo3(rel + 3, cross);
-        mju_mulMatTVec(xvel, mat_ref, rel, 3, 3);
-        mju_mulMatTVec(xvel + 3, mat_ref, rel + 3, 3, 3);
-      }
-      mju_copy3(out, type == mjSENS_FRAMELINVEL ? xvel + 3 : xvel);
-    }
-    apply_cutoff(m, i, out);
-  }
-}
-
-// World-frame acceleration of a rod site's material point in MuJoCo's layout (angular, linear), its
-// linear part counting gravity as MuJoCo's cacc does (the world accelerates by -g). From the
-// section's start frame (the rod's base body or the previous section's proxy, whose cvel and cacc
-// MuJoCo computes exactly: the patched cdof and cdof_dot) and the section's own motion: the twist
-// of the cross-section at X is eta_X = Ad^-1_G eta_s + psi, psi = J qvel (section_jacobian's J,
-// G the pose of X in the start frame), and its rate Ad^-1_G eta_s' + J qacc + Jdot qvel
-// - ad_psi Ad^-1_G eta_s.
-void rod_site_acceleration(const Scene& s, const SceneData& sd, int site, mjtNum out[6]) {
-  const mjModel* m = s.m;
-  const mjData* d = sd.d;
-  const int r = s.site_rod[site], si = s.site_section[site];
-  const RodBinding& rb = s.rods[r];
-  const cosserat::Data& rd = sd.rod[r];
-  const RodSiteDecl& sdl = rb.decl.sites[s.site_index[site]];
-  Mat6X& J = sd.scratch[r].section_J[si];
-  Mat6X& Jdot = sd.scratch[r].section_Jdot[si];
-  SE3 G;
-  section_jacobian(rb.model, rd, 0, sdl.X, J, &Jdot, &G, si);
-  const int start = si == 0 ? rb.base_body : rb.proxy_body[si - 1];
-  const SE3 gs = anchor_pose(rd, rb.model.sections[si].start_node);
-  const SE3 C = com_frame(gs, d->subtree_com + 3 * m->body_rootid[start]);
-  const Vec6 eta_s = Ad_inv_apply(G, Ad_inv_apply(C, Eigen::Map<const Vec6>(d->cvel + 6 * start)));
-  const Vec6 acc_s = Ad_inv_apply(G, Ad_inv_apply(C, Eigen::Map<const Vec6>(d->cacc + 6 * start)));
-  const int dof0 = rb.dof0 + rb.model.sections[si].dof0;
-  Vec6 psi = Vec6::Zero(), acc = acc_s;
-  for (int k = 0; k < J.cols(); ++k) {
-    psi += J.col(k) * d->qvel[dof0 + k];
-    acc += J.col(k) * d->qacc[dof0 + k] + Jdot.col(k) * d->qvel[dof0 + k];
-  }
-  acc -= ad_apply(psi, eta_s);
-  const Vec6 eta = eta_s + psi;
-  // the point at the site's offset in the cross-section frame, rotated to the world
-  const Vec3 w = eta.head<3>(), v = eta.tail<3>(), wd = acc.head<3>();
-  const Vec3 a = acc.tail<3>() + wd.cross(sdl.pos) + w.cross(v + w.cross(sdl.pos));
-  const Mat3 R = gs.R * G.R;
-  const Vec3 wd_world = R * wd, a_world = R * a;
-  for (int e = 0; e < 3; ++e) {
-    out[e] = wd_world(e);
-    out[3 + e] = a_world(e);
-  }
-}
-
-// Scene::rod_acceleration_sensors again, as mj_sensorAcc computes them (accelerometer in the site's
-// frame, framelinacc and frameangacc in the world), with the material point's acceleration, then
-// MuJoCo's cutoff.
-void patch_acceleration_sensors(const Scene& s, SceneData& sd) {
-  const mjModel* m = s.m;
-  mjData* d = sd.d;
-  if (m->opt.disableflags & mjDSBL_SENSOR) return;
-  for (int i : s.rod_acceleration_sensors) {
-    const int type = m->sensor_type[i], site = m->sensor_objid[i];
-    mjtNum* out = d->sensordata + m->sensor_adr[i];
-    mjtNum acc[6];
-    rod_site_acceleration(s, sd, site, acc);
-    if (type == mjSENS_ACCELEROMETER)
-      mju_mulMatTVec(out, d->site_xmat + 9 * site, acc + 3, 3, 3);
-    else
-      mju_copy3(out, type == mjSENS_FRAMELINACC ? acc + 3 : acc);
-    apply_cutoff(m, i, out);
-  }
-}
-
-// MuJoCo's cfrc_int (mj_rnePostConstraint: the wrench each body's parent supplies to its subtree,
-// com-based) counts rigid bodies only; a rod's proxies are massless. Each rod adds the wrench that
-// moves it (its inverse dynamics at the step's qacc, its base accelerating by MuJoCo's cacc, which
-// counts gravity as an upward acceleration of the world) to its base body and every ancestor, and
-// the part of the rod from a section's end on to that section's proxy and helpers. Leaves the
-// rod's node wrenches (cosserat::Data::F) for the force sensors on rod sites.
-void patch_cfrc_int(const Scene& s, SceneData& sd) {
-  const mjModel* m = s.m;
-  mjData* d = sd.d;
-  auto add = [d](int body, const Vec6& W) {
-    for (int e = 0; e < 6; ++e) d->cfrc_int[6 * body + e] += W(e);
-  };
-  for (size_t r = 0; r < s.rods.size(); ++r) {
-    const RodBinding& rb = s.rods[r];
-    cosserat::Data& rd = sd.rod[r];
-    const mjtNum* c = d->subtree_com + 3 * m->body_rootid[rb.base_body];
-    const SE3 G = com_frame(rd.base_pose, c);
-    const Vec6 bias_accel = rd.base_accel;  // the bias pass's (qacc = 0): restored below
-    rd.base_accel = Ad_inv_apply(G, Eigen::Map<const Vec6>(d->cacc + 6 * rb.base_body));
-    cosserat::rnea(rb.model, rd, Eigen::Map<const VecX>(d->qacc + rb.dof0, rb.model.nv), false, false,
-                   sd.scratch[r].tau, true);  // every node: the wrenches across rigid sections too
-    rd.base_accel = bias_accel;
-    const Vec6 W = coAd_apply(G, rd.f_base);
-    for (int b = rb.base_body; b > 0; b = m->body_parentid[b]) add(b, W);
-    for (size_t i = 0; i < rb.proxy_body.size(); ++i) {
-      const int k = rb.model.sections[i].end_node;
-      const Vec6 Wi = coAd_apply(com_frame(rd.g[k], c), rd.F[k]);
-      add(rb.proxy_body[i], Wi);
-      for (int h : rb.helper_body[i]) add(h, Wi);
-    }
-  }
-}
-
-// Scene::force_sensors again, as mj_sensorAcc computes them (cfrc_int of the site's body, to the
-// site's frame), from the patched cfrc_int. A site on a rod section reads the wrench transmitted
-// into the rod from its abscissa on (the nodes at or beyond it) instead of from the section's end,
-// plus what MuJoCo's bodies below add (tip bodies; contacts on the capsules of the site's section
-// and beyond).
-void patch_force_sensors(const Scene& s, SceneData& sd) {
-  const mjModel* m = s.m;
-  mjData* d = sd.d;
-  if (m->opt.disableflags & mjDSBL_SENSOR) return;
-  patch_cfrc_int(s, sd);
-  for (int i : s.force_sensors) {
-    const int site = m->sensor_objid[i], body = m->site_bodyid[site];
-    const mjtNum* c = d->subtree_com + 3 * m->body_rootid[body];
-    Vec6 cf = Eigen::Map<const Vec6>(d->cfrc_int + 6 * body);
-    if (const int r = s.site_rod[site]; r >= 0 && body != s.rods[r].base_body) {
-      const RodBinding& rb = s.rods[r];
-      const cosserat::Data& rd = sd.rod[r];
-      const int k = rb.model.rod_node_at(0, rb.decl.sites[s.site_index[site]].X);
-      const int k_end = rb.model.sections[s.site_section[site]].end_node;
-      cf += coAd_apply(com_frame(rd.g[k], c), rd.F[k]) - coAd_apply(com_frame(rd.g[k_end], c), rd.F[k_end]);
-    }
-    mjtNum tmp[6];
-    mju_transformSpatial(tmp, cf.data(), 1, d->site_xpos + 3 * site, c, d->site_xmat + 9 * site);
-    mjtNum* out = d->sensordata + m->sensor_adr[i];
-    mju_copy3(out, m->sensor_type[i] == mjSENS_FORCE ? tmp + 3 : tmp);
-    apply_cutoff(m, i, out);
-  }
-}
-
-// Scene::subtree_sensors of the stage just computed (mjSTAGE_POS: subtreecom; mjSTAGE_VEL:
-// subtreelinvel, subtreeangmom) again, with the rods, then MuJoCo's cutoff.
-void patch_subtree_sensors(const Scene& s, SceneData& sd, int stage) {
-  const mjModel* m = s.m;
-  mjData* d = sd.d;
-  if (m->opt.disableflags & mjDSBL_SENSOR) return;
-  for (int i : s.subtree_sensors) {
-    if (m->sensor_needstage[i] != stage) continue;
-    const int type = m->sensor_type[i];
-    const Subtree st = subtree_with_rods(s, sd, m->sensor_objid[i], stage == mjSTAGE_VEL);
-    const Vec3& v = type == mjSENS_SUBTREECOM ? st.com : type == mjSENS_SUBTREELINVEL ? st.linvel : st.angmom;
-    mjtNum* out = d->sensordata + m->sensor_adr[i];
-    for (int e = 0; e < 3; ++e) out[e] = v(e);
-    apply_cutoff(m, i, out);
-  }
-}
-
-}  // namespace
-
 void forward(const Scene& s, SceneData& sd, Need need) {
   const mjModel* m = s.m;
   mjData* d = sd.d;
   fwd_position(s, sd, need);
   mj_sensorPos(m, d);
-  if (!s.subtree_sensors.empty()) patch_subtree_sensors(s, sd, mjSTAGE_POS);
+  patch_sensors(s, sd, mjSTAGE_POS);
   fwd_velocity(s, sd);
   mj_sensorVel(m, d);
-  if (!s.rod_velocity_sensors.empty()) patch_velocity_sensors(s, sd);
-  if (!s.subtree_sensors.empty()) patch_subtree_sensors(s, sd, mjSTAGE_VEL);
+  patch_sensors(s, sd, mjSTAGE_VEL);
   mj_fwdActuation(m, d);
   if (sd.forces_only) {  // no constraints, no acceleration sensors: the forces are all the step needs
     smooth_forces(m, d);
@@ -1133,8 +787,7 @@ void forward(const Scene& s, SceneData& sd, Need need) {
   mj_fwdAcceleration(m, d);
   mj_fwdConstraint(m, d);
   mj_sensorAcc(m, d);
-  if (!s.rod_acceleration_sensors.empty()) patch_acceleration_sensors(s, sd);
-  if (!s.force_sensors.empty()) patch_force_sensors(s, sd);
+  patch_sensors(s, sd, mjSTAGE_ACC);
 }
 
 // --------------------------------------------------------------------------- load / reset --
@@ -1161,7 +814,7 @@ void recompute_invweight0(Scene& s) {
   }
   for (int i : s.com_cameras) {
     if (m->cam_mode[i] != mjCAMLIGHT_TRACKCOM) continue;
-    const Vec3 c = subtree_with_rods(s, sd, m->cam_bodyid[i], false).com;
+    const Vec3 c = subtree_com_with_rods(s, sd, m->cam_bodyid[i]);
     for (int e = 0; e < 3; ++e) m->cam_poscom0[3 * i + e] += sd.d->subtree_com[3 * m->cam_bodyid[i] + e] - c(e);
   }
   for (int i = 0; i < m->nlight; ++i) {
@@ -1175,7 +828,7 @@ void recompute_invweight0(Scene& s) {
   }
   for (int i : s.com_lights) {
     if (m->light_mode[i] != mjCAMLIGHT_TRACKCOM) continue;
-    const Vec3 c = subtree_with_rods(s, sd, m->light_bodyid[i], false).com;
+    const Vec3 c = subtree_com_with_rods(s, sd, m->light_bodyid[i]);
     for (int e = 0; e < 3; ++e) m->light_poscom0[3 * i + e] += sd.d->subtree_com[3 * m->light_bodyid[i] + e] - c(e);
   }
   const int nv = m->nv;
@@ -1322,28 +975,6 @@ void check_keyframes(const Preprocessed& pre, const mjModel* m) {
   }
 }
 
-// Frame sensors of velocity or acceleration whose object or reference frame is a rod capsule: a
-// capsule spans a chord of the rod (its frame is no material frame) and MuJoCo would move it
-// rigidly with its proxy; refused, pointing at a site instead. After geom_rod is set.
-void check_sensors(const Preprocessed& pre, const Scene& s) {
-  const mjModel* m = s.m;
-  for (int i = 0; i < m->nsensor; ++i) {
-    const int t = m->sensor_type[i];
-    if (t != mjSENS_FRAMELINVEL && t != mjSENS_FRAMEANGVEL && t != mjSENS_FRAMELINACC && t != mjSENS_FRAMEANGACC)
-      continue;
-    for (const auto& [type, id] : {std::pair{m->sensor_objtype[i], m->sensor_objid[i]},
-                                   std::pair{m->sensor_reftype[i], m->sensor_refid[i]}})
-      if (type == mjOBJ_GEOM && id >= 0 && s.geom_rod[id] >= 0) {
-        const SourceLine where =
-            i < static_cast<int>(pre.sensor_origin.size()) ? pre.sensor_origin[i] : SourceLine{pre.path, 0};
-        throw LoadError(where.file, where.line,
-                        "<sensor>: the motion of rod capsule '" + std::string(mj_id2name(m, mjOBJ_GEOM, id)) +
-                            "' is not a material frame's (a capsule spans a chord of the rod): put a <site> on "
-                            "the rod at the abscissa to measure and name it instead");
-      }
-  }
-}
-
 std::unique_ptr<Scene> compile(const Preprocessed& pre) {
   auto s = std::make_unique<Scene>();
   s->path = pre.path;
@@ -1391,7 +1022,6 @@ std::unique_ptr<Scene> compile(const Preprocessed& pre) {
       s->geom_rod[s->rods[r].geom_id[k]] = static_cast<int>(r);
       s->geom_index[s->rods[r].geom_id[k]] = static_cast<int>(k);
     }
-  check_sensors(pre, *s);
   s->may_collide = scene_may_collide(s->m);
   s->body_by_rod.assign(s->m->nbody, 0);
   for (const RodBinding& rb : s->rods)
@@ -1404,43 +1034,7 @@ std::unique_ptr<Scene> compile(const Preprocessed& pre) {
     for (const RodBinding& rb : s->rods)
       if (!rb.cdof_dot_read)
         for (int b = rb.base_body + 1; b < rb.below_end; ++b) s->velocity_skip[b] = 1;
-  for (int i = 0; i < s->m->nsensor; ++i) {
-    const int t = s->m->sensor_type[i];
-    if ((t == mjSENS_VELOCIMETER || t == mjSENS_GYRO || t == mjSENS_FRAMELINVEL || t == mjSENS_FRAMEANGVEL) &&
-        (moving_rod_site(*s, s->m->sensor_objtype[i], s->m->sensor_objid[i]) ||
-         moving_rod_site(*s, s->m->sensor_reftype[i], s->m->sensor_refid[i])))
-      s->rod_velocity_sensors.push_back(i);
-    if ((t == mjSENS_ACCELEROMETER || t == mjSENS_FRAMELINACC || t == mjSENS_FRAMEANGACC) &&
-        moving_rod_site(*s, s->m->sensor_objtype[i], s->m->sensor_objid[i]))
-      s->rod_acceleration_sensors.push_back(i);
-    if ((t == mjSENS_FORCE || t == mjSENS_TORQUE) && !s->rods.empty()) s->force_sensors.push_back(i);
-    if (t == mjSENS_SUBTREECOM || t == mjSENS_SUBTREELINVEL || t == mjSENS_SUBTREEANGMOM)
-      for (const RodBinding& rb : s->rods)
-        if (is_descendant(s->m, rb.base_body, s->m->sensor_objid[i])) {
-          s->subtree_sensors.push_back(i);
-          break;
-        }
-  }
-  auto rods_below = [&s](int body) {
-    return body >= 0 && std::any_of(s->rods.begin(), s->rods.end(),
-                                    [&](const RodBinding& rb) { return is_descendant(s->m, rb.base_body, body); });
-  };
-  for (int i = 0; i < s->m->ncam; ++i)
-    if ((s->m->cam_mode[i] == mjCAMLIGHT_TRACKCOM && rods_below(s->m->cam_bodyid[i])) ||
-        (s->m->cam_mode[i] == mjCAMLIGHT_TARGETBODYCOM && rods_below(s->m->cam_targetbodyid[i])))
-      s->com_cameras.push_back(i);
-  for (int i = 0; i < s->m->nlight; ++i)
-    if ((s->m->light_mode[i] == mjCAMLIGHT_TRACKCOM && rods_below(s->m->light_bodyid[i])) ||
-        (s->m->light_mode[i] == mjCAMLIGHT_TARGETBODYCOM && rods_below(s->m->light_targetbodyid[i])))
-      s->com_lights.push_back(i);
-  for (int i = 0; i < s->m->nu; ++i) {
-    const int t = s->m->actuator_trntype[i];
-    // site (and its refsite) or slider-crank (crank and slider sites)
-    if ((t == mjTRN_SITE || t == mjTRN_SLIDERCRANK) &&
-        (moving_rod_site(*s, mjOBJ_SITE, s->m->actuator_trnid[2 * i]) ||
-         moving_rod_site(*s, mjOBJ_SITE, s->m->actuator_trnid[2 * i + 1])))
-      s->rod_site_actuators.push_back(i);
-  }
+  setup_site_readers(pre, *s);  // sensors, transmissions, tracking that read rods (scene_sites.hpp)
   setup_fluid(*s);  // fluid hook: may switch MuJoCo's own fluid off (scene_fluid.hpp)
   if (!s->rods.empty()) recompute_invweight0(*s);
   s->integrator = s->rods.empty() ? Integrator::Euler : Integrator::Implicit;
