@@ -295,42 +295,43 @@ void check_sensors(const Preprocessed& pre, const Scene& s) {
 }  // namespace
 
 void setup_site_readers(const Preprocessed& pre, Scene& s) {
+  const mjModel* m = s.m;
   check_sensors(pre, s);
-  for (int i = 0; i < s.m->nsensor; ++i) {
-    const int t = s.m->sensor_type[i];
+  for (int i = 0; i < m->nsensor; ++i) {
+    const int t = m->sensor_type[i];
     if ((t == mjSENS_VELOCIMETER || t == mjSENS_GYRO || t == mjSENS_FRAMELINVEL || t == mjSENS_FRAMEANGVEL) &&
-        (moving_rod_site(s, s.m->sensor_objtype[i], s.m->sensor_objid[i]) ||
-         moving_rod_site(s, s.m->sensor_reftype[i], s.m->sensor_refid[i])))
+        (moving_rod_site(s, m->sensor_objtype[i], m->sensor_objid[i]) ||
+         moving_rod_site(s, m->sensor_reftype[i], m->sensor_refid[i])))
       s.rod_velocity_sensors.push_back(i);
     if ((t == mjSENS_ACCELEROMETER || t == mjSENS_FRAMELINACC || t == mjSENS_FRAMEANGACC) &&
-        moving_rod_site(s, s.m->sensor_objtype[i], s.m->sensor_objid[i]))
+        moving_rod_site(s, m->sensor_objtype[i], m->sensor_objid[i]))
       s.rod_acceleration_sensors.push_back(i);
     if ((t == mjSENS_FORCE || t == mjSENS_TORQUE) && !s.rods.empty()) s.force_sensors.push_back(i);
     if (t == mjSENS_SUBTREECOM || t == mjSENS_SUBTREELINVEL || t == mjSENS_SUBTREEANGMOM)
       for (const RodBinding& rb : s.rods)
-        if (is_descendant(s.m, rb.base_body, s.m->sensor_objid[i])) {
+        if (is_descendant(m, rb.base_body, m->sensor_objid[i])) {
           s.subtree_sensors.push_back(i);
           break;
         }
   }
-  auto rods_below = [&s](int body) {
+  auto rods_below = [&](int body) {
     return body >= 0 && std::any_of(s.rods.begin(), s.rods.end(),
-                                    [&](const RodBinding& rb) { return is_descendant(s.m, rb.base_body, body); });
+                                    [&](const RodBinding& rb) { return is_descendant(m, rb.base_body, body); });
   };
-  for (int i = 0; i < s.m->ncam; ++i)
-    if ((s.m->cam_mode[i] == mjCAMLIGHT_TRACKCOM && rods_below(s.m->cam_bodyid[i])) ||
-        (s.m->cam_mode[i] == mjCAMLIGHT_TARGETBODYCOM && rods_below(s.m->cam_targetbodyid[i])))
+  for (int i = 0; i < m->ncam; ++i)
+    if ((m->cam_mode[i] == mjCAMLIGHT_TRACKCOM && rods_below(m->cam_bodyid[i])) ||
+        (m->cam_mode[i] == mjCAMLIGHT_TARGETBODYCOM && rods_below(m->cam_targetbodyid[i])))
       s.com_cameras.push_back(i);
-  for (int i = 0; i < s.m->nlight; ++i)
-    if ((s.m->light_mode[i] == mjCAMLIGHT_TRACKCOM && rods_below(s.m->light_bodyid[i])) ||
-        (s.m->light_mode[i] == mjCAMLIGHT_TARGETBODYCOM && rods_below(s.m->light_targetbodyid[i])))
+  for (int i = 0; i < m->nlight; ++i)
+    if ((m->light_mode[i] == mjCAMLIGHT_TRACKCOM && rods_below(m->light_bodyid[i])) ||
+        (m->light_mode[i] == mjCAMLIGHT_TARGETBODYCOM && rods_below(m->light_targetbodyid[i])))
       s.com_lights.push_back(i);
-  for (int i = 0; i < s.m->nu; ++i) {
-    const int t = s.m->actuator_trntype[i];
+  for (int i = 0; i < m->nu; ++i) {
+    const int t = m->actuator_trntype[i];
     // site (and its refsite) or slider-crank (crank and slider sites)
     if ((t == mjTRN_SITE || t == mjTRN_SLIDERCRANK) &&
-        (moving_rod_site(s, mjOBJ_SITE, s.m->actuator_trnid[2 * i]) ||
-         moving_rod_site(s, mjOBJ_SITE, s.m->actuator_trnid[2 * i + 1])))
+        (moving_rod_site(s, mjOBJ_SITE, m->actuator_trnid[2 * i]) ||
+         moving_rod_site(s, mjOBJ_SITE, m->actuator_trnid[2 * i + 1])))
       s.rod_site_actuators.push_back(i);
   }
 }
