@@ -1,6 +1,7 @@
 // Actuator transmissions through rod sites: MuJoCo computes a site's moment arm as if the site were
 // rigid with its section's proxy (placed at the section's end); the coupling corrects it to the
-// material point's Jacobian. Checked against central differences of the sites' motion.
+// material point's Jacobian. Checked against central differences of the sites' motion, and the
+// equality constraints on rod bodies (exact as MuJoCo computes them: proxies are material frames).
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -108,6 +109,34 @@ TEST(Transmission, SliderCrankThroughRodSitesHasItsLengthsDerivative) {
     const double rate = (lp[a] - lm[a]) / (2 * eps);
     EXPECT_GT(std::abs(rate), 1e-3) << a;
     EXPECT_NEAR(mo.moment_times_v(a), rate, 1e-6 * std::abs(rate)) << a;
+  }
+}
+
+// Equality constraints on rod bodies (a connect at an offset anchor on a section's proxy, a weld of
+// the rod's tip body): every constraint row of efc_J is the derivative of its residual efc_pos.
+TEST(Transmission, EqualityConstraintsOnRodBodiesHaveTheirResidualsDerivative) {
+  Motion mo(R"(<mujoco><option gravity="0 0 -9.81"/><worldbody>
+    <body name="hub" pos="0 0 1"><joint name="yaw" type="hinge" axis="0 0.3 1"/><geom type="sphere" size="0.02"/>
+      <cosserat name="arm" length="0.3" sections="3" strain="kl" radius="0.01" contype="0" conaffinity="0">
+        <body name="tipb"/>
+      </cosserat></body></worldbody>
+    <equality><connect body1="arm/s1" body2="world" anchor="0.01 0.02 0"/><weld body1="tipb" body2="world"/></equality>
+  </mujoco>)");
+  const double eps = 1e-6;
+  const mjData* d = mo.at(eps);
+  const std::vector<double> rp(d->efc_pos, d->efc_pos + d->nefc);
+  d = mo.at(-eps);
+  const std::vector<double> rm(d->efc_pos, d->efc_pos + d->nefc);
+  d = mo.at(0.0);
+  const int nv = mo.s->m->nv;
+  ASSERT_EQ(d->nefc, 9);  // connect: 3 rows, weld: 6
+  ASSERT_FALSE(mj_isSparse(mo.s->m));
+  for (int r = 0; r < d->nefc; ++r) {
+    double Jv = 0.0;
+    for (int i = 0; i < nv; ++i) Jv += d->efc_J[r * nv + i] * mo.motion->v[i];
+    const double rate = (rp[r] - rm[r]) / (2 * eps);
+    EXPECT_GT(std::abs(rate), 1e-3) << r;
+    EXPECT_NEAR(Jv, rate, 1e-7 * std::abs(rate)) << "row " << r;
   }
 }
 
