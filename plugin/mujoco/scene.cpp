@@ -432,6 +432,18 @@ int site_correction(const Scene& s, const SceneData& sd, int site, const Vec3& p
                  : point_correction(s, sd, r, s.site_section[site], s.rods[r].decl.sites[k].X, p, dJ);
 }
 
+int capsule_correction(const Scene& s, const SceneData& sd, int geom, const Vec3& p, SectionCols& dJ) {
+  const mjData* d = sd.d;
+  const int r = s.geom_rod[geom];
+  const RodGeomDecl& gd = s.rods[r].decl.geoms[s.geom_index[geom]];
+  // material abscissa: the point projected on the capsule's axis
+  const Vec3 gc(d->geom_xpos[3 * geom], d->geom_xpos[3 * geom + 1], d->geom_xpos[3 * geom + 2]);
+  const Vec3 ax(d->geom_xmat[9 * geom + 2], d->geom_xmat[9 * geom + 5], d->geom_xmat[9 * geom + 8]);
+  const double half = s.m->geom_size[3 * geom + 1];
+  const double t = std::clamp(0.5 + (p - gc).dot(ax) / (2.0 * half), 0.0, 1.0);
+  return point_correction(s, sd, r, gd.section, gd.X_begin + t * (gd.X_end - gd.X_begin), p, dJ);
+}
+
 namespace {
 
 // Add `val` at (row, col) of efc_J, dense or sparse (the column is in the row's pattern: the
@@ -466,17 +478,8 @@ void patch_contacts(const Scene& s, SceneData& sd) {
     if (con.efc_address < 0) continue;
     for (int side = 0; side < 2; ++side) {
       const int g = side == 0 ? con.geom1 : con.geom2;
-      const int r = s.geom_rod[g];
-      if (r < 0) continue;
-      const RodGeomDecl& gd = s.rods[r].decl.geoms[s.geom_index[g]];
-      // material abscissa: the contact point projected on the capsule's axis
-      const Vec3 p(con.pos[0], con.pos[1], con.pos[2]);
-      const Vec3 gc(d->geom_xpos[3 * g], d->geom_xpos[3 * g + 1], d->geom_xpos[3 * g + 2]);
-      const Vec3 ax(d->geom_xmat[9 * g + 2], d->geom_xmat[9 * g + 5], d->geom_xmat[9 * g + 8]);
-      const double half = m->geom_size[3 * g + 1];
-      const double t = std::clamp(0.5 + (p - gc).dot(ax) / (2.0 * half), 0.0, 1.0);
-      const double X = gd.X_begin + t * (gd.X_end - gd.X_begin);
-      const int col0 = point_correction(s, sd, r, gd.section, X, p, dJ);
+      if (s.geom_rod[g] < 0) continue;
+      const int col0 = capsule_correction(s, sd, g, Vec3(con.pos[0], con.pos[1], con.pos[2]), dJ);
       Eigen::Map<const Mat3r> frame(con.frame);
       C.resize(6, dJ.cols());  // contact-frame rows of the correction, signed as J2 - J1
       C.topRows<3>().noalias() = frame * dJ.topRows<3>();

@@ -50,6 +50,9 @@ using SectionCols = Eigen::Matrix<double, 6, Eigen::Dynamic, 0, 6, cosserat::kMa
 // section's dofs minus MuJoCo's (the point rigid with the proxy), rows translation then rotation,
 // world axes; returns the section's first MuJoCo dof (dJ.cols() dofs). Needs fwd_position.
 int site_correction(const Scene& s, const SceneData& sd, int site, const Vec3& p, SectionCols& dJ);
+// The same for a point p (world) touching rod capsule `geom`: the material point of the section at
+// p's projection on the capsule's axis (the contact rows' correction).
+int capsule_correction(const Scene& s, const SceneData& sd, int geom, const Vec3& p, SectionCols& dJ);
 // Body b is `ancestor` or below it (every body is below the world).
 bool is_descendant(const mjModel* m, int b, int ancestor);
 // The frame a rod section starts at: node `anchor`, or the rod's base for -1.
