@@ -328,10 +328,12 @@ void setup_site_readers(const Preprocessed& pre, Scene& s) {
       s.com_lights.push_back(i);
   for (int i = 0; i < m->nu; ++i) {
     const int t = m->actuator_trntype[i];
-    // site (and its refsite) or slider-crank (crank and slider sites)
-    if ((t == mjTRN_SITE || t == mjTRN_SLIDERCRANK) &&
-        (moving_rod_site(s, mjOBJ_SITE, m->actuator_trnid[2 * i]) ||
-         moving_rod_site(s, mjOBJ_SITE, m->actuator_trnid[2 * i + 1])))
+    // site (and its refsite) or slider-crank (crank and slider sites) through rod sites; adhesion
+    // (body transmission) wherever rods can touch something
+    if (((t == mjTRN_SITE || t == mjTRN_SLIDERCRANK) &&
+         (moving_rod_site(s, mjOBJ_SITE, m->actuator_trnid[2 * i]) ||
+          moving_rod_site(s, mjOBJ_SITE, m->actuator_trnid[2 * i + 1]))) ||
+        (t == mjTRN_BODY && !s.rods.empty()))
       s.rod_site_actuators.push_back(i);
   }
 }
@@ -392,6 +394,35 @@ void patch_com_tracking(const Scene& s, SceneData& sd) {
   }
 }
 
+// An adhesion actuator's moment arm (mj_transmission's body transmission: minus the mean over the
+// body's contacts of the normal Jacobian n . (J2 - J1)) where a contact in the gap (exclude 1: no
+// constraint row, so MuJoCo takes the Jacobian of the proxies as rigid bodies) touches a rod
+// capsule. The active contacts read the contact rows, corrected in scene.cpp already.
+void patch_adhesion(const Scene& s, SceneData& sd, int i) {
+  const mjModel* m = s.m;
+  mjData* d = sd.d;
+  thread_local SectionCols dJ;  // scratch: no heap memory
+  const int body = m->actuator_trnid[2 * i];
+  int counted = 0;
+  for (int k = 0; k < d->ncon; ++k) {
+    const mjContact& con = d->contact[k];
+    if ((m->geom_bodyid[con.geom1] == body || m->geom_bodyid[con.geom2] == body) && con.exclude <= 1) ++counted;
+  }
+  if (!counted) return;
+  for (int k = 0; k < d->ncon; ++k) {
+    const mjContact& con = d->contact[k];
+    if ((m->geom_bodyid[con.geom1] != body && m->geom_bodyid[con.geom2] != body) || con.exclude != 1) continue;
+    const Vec3 n(con.frame[0], con.frame[1], con.frame[2]);
+    for (int side = 0; side < 2; ++side) {
+      const int g = side == 0 ? con.geom1 : con.geom2;
+      if (s.geom_rod[g] < 0) continue;
+      const int col0 = capsule_correction(s, sd, g, Vec3(con.pos[0], con.pos[1], con.pos[2]), dJ);
+      const double sign = (side == 0 ? 1.0 : -1.0) / counted;  // -(J2 - J1) / counted
+      for (int c = 0; c < dJ.cols(); ++c) d->actuator_moment[i * m->nv + col0 + c] += sign * n.dot(dJ.col(c).head<3>());
+    }
+  }
+}
+
 // Actuator moment arms through rod sites (Scene::rod_site_actuators), MuJoCo's mj_transmission with
 // the true site Jacobians: moment += gear^T (the actuator's wrench or length gradient) times the
 // sites' point_correction (the section's dofs only).
@@ -412,6 +443,10 @@ void patch_site_transmissions(const Scene& s, SceneData& sd) {
       d->actuator_moment[i * m->nv + col0 + c] += f_lin.dot(dJ.col(c).head<3>()) + f_rot.dot(dJ.col(c).tail<3>());
   };
   for (int i : s.rod_site_actuators) {
+    if (m->actuator_trntype[i] == mjTRN_BODY) {
+      patch_adhesion(s, sd, i);
+      continue;
+    }
     const mjtNum* gear = m->actuator_gear + 6 * i;
     const int id = m->actuator_trnid[2 * i];
     if (m->actuator_trntype[i] == mjTRN_SITE) {

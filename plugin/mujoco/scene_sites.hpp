@@ -11,7 +11,9 @@
 //     arm reads its weight and inertia; on a rod site, the wrench across that cross-section);
 //   - subtreecom, subtreelinvel and subtreeangmom of bodies with rods below, and trackcom and
 //     targetbodycom cameras and lights: the centre of mass and momentum with the rods;
-//   - site (with or without refsite) and slider-crank transmissions: the sites' material Jacobians.
+//   - site (with or without refsite) and slider-crank transmissions: the sites' material Jacobians;
+//     adhesion (body) transmissions: the rod capsules' material points in contacts in the gap
+//     (the active contacts read the contact rows, which scene.cpp corrects).
 // Velocity and acceleration frame sensors of rod capsules (a chord, no material frame) are load
 // errors. Tendons through rod sites and contacts on rod capsules are patched in scene.cpp.
 #pragma once

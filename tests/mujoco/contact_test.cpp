@@ -9,9 +9,13 @@
 #include <string>
 
 #include "kinematics.hpp"
+#include "support/material_point.hpp"
 
 using namespace cosserat;
 using namespace cosserat::mj;
+using cosserat::testing::contact_point;
+using cosserat::testing::material_pose;
+using cosserat::testing::MaterialPoint;
 
 namespace {
 
@@ -46,36 +50,6 @@ std::string scene(const char* cone, const char* jac, int condim, double height, 
   x = replace_all(x, "HEIGHT", std::to_string(height));
   x = replace_all(x, "VISC", std::to_string(visc));
   return replace_all(x, "MU", std::to_string(mu));
-}
-
-// Material point of the rod that touches at contact i: abscissa (projection on the capsule axis, as
-// the coupling defines it) and offset in the cross-section frame.
-struct MaterialPoint {
-  int rod;
-  double X;
-  Vec3 offset;
-};
-
-MaterialPoint contact_point(const Scene& s, const SceneData& sd, const mjContact& con, int g) {
-  const int r = s.geom_rod[g];
-  const RodGeomDecl& gd = s.rods[r].decl.geoms[s.geom_index[g]];
-  const Vec3 p(con.pos[0], con.pos[1], con.pos[2]);
-  const Vec3 gc(sd.d->geom_xpos[3 * g], sd.d->geom_xpos[3 * g + 1], sd.d->geom_xpos[3 * g + 2]);
-  const Vec3 ax(sd.d->geom_xmat[9 * g + 2], sd.d->geom_xmat[9 * g + 5], sd.d->geom_xmat[9 * g + 8]);
-  const double t = std::clamp(0.5 + (p - gc).dot(ax) / (2.0 * s.m->geom_size[3 * g + 1]), 0.0, 1.0);
-  const double X = gd.X_begin + t * (gd.X_end - gd.X_begin);
-  const SE3 gX = rod_pose(s.rods[r].model, sd.rod[r], 0, X);
-  return {r, X, gX.R.transpose() * (p - gX.u)};
-}
-
-// World pose of that material point's frame at configuration qpos.
-SE3 material_pose(const Scene& s, const std::vector<mjtNum>& qpos, const MaterialPoint& mp) {
-  SceneData sd(s);
-  mju_copy(sd.d->qpos, qpos.data(), s.m->nq);
-  fwd_position(s, sd);
-  SE3 g = rod_pose(s.rods[mp.rod].model, sd.rod[mp.rod], 0, mp.X);
-  g.u += g.R * mp.offset;
-  return g;
 }
 
 // efc_vel = efc_J qvel (MuJoCo's own product, dense or sparse) against the relative velocity of

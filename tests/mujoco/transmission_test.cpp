@@ -5,12 +5,14 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 #include <memory>
 #include <string>
 #include <vector>
 
 #include "scene.hpp"
 #include "support/bent_motion.hpp"
+#include "support/material_point.hpp"
 
 using namespace cosserat;
 using namespace cosserat::mj;
@@ -138,6 +140,62 @@ TEST(Transmission, EqualityConstraintsOnRodBodiesHaveTheirResidualsDerivative) {
     EXPECT_GT(std::abs(rate), 1e-3) << r;
     EXPECT_NEAR(Jv, rate, 1e-7 * std::abs(rate)) << "row " << r;
   }
+}
+
+// An adhesion actuator (MuJoCo's body transmission) on a ball near rod capsules, inside their
+// margin and, for some, beyond their gap: MuJoCo counts a gap contact without a constraint row and
+// takes its normal Jacobian n . (J2 - J1) directly; with the rod's touching material point (as the
+// contact rows take it) the moment arm times v is minus the mean normal velocity of the contacts.
+TEST(Transmission, AdhesionThroughGapContactsWithARodHasTheMaterialPointsMomentArm) {
+  // the ball 2 cm off the middle capsule of the bent rod (placed from a first load at that state)
+  auto xml = [](const Vec3& ball) {
+    char pos[96];
+    std::snprintf(pos, sizeof pos, "%.17g %.17g %.17g", ball(0), ball(1), ball(2));
+    return std::string(R"(<mujoco><option gravity="0 0 0"/><worldbody>
+    <body name="hub" pos="0 0 1"><joint name="yaw" type="hinge" axis="0 0.3 1"/>
+      <geom type="sphere" size="0.02" contype="0" conaffinity="0"/>
+      <cosserat name="arm" length="0.3" sections="3" strain="kl" radius="0.01" contype="1" conaffinity="1"
+                margin="0.05" gap="0.04"/></body>
+    <body name="ball" pos=")") + pos + R"(">
+      <geom name="ball" type="sphere" size="0.02" margin="0.05" gap="0.04"/></body>
+    </worldbody><actuator><adhesion body="ball" ctrlrange="0 1"/></actuator></mujoco>)";
+  };
+  Vec3 ball;
+  {
+    Motion first(xml(Vec3(0, 0, 3)));
+    const mjData* d = first.at(0.0);
+    const int g = mj_name2id(first.s->m, mjOBJ_GEOM, "arm/s1/g0");
+    const Vec3 c(d->geom_xpos + 3 * g), ax(d->geom_xmat[9 * g + 2], d->geom_xmat[9 * g + 5], d->geom_xmat[9 * g + 8]);
+    const Vec3 normal = ax.cross(Vec3(0, 0, 1)).normalized();
+    ball = c + (0.01 + 0.02 + 0.02) * normal;  // 2 cm apart: in the 5 cm margin, beyond margin - gap
+  }
+  Motion mo(xml(ball));
+  // MuJoCo's moment: minus the mean over the ball's contacts of n . (v2 - v1), the contact points'
+  // velocities along the normal (the rod's side: its touching material point, by central
+  // differences along qvel; the ball is fixed)
+  const mjData* d = mo.at(0.0);
+  ASSERT_GE(d->ncon, 1);
+  const double eps = 1e-6;
+  std::vector<mjtNum> qp(mo.motion->q0), qm(mo.motion->q0);
+  for (size_t k = 0; k < qp.size(); ++k) {
+    qp[k] += eps * mo.motion->v[k];
+    qm[k] -= eps * mo.motion->v[k];
+  }
+  int gap = 0;
+  double rate = 0.0;
+  for (int k = 0; k < d->ncon; ++k) {
+    const mjContact& con = d->contact[k];
+    gap += con.exclude == 1;
+    const bool rod_first = mo.s->geom_rod[con.geom1] >= 0;
+    const cosserat::testing::MaterialPoint mp =
+        cosserat::testing::contact_point(*mo.s, *mo.sd, con, rod_first ? con.geom1 : con.geom2);
+    const Vec3 v = (cosserat::testing::material_pose(*mo.s, qp, mp).u - cosserat::testing::material_pose(*mo.s, qm, mp).u) /
+                   (2 * eps);
+    rate += (rod_first ? -1.0 : 1.0) * Vec3(con.frame[0], con.frame[1], con.frame[2]).dot(v) / d->ncon;
+  }
+  EXPECT_GE(gap, 1);  // at least one contact in the gap: no constraint row
+  EXPECT_GT(std::abs(rate), 1e-2);
+  EXPECT_NEAR(mo.moment_times_v(0), -rate, 1e-6 * std::abs(rate));
 }
 
 }  // namespace
