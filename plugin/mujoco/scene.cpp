@@ -513,6 +513,8 @@ void patch_tendons(const Scene& s, SceneData& sd) {
     const int adr = d->ten_wrapadr[t], num = d->ten_wrapnum[t];
     double divisor = 1.0;
     int pulley_wrap = m->tendon_adr[t];  // mj_tendon writes a path point -2 per pulley, in order
+    int site_wrap = m->tendon_adr[t];
+    const int wrap_end = m->tendon_adr[t] + m->tendon_num[t];
     for (int k = 0; k < num; ++k) {
       if (d->wrap_obj[adr + k] == -2) {
         while (m->wrap_type[pulley_wrap] != mjWRAP_PULLEY) ++pulley_wrap;
@@ -520,15 +522,13 @@ void patch_tendons(const Scene& s, SceneData& sd) {
         continue;
       }
       if (d->wrap_obj[adr + k] != -1) continue;
-      // the site of this path point: match by position among the tendon's wrap objects
+      // the site of this path point: mj_tendon writes one path point -1 per site of the tendon,
+      // in the order of its wrap objects (a wrapped geom's tangent points carry the geom's id)
+      while (site_wrap < wrap_end && m->wrap_type[site_wrap] != mjWRAP_SITE) ++site_wrap;
+      if (site_wrap == wrap_end) break;
+      const int site = m->wrap_objid[site_wrap++];
+      if (s.site_rod[site] < 0) continue;
       const mjtNum* pk = d->wrap_xpos + 3 * (adr + k);
-      int site = -1;
-      for (int w = m->tendon_adr[t]; w < m->tendon_adr[t] + m->tendon_num[t]; ++w)
-        if (m->wrap_type[w] == mjWRAP_SITE) {
-          const int sid = m->wrap_objid[w];
-          if (mju_dist3(pk, d->site_xpos + 3 * sid) == 0.0) site = sid;
-        }
-      if (site < 0 || s.site_rod[site] < 0) continue;
       Vec3 grad = Vec3::Zero();
       const Vec3 p(pk[0], pk[1], pk[2]);
       if (k > 0 && d->wrap_obj[adr + k - 1] != -2) {
