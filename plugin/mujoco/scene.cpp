@@ -512,21 +512,21 @@ void patch_tendons(const Scene& s, SceneData& sd) {
   for (int t = 0; t < m->ntendon; ++t) {
     const int adr = d->ten_wrapadr[t], num = d->ten_wrapnum[t];
     double divisor = 1.0;
-    int pulley_wrap = m->tendon_adr[t];  // mj_tendon writes a path point -2 per pulley, in order
-    int site_wrap = m->tendon_adr[t];
+    // mj_tendon writes one path point per site (-1) and per pulley (-2) of the tendon, in the order
+    // of its wrap objects (a wrapped geom's tangent points carry the geom's id): walk both along
+    int w = m->tendon_adr[t];
     const int wrap_end = m->tendon_adr[t] + m->tendon_num[t];
     for (int k = 0; k < num; ++k) {
-      if (d->wrap_obj[adr + k] == -2) {
-        while (m->wrap_type[pulley_wrap] != mjWRAP_PULLEY) ++pulley_wrap;
-        divisor = m->wrap_prm[pulley_wrap++];
+      const int obj = d->wrap_obj[adr + k];
+      if (obj != -1 && obj != -2) continue;
+      while (w < wrap_end && m->wrap_type[w] != mjWRAP_SITE && m->wrap_type[w] != mjWRAP_PULLEY) ++w;
+      if (w == wrap_end) break;
+      const int wrap = w++;
+      if (obj == -2) {
+        divisor = m->wrap_prm[wrap];
         continue;
       }
-      if (d->wrap_obj[adr + k] != -1) continue;
-      // the site of this path point: mj_tendon writes one path point -1 per site of the tendon,
-      // in the order of its wrap objects (a wrapped geom's tangent points carry the geom's id)
-      while (site_wrap < wrap_end && m->wrap_type[site_wrap] != mjWRAP_SITE) ++site_wrap;
-      if (site_wrap == wrap_end) break;
-      const int site = m->wrap_objid[site_wrap++];
+      const int site = m->wrap_objid[wrap];
       if (s.site_rod[site] < 0) continue;
       const mjtNum* pk = d->wrap_xpos + 3 * (adr + k);
       Vec3 grad = Vec3::Zero();

@@ -102,9 +102,10 @@ struct Scene {
   // MuJoCo's subtree quantities count rigid bodies only, the step adds the rods to these sensors
   // (MuJoCo's own d->subtree_* arrays keep the rigid bodies: they are its com-based reference)
   std::vector<int> subtree_sensors;
-  // actuators with a site (or slider-crank) transmission through a rod site off a rigid section (set
-  // at load): MuJoCo's moment arms move that site rigidly with its section's proxy, the step
-  // corrects them to the material point's Jacobian
+  // actuators with a site (refsite) or slider-crank transmission through a rod site off a rigid
+  // section, and with an adhesion (body) transmission when the scene has rods (set at load):
+  // MuJoCo's moment arms move such a site or touching capsule point rigidly with its section's
+  // proxy, the step corrects them to the material point's Jacobian
   std::vector<int> rod_site_actuators;
   // cameras and lights following (trackcom) or looking at (targetbodycom) the centre of mass of a
   // subtree with rods: placed from the centre of mass with the rods (MuJoCo's counts rigid bodies)

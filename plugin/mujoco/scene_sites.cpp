@@ -297,6 +297,10 @@ void check_sensors(const Preprocessed& pre, const Scene& s) {
 void setup_site_readers(const Preprocessed& pre, Scene& s) {
   const mjModel* m = s.m;
   check_sensors(pre, s);
+  auto rods_below = [&](int body) {  // a rod hangs in body's subtree
+    return body >= 0 && std::any_of(s.rods.begin(), s.rods.end(),
+                                    [&](const RodBinding& rb) { return is_descendant(m, rb.base_body, body); });
+  };
   for (int i = 0; i < m->nsensor; ++i) {
     const int t = m->sensor_type[i];
     if ((t == mjSENS_VELOCIMETER || t == mjSENS_GYRO || t == mjSENS_FRAMELINVEL || t == mjSENS_FRAMEANGVEL) &&
@@ -307,17 +311,10 @@ void setup_site_readers(const Preprocessed& pre, Scene& s) {
         moving_rod_site(s, m->sensor_objtype[i], m->sensor_objid[i]))
       s.rod_acceleration_sensors.push_back(i);
     if ((t == mjSENS_FORCE || t == mjSENS_TORQUE) && !s.rods.empty()) s.force_sensors.push_back(i);
-    if (t == mjSENS_SUBTREECOM || t == mjSENS_SUBTREELINVEL || t == mjSENS_SUBTREEANGMOM)
-      for (const RodBinding& rb : s.rods)
-        if (is_descendant(m, rb.base_body, m->sensor_objid[i])) {
-          s.subtree_sensors.push_back(i);
-          break;
-        }
+    if ((t == mjSENS_SUBTREECOM || t == mjSENS_SUBTREELINVEL || t == mjSENS_SUBTREEANGMOM) &&
+        rods_below(m->sensor_objid[i]))
+      s.subtree_sensors.push_back(i);
   }
-  auto rods_below = [&](int body) {
-    return body >= 0 && std::any_of(s.rods.begin(), s.rods.end(),
-                                    [&](const RodBinding& rb) { return is_descendant(m, rb.base_body, body); });
-  };
   for (int i = 0; i < m->ncam; ++i)
     if ((m->cam_mode[i] == mjCAMLIGHT_TRACKCOM && rods_below(m->cam_bodyid[i])) ||
         (m->cam_mode[i] == mjCAMLIGHT_TARGETBODYCOM && rods_below(m->cam_targetbodyid[i])))
