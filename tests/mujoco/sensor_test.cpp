@@ -26,11 +26,6 @@ Vec3 site_pos(const mjData* d, int id) {
   return Vec3(d->site_xpos[3 * id], d->site_xpos[3 * id + 1], d->site_xpos[3 * id + 2]);
 }
 Mat3 site_mat(const mjData* d, int id) { return Eigen::Map<const Mat3>(d->site_xmat + 9 * id); }
-// the axial vector of the skew-symmetric part of W
-Vec3 vee(const Mat3& W) {
-  const Mat3 A = 0.5 * (W - W.transpose());
-  return Vec3(A(2, 1), A(0, 2), A(1, 0));
-}
 
 // Sites: m inside section 1 (off the centre line), e at section 1's end, r inside section 2 (a
 // reference frame), h on the rigid hub; the rod and the hub move (hinge and strain velocities).
@@ -96,7 +91,7 @@ TEST(Sensors, VelocitySensorsOnRodSitesReadTheMaterialPointsVelocity) {
         ang;  // world-frame velocities of m, e, r, h from the differences
     for (int k = 0; k < 4; ++k) {
       vel.push_back((fp.p[k] - fm.p[k]) / (2 * eps));
-      ang.push_back(vee(((fp.R[k] - fm.R[k]) / (2 * eps)) * f0.R[k].transpose()));
+      ang.push_back(cosserat::testing::spin_of(((fp.R[k] - fm.R[k]) / (2 * eps)) * f0.R[k].transpose()));
     }
     const Mat3 Rr = f0.R[2];
     // relative to r: d/dt R_r^T (p - p_r), and R_r^T (w - w_r)

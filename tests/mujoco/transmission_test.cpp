@@ -77,8 +77,7 @@ TEST(Transmission, SiteActuatorOnARodSiteHasTheMaterialPointsMomentArm) {
     const auto [pm, Rm] = pose(-eps);
     const auto [p0, R0] = pose(0.0);
     const Mat3 W = ((Rp - Rm) / (2 * eps)) * R0.transpose();
-    return Motion3{(pp - pm) / (2 * eps), Vec3(0.5 * (W(2, 1) - W(1, 2)), 0.5 * (W(0, 2) - W(2, 0)), 0.5 * (W(1, 0) - W(0, 1))),
-                   R0};
+    return Motion3{(pp - pm) / (2 * eps), cosserat::testing::spin_of(W), R0};
   };
   const Motion3 m = motion_of("m"), sr = motion_of("s"), h = motion_of("h");
   mo.at(0.0);

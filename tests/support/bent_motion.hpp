@@ -24,4 +24,11 @@ struct BentMotion {
   }
 };
 
+// The angular velocity whose skew matrix is the antisymmetric part of W = dR/dt R^T (a frame's
+// spin from central differences of its orientation).
+template <class M3>
+inline Vec3 spin_of(const M3& W) {
+  return 0.5 * Vec3(W(2, 1) - W(1, 2), W(0, 2) - W(2, 0), W(1, 0) - W(0, 1));
+}
+
 }  // namespace cosserat::testing
