@@ -34,11 +34,11 @@ std::pair<double, double> surface_strain(const mj::Scene& s, const mj::SceneData
 
 // The automatic "<rod>/base" and "<rod>/tip" sites (not drawn: the tube shows where they are).
 bool generated_site(const mj::Scene& s, int site) {
-  const int r = s.site_rod[site];
-  if (r < 0) return false;
   const char* n = mj_id2name(s.m, mjOBJ_SITE, site);
-  const std::string name = n ? n : "", &rod = s.rods[r].decl.name;
-  return name == rod + "/base" || name == rod + "/tip";
+  const std::string name = n ? n : "";
+  for (const mj::RodBinding& rb : s.rods)
+    if (name == rb.decl.name + "/base" || name == rb.decl.name + "/tip") return true;
+  return false;
 }
 
 double field(const mj::Scene& s, const mj::SceneData& sd, int r, double X, RodColoring c) {

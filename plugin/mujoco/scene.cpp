@@ -136,8 +136,9 @@ const SE3& anchor_pose(const cosserat::Data& d, int anchor) { return anchor < 0 
 namespace {
 
 // RodBinding::geom_fixed and site_fixed: placements on rigid sections, from the rest state (they
-// do not depend on the state).
-void fix_rigid_placements(RodBinding& rb) {
+// do not depend on the state), and sites on the rod's base body (the generated "<rod>/base" site),
+// which ride rigidly with that body (MuJoCo's own Jacobians are exact there).
+void fix_rigid_placements(const mjModel* mm, RodBinding& rb) {
   const cosserat::Model& m = rb.model;
   cosserat::Data d(m);
   cosserat::fwd_position(m, d);
@@ -155,10 +156,11 @@ void fix_rigid_placements(RodBinding& rb) {
   for (size_t k = 0; k < rb.decl.sites.size(); ++k) {
     const RodSiteDecl& sdl = rb.decl.sites[k];
     const Section& sec = m.sections[m.nodes[m.rod_node_at(0, sdl.X)].section];
-    if (sec.ndof != 0) continue;
+    const bool on_base = mm->site_bodyid[rb.site_id[k]] == rb.base_body;
+    if (sec.ndof != 0 && !on_base) continue;
     RodBinding::Fixed& f = rb.site_fixed[k];
     f.fixed = true;
-    f.anchor = sec.start_node;
+    f.anchor = on_base ? -1 : sec.start_node;
     f.rel = anchor_pose(d, f.anchor).inverse() * site_pose(m, d, sdl);
   }
 }
@@ -203,7 +205,7 @@ RodBinding bind_rod(const mjModel* m, const RodDecl& decl) {
   for (int i = 0; i < m->nsite; ++i)
     if (on_rod(m->site_bodyid[i]) && std::find(rb.site_id.begin(), rb.site_id.end(), i) == rb.site_id.end())
       rb.other_site_id.push_back(i);
-  fix_rigid_placements(rb);
+  fix_rigid_placements(m, rb);
   rb.extensible = std::any_of(rb.model.sections.begin(), rb.model.sections.end(),
                               [](const Section& sec) { return sec.axial_free(); });
   const int last = rb.proxy_body.back();
@@ -994,13 +996,16 @@ std::unique_ptr<Scene> compile(const Preprocessed& pre) {
   s->site_section.assign(s->m->nsite, -1);
   for (size_t r = 0; r < s->rods.size(); ++r)
     for (size_t k = 0; k < s->rods[r].site_id.size(); ++k) {
-      s->site_rod[s->rods[r].site_id[k]] = static_cast<int>(r);
-      s->site_index[s->rods[r].site_id[k]] = static_cast<int>(k);
-      // the section whose proxy (or helper: none carry sites) holds the site
+      // the section whose proxy (or helper: none carry sites) holds the site. A site on the rod's
+      // base body ("<rod>/base") is not one of them: it rides rigidly with that body, which MuJoCo
+      // moves itself, so no patch corrects it (the rod still places it: RodBinding::site_fixed)
       const int body = s->m->site_bodyid[s->rods[r].site_id[k]];
       const auto& pb = s->rods[r].proxy_body;
       const auto it = std::find(pb.begin(), pb.end(), body);
-      s->site_section[s->rods[r].site_id[k]] = it == pb.end() ? 0 : static_cast<int>(it - pb.begin());
+      if (it == pb.end()) continue;
+      s->site_rod[s->rods[r].site_id[k]] = static_cast<int>(r);
+      s->site_index[s->rods[r].site_id[k]] = static_cast<int>(k);
+      s->site_section[s->rods[r].site_id[k]] = static_cast<int>(it - pb.begin());
     }
   // sites on a spatial tendon's path, and the first of them at each abscissa and section
   // (RodBinding::site_point)

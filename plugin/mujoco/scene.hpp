@@ -77,7 +77,9 @@ struct Scene {
   std::vector<RodBinding> rods;   // ordered by base body id: outer rods before rods hanging on them
   std::vector<int> geom_rod;      // per MuJoCo geom: rod index or -1
   std::vector<int> geom_index;    // per MuJoCo geom: index into that rod's geoms
-  std::vector<int> site_rod;      // per MuJoCo site: rod index or -1
+  // per MuJoCo site on a rod's proxies: rod index, else -1 (also the sites on a rod's base body,
+  // "<rod>/base": rigid with that body, MuJoCo moves them right)
+  std::vector<int> site_rod;
   std::vector<int> site_index;    // per MuJoCo site: index into that rod's sites
   std::vector<int> site_section;  // per MuJoCo site: section (proxy) of the rod carrying it
   // per MuJoCo body: 1 for the bodies a rod places (its proxies and helpers, and the bodies below

@@ -112,7 +112,9 @@ void expect_tendon_rows_match_length_differences(const Scene& s, SceneData& sd) 
   }
 }
 
-// A cable through four sites at a bent state with a rigid hinge above the rod.
+// A cable through four sites at a bent state with a rigid hinge above the rod; a second one from
+// the rod's generated base site (on the rod's base body, which MuJoCo moves itself: no correction)
+// through a site of section 0 to the generated tip site, the README's own cable.
 TEST(Cable, TendonJacobianMatchesLengthDifferences) {
   const std::string xml = R"(<mujoco><option gravity="0 0 0"/><worldbody>
     <body name="hub" pos="0 0 1"><joint name="yaw" type="hinge" axis="0 0 1"/><geom type="sphere" size="0.02"/>
@@ -120,7 +122,8 @@ TEST(Cable, TendonJacobianMatchesLengthDifferences) {
         <site name="a" at="0.04" pos="0 0.006 0"/><site name="b" at="0.13" pos="0 0.006 0.002"/>
         <site name="c" at="0.2" pos="0 -0.004 0.005"/><site name="d" at="0.29" pos="0 0.006 0"/>
       </cosserat></body></worldbody>
-    <tendon><spatial name="cable"><site site="a"/><site site="b"/><site site="c"/><site site="d"/></spatial></tendon>
+    <tendon><spatial name="cable"><site site="a"/><site site="b"/><site site="c"/><site site="d"/></spatial>
+      <spatial name="from_base"><site site="arm/base"/><site site="a"/><site site="arm/tip"/></spatial></tendon>
   </mujoco>)";
   auto s = load_scene_string(xml, "/tmp/cosserat_cable_test.xml");
   SceneData sd(*s);

@@ -514,7 +514,7 @@ TEST(Scene, RigidSectionPlacementsFollowTheRod) {
   for (const auto& f : rb.geom_fixed) fixed_geoms += f.fixed;
   for (const auto& f : rb.site_fixed) fixed_sites += f.fixed;
   EXPECT_GE(fixed_geoms, 2);  // the capsules of both rigid sections
-  EXPECT_EQ(fixed_sites, 2 + 1);  // the two user sites and "arm/tip"
+  EXPECT_EQ(fixed_sites, 2 + 1 + 1);  // the two user sites, "arm/tip" and "arm/base" (on the base body)
   SceneData sd(*s);
   for (int i = 0; i < 7; ++i) sd.d->qpos[i] += 0.1 * std::sin(1.0 + i);
   for (int k = 0; k < rb.model.nv; ++k) sd.d->qpos[rb.qpos0 + k] = 0.7 * std::cos(0.5 + 1.3 * k);

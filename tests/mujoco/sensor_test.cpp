@@ -28,11 +28,12 @@ Vec3 site_pos(const mjData* d, int id) {
 Mat3 site_mat(const mjData* d, int id) { return Eigen::Map<const Mat3>(d->site_xmat + 9 * id); }
 
 // Sites: m inside section 1 (off the centre line), e at section 1's end, r inside section 2 (a
-// reference frame), h on the rigid hub; the rod and the hub move (hinge and strain velocities).
+// reference frame), h on the rigid hub, and the rod's generated base site arm/base (on its base
+// body, rigid with the hub, off the hinge's axis); the rod and the hub move (hinge and strain velocities).
 const char* kXml = R"(<mujoco><option gravity="0 0 -9.81"/><worldbody>
   <body name="hub" pos="0 0 1"><joint name="yaw" type="hinge" axis="0 0.3 1"/><geom type="sphere" size="0.02"/>
     <site name="h" pos="0.01 0.02 0.03" euler="10 20 30"/>
-    <cosserat name="arm" length="0.3" sections="3" strain="kl" radius="0.01" contype="0" conaffinity="0">
+    <cosserat name="arm" pos="0.02 0 0" length="0.3" sections="3" strain="kl" radius="0.01" contype="0" conaffinity="0">
       <site name="m" at="0.15" pos="0 0.006 0.002"/><site name="e" at="0.2" pos="0 0.006 0.002"/>
       <site name="r" at="0.27" pos="0.001 -0.004 0.003"/>
     </cosserat></body></worldbody>
@@ -47,6 +48,9 @@ const char* kXml = R"(<mujoco><option gravity="0 0 -9.81"/><worldbody>
     <frameangvel name="h_ang_r" objtype="site" objname="h" reftype="site" refname="r"/>
     <framelinvel name="e_lin" objtype="site" objname="e"/>
     <velocimeter name="m_vel_cut" site="m" cutoff="0.05"/>
+    <velocimeter name="b_vel" site="arm/base"/>
+    <gyro name="b_gyro" site="arm/base"/>
+    <framelinvel name="m_lin_b" objtype="site" objname="m" reftype="site" refname="arm/base"/>
   </sensor>
 </mujoco>)";
 
@@ -71,7 +75,8 @@ TEST(Sensors, VelocitySensorsOnRodSitesReadTheMaterialPointsVelocity) {
     const mjModel* m = s->m;
     mjData* d = sd.d;
     const int id_m = mj_name2id(m, mjOBJ_SITE, "m"), id_e = mj_name2id(m, mjOBJ_SITE, "e"),
-              id_r = mj_name2id(m, mjOBJ_SITE, "r"), id_h = mj_name2id(m, mjOBJ_SITE, "h");
+              id_r = mj_name2id(m, mjOBJ_SITE, "r"), id_h = mj_name2id(m, mjOBJ_SITE, "h"),
+              id_b = mj_name2id(m, mjOBJ_SITE, "arm/base");
     struct Frames {
       std::vector<Vec3> p;
       std::vector<Mat3> R;
@@ -79,7 +84,7 @@ TEST(Sensors, VelocitySensorsOnRodSitesReadTheMaterialPointsVelocity) {
     auto at = [&](double t) {
       motion.at(*s, sd, t);
       Frames f;
-      for (int id : {id_m, id_e, id_r, id_h}) {
+      for (int id : {id_m, id_e, id_r, id_h, id_b}) {
         f.p.push_back(site_pos(d, id));
         f.R.push_back(site_mat(d, id));
       }
@@ -88,15 +93,16 @@ TEST(Sensors, VelocitySensorsOnRodSitesReadTheMaterialPointsVelocity) {
     const double eps = 1e-6;
     const Frames fp = at(eps), fm = at(-eps), f0 = at(0.0);
     std::vector<Vec3> vel,
-        ang;  // world-frame velocities of m, e, r, h from the differences
-    for (int k = 0; k < 4; ++k) {
+        ang;  // world-frame velocities of m, e, r, h, arm/base from the differences
+    for (int k = 0; k < 5; ++k) {
       vel.push_back((fp.p[k] - fm.p[k]) / (2 * eps));
       ang.push_back(cosserat::testing::spin_of(((fp.R[k] - fm.R[k]) / (2 * eps)) * f0.R[k].transpose()));
     }
     const Mat3 Rr = f0.R[2];
-    // relative to r: d/dt R_r^T (p - p_r), and R_r^T (w - w_r)
-    auto rel_lin = [&](int k) {
-      return Vec3((fp.R[2].transpose() * (fp.p[k] - fp.p[2]) - fm.R[2].transpose() * (fm.p[k] - fm.p[2])) / (2 * eps));
+    // relative to a reference site (r: 2, arm/base: 4): d/dt R_ref^T (p - p_ref), and R_r^T (w - w_r)
+    auto rel_lin = [&](int k, int ref = 2) {
+      return Vec3((fp.R[ref].transpose() * (fp.p[k] - fp.p[ref]) - fm.R[ref].transpose() * (fm.p[k] - fm.p[ref])) /
+                  (2 * eps));
     };
     const std::vector<std::pair<const char*, Vec3>> expected = {
         {"m_lin", vel[0]},
@@ -108,6 +114,9 @@ TEST(Sensors, VelocitySensorsOnRodSitesReadTheMaterialPointsVelocity) {
         {"h_lin_r", rel_lin(3)},
         {"h_ang_r", Rr.transpose() * (ang[3] - ang[2])},
         {"e_lin", vel[1]},
+        {"b_vel", f0.R[4].transpose() * vel[4]},
+        {"b_gyro", f0.R[4].transpose() * ang[4]},
+        {"m_lin_b", rel_lin(0, 4)},
     };
     for (const auto& [name, want] : expected) {
       const int adr = m->sensor_adr[mj_name2id(m, mjOBJ_SENSOR, name)];

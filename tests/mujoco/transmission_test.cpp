@@ -56,12 +56,13 @@ struct Motion {
 // A site transmission applies the force R gear[0:3] and torque R gear[3:6] at the site (R its
 // frame): its moment arm times v is their virtual power at the site's velocity and spin. With a
 // reference site (refsite), R is the reference's frame and the motion the site's relative to the
-// reference's (mj_transmission's formula). Sites on the rod (m, s) and on the hub (h).
+// reference's (mj_transmission's formula). Sites on the rod (m, s), on the hub (h) and the rod's
+// generated base site (arm/base, on the rod's base body: MuJoCo's own moment arm, uncorrected).
 TEST(Transmission, SiteActuatorOnARodSiteHasTheMaterialPointsMomentArm) {
-  const char* gear = "0.3 -0.5 1 0.02 0.01 -0.03";
+  const std::string gear = "\" gear=\"0.3 -0.5 1 0.02 0.01 -0.03\"/>";
   Motion mo(arm(R"(<site name="h" pos="0.01 0.02 0.03" euler="10 20 30"/>)",
-                std::string("<motor site=\"m\" gear=\"") + gear + "\"/><motor site=\"m\" refsite=\"s\" gear=\"" + gear +
-                    "\"/><motor site=\"h\" refsite=\"m\" gear=\"" + gear + "\"/>"));
+                "<motor site=\"m" + gear + "<motor site=\"m\" refsite=\"s" + gear + "<motor site=\"h\" refsite=\"m" + gear +
+                    "<motor site=\"arm/base" + gear + "<motor site=\"m\" refsite=\"arm/base" + gear));
   const double eps = 1e-6;
   struct Motion3 {
     Vec3 vel, w;
@@ -79,34 +80,38 @@ TEST(Transmission, SiteActuatorOnARodSiteHasTheMaterialPointsMomentArm) {
     const Mat3 W = ((Rp - Rm) / (2 * eps)) * R0.transpose();
     return Motion3{(pp - pm) / (2 * eps), cosserat::testing::spin_of(W), R0};
   };
-  const Motion3 m = motion_of("m"), sr = motion_of("s"), h = motion_of("h");
+  const Motion3 m = motion_of("m"), sr = motion_of("s"), h = motion_of("h"), b = motion_of("arm/base");
   mo.at(0.0);
   auto power = [](const Motion3& site, const Motion3* ref) {
     const Mat3& R = ref ? ref->R : site.R;
     const Vec3 f = R * Vec3(0.3, -0.5, 1), tau = R * Vec3(0.02, 0.01, -0.03);
     return f.dot(site.vel - (ref ? ref->vel : Vec3::Zero())) + tau.dot(site.w - (ref ? ref->w : Vec3::Zero()));
   };
-  const double expected[3] = {power(m, nullptr), power(m, &sr), power(h, &m)};
-  for (int a = 0; a < 3; ++a) {
+  const double expected[5] = {power(m, nullptr), power(m, &sr), power(h, &m), power(b, nullptr), power(m, &b)};
+  for (int a = 0; a < 5; ++a) {
     EXPECT_GT(std::abs(expected[a]), 1e-2) << a;
     EXPECT_NEAR(mo.moment_times_v(a), expected[a], 1e-7 * std::abs(expected[a])) << a;
   }
 }
 
 // A slider-crank's moment arm is the derivative of its length: crank and slider sites on the rod,
-// and a crank on the rod with the slider on the hub.
+// a crank on the rod with the slider on the hub, and the rod's base site as crank and as slider.
 TEST(Transmission, SliderCrankThroughRodSitesHasItsLengthsDerivative) {
   Motion mo(arm(R"(<site name="h" pos="0.01 0.02 0.03" euler="10 20 30"/>)",
                 R"(<motor cranksite="m" slidersite="s" cranklength="0.2" gear="2.5"/>
-                   <motor cranksite="s" slidersite="h" cranklength="0.3" gear="1.5"/>)"));
+                   <motor cranksite="s" slidersite="h" cranklength="0.3" gear="1.5"/>
+                   <motor cranksite="arm/base" slidersite="s" cranklength="0.2" gear="1"/>
+                   <motor cranksite="m" slidersite="arm/base" cranklength="0.2" gear="1"/>)"));
+  const int n = mo.s->m->nu;
+  ASSERT_EQ(n, 4);
   const double eps = 1e-6;
   std::vector<double> lp, lm;
   const mjData* d = mo.at(eps);
-  lp.assign(d->actuator_length, d->actuator_length + 2);
+  lp.assign(d->actuator_length, d->actuator_length + n);
   d = mo.at(-eps);
-  lm.assign(d->actuator_length, d->actuator_length + 2);
+  lm.assign(d->actuator_length, d->actuator_length + n);
   mo.at(0.0);
-  for (int a = 0; a < 2; ++a) {
+  for (int a = 0; a < n; ++a) {
     const double rate = (lp[a] - lm[a]) / (2 * eps);
     EXPECT_GT(std::abs(rate), 1e-3) << a;
     EXPECT_NEAR(mo.moment_times_v(a), rate, 1e-6 * std::abs(rate)) << a;
