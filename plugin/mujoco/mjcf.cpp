@@ -20,6 +20,7 @@
 #include "mjcf.hpp"
 
 #include "integrators.hpp"
+#include "kinematics.hpp"
 
 #include <tinyxml2.h>
 
@@ -673,11 +674,21 @@ XMLElement* new_element(XMLDocument& doc, const char* tag, const Attributes& att
   return e;
 }
 
+// "pos" and "quat" attributes of a pose (shortest round-trip decimals: MuJoCo's compiler reads the
+// same doubles back, up to its quaternion normalisation).
+Attributes pose_attributes(const SE3& g) {
+  const Eigen::Quaterniond q(g.R);
+  return {{"pos", fmt3(g.u.x(), g.u.y(), g.u.z())}, {"quat", fmt(q.w()) + " " + fmt3(q.x(), q.y(), q.z())}};
+}
+
 XMLElement* new_slide_joint(XMLDocument& doc, const std::string& name) {
   return new_element(doc, "joint",
                      {{"name", name}, {"type", "slide"}, {"pos", "0 0 0"}, {"axis", "1 0 0"},
                       {"limited", "false"}, {"stiffness", "0"}, {"damping", "0"}, {"armature", "1"},
-                      {"frictionloss", "0"}, {"ref", "0"}, {"springref", "0"}});
+                      {"frictionloss", "0"}, {"ref", "0"}, {"springref", "0"},
+                      // MuJoCo's compiler sets stiffness and damping from a positive springdamper
+                      // (a user <default>'s), overriding the two above
+                      {"springdamper", "0 0"}});
 }
 
 // The bodies of one section under `parent`: normally just the proxy `prefix`, at `offset` along x,
@@ -688,7 +699,7 @@ XMLElement* new_slide_joint(XMLDocument& doc, const std::string& name) {
 // and the slide joints a unit armature so that MuJoCo's compiler accepts them (the coupling
 // zeroes both: all rod inertia comes from the solver); helper names are appended to `helpers`.
 // Returns the proxy.
-XMLElement* add_section_bodies(XMLDocument& doc, XMLElement* parent, const std::string& prefix, double offset,
+XMLElement* add_section_bodies(XMLDocument& doc, XMLElement* parent, const std::string& prefix, const SE3& offset,
                                const std::vector<std::string>& joints, std::vector<std::string>& helpers) {
   constexpr std::size_t kMaxDofs = 6;
   const std::size_t nbodies = joints.empty() ? 1 : (joints.size() + kMaxDofs - 1) / kMaxDofs;
@@ -696,7 +707,7 @@ XMLElement* add_section_bodies(XMLDocument& doc, XMLElement* parent, const std::
   for (std::size_t b = 0; b < nbodies; ++b) {
     const bool proxy = b + 1 == nbodies;
     const std::string name = proxy ? prefix : prefix + "/h" + std::to_string(b);
-    body = new_element(doc, "body", {{"name", name}, {"pos", fmt3(b == 0 ? offset : 0.0, 0, 0)}});
+    body = new_element(doc, "body", {{"name", name}}, b == 0 ? pose_attributes(offset) : Attributes{});
     body->InsertEndChild(new_element(doc, "inertial",
                                      {{"pos", "0 0 0"},
                                       {"mass", "1"},
@@ -722,6 +733,18 @@ XMLElement* Preprocessor::build_rod(XMLDocument& doc, RodInput& rod) {
   base->InsertEndChild(new_element(doc, "site", {{"name", n + "/base"}, {"pos", "0 0 0"}}));
   d.sites.push_back(RodSiteDecl{n + "/base", 0.0, Vec3::Zero()});
 
+  // MuJoCo's compiled model at qpos0 (strain coordinates zero) is the rod's rest shape: proxies,
+  // capsules and sites are placed where the rod puts them at rest, so that what MuJoCo computes
+  // there itself (equality constraints' relative poses, tendon rest lengths, tendon and actuator
+  // lengths at qpos0, the model's extent) is the rod's
+  cosserat::Model rest_model;
+  rest_model.add_rod(-1, SE3::Identity(), spec);
+  rest_model.finalize();
+  cosserat::Data rest(rest_model);
+  cosserat::fwd_position(rest_model, rest);
+  auto rest_pose = [&](double X) { return cosserat::rod_pose(rest_model, rest, 0, X); };
+  SE3 start = SE3::Identity();  // the section's start frame (the base, or the previous proxy)
+
   XMLElement* parent = base;
   double X0 = 0.0;
   for (int i = 0; i < spec.sections; ++i) {
@@ -737,34 +760,39 @@ XMLElement* Preprocessor::build_rod(XMLDocument& doc, RodInput& rod) {
     d.joints.insert(d.joints.end(), joints.begin(), joints.end());
 
     // the proxy at the section end (after helpers if the section has more than 6 dofs)
-    XMLElement* proxy = add_section_bodies(doc, parent, prefix, Xe - X0, joints, rod.helpers);
+    const SE3 end = rest_pose(Xe), to_end = end.inverse();
+    XMLElement* proxy = add_section_bodies(doc, parent, prefix, start.inverse() * end, joints, rod.helpers);
     d.proxies.push_back(prefix);
 
-    // capsules along the straight rest shape, radius of the taper at their middle
+    // capsules along the chords of the rest shape, radius of the taper at their middle
     for (int j = 0; j < rod.capsules; ++j) {
       const double a = X0 + (Xe - X0) * j / rod.capsules;
       const double b = j + 1 == rod.capsules ? Xe : X0 + (Xe - X0) * (j + 1) / rod.capsules;
       const double radius =
           spec.radius_base + (spec.radius_tip - spec.radius_base) * 0.5 * (a + b) / spec.length;
       const std::string gn = prefix + "/g" + std::to_string(j);
+      const Vec3 pa = to_end.act(rest_pose(a).u), pb = to_end.act(rest_pose(b).u);
       proxy->InsertEndChild(new_element(doc, "geom",
                                         {{"name", gn}, {"type", "capsule"},
-                                         {"fromto", fmt3(a - Xe, 0, 0) + " " + fmt3(b - Xe, 0, 0)},
+                                         {"fromto", fmt3(pa.x(), pa.y(), pa.z()) + " " + fmt3(pb.x(), pb.y(), pb.z())},
                                          {"size", fmt(radius)}},
                                         rod.geom));
       d.geoms.push_back(RodGeomDecl{gn, i, a, b});
     }
 
-    // user sites of this section, placed in the proxy frame
+    // user sites of this section: their cross-section frame at rest, in the proxy frame
     for (const RodSite& s : rod.sites) {
       if (s.section != i) continue;
-      const Vec3 pos(s.decl.X - Xe + s.decl.pos.x(), s.decl.pos.y(), s.decl.pos.z());
-      proxy->InsertEndChild(
-          new_element(doc, "site", {{"name", s.decl.name}, {"pos", fmt3(pos.x(), pos.y(), pos.z())}}, s.attrs));
+      SE3 g = rest_pose(s.decl.X);
+      g.u += g.R * s.decl.pos;
+      Attributes attrs = pose_attributes(to_end * g);
+      attrs.insert(attrs.begin(), {"name", s.decl.name});
+      proxy->InsertEndChild(new_element(doc, "site", attrs, s.attrs));
       d.sites.push_back(s.decl);
     }
 
     parent = proxy;
+    start = end;
     X0 = Xe;
   }
 

@@ -332,6 +332,94 @@ TEST(Scene, ProxiesAndHelpersCarryNoInertia) {
   for (int k = 0; k < rb.model.nv; ++k) EXPECT_EQ(s->m->dof_armature[rb.dof0 + k], 0.0);
 }
 
+// A user's <default> joint attributes reach the user's joints, never the generated strain joints
+// (the rod's elasticity, damping and inertia are the solver's): a springdamper (from which MuJoCo's
+// compiler computes stiffness and damping), stiffness, damping, armature, friction loss and limits.
+TEST(Scene, UserJointDefaultsDoNotReachTheStrainJoints) {
+  const std::string plain = arm_xml("kl", 3, 0, 0.0);
+  const std::string with_defaults = replace_all(
+      plain, "<worldbody>",
+      R"(<default><joint springdamper="0.05 1" stiffness="10" damping="3" armature="0.1" frictionloss="0.2"
+           limited="true" range="-0.1 0.1"/></default><worldbody>)");
+  ASSERT_NE(with_defaults, plain);
+  auto s = load_scene_string(with_defaults, kPath);
+  const mjModel* m = s->m;
+  const RodBinding& rb = s->rods[0];
+  for (int k = 0; k < rb.model.nv; ++k) {
+    const int dof = rb.dof0 + k, j = m->dof_jntid[dof];
+    EXPECT_EQ(m->jnt_stiffness[j], 0.0) << k;
+    EXPECT_EQ(m->dof_damping[dof], 0.0) << k;
+    EXPECT_EQ(m->dof_armature[dof], 0.0) << k;
+    EXPECT_EQ(m->dof_frictionloss[dof], 0.0) << k;
+    EXPECT_EQ(m->jnt_limited[j], 0) << k;
+  }
+  // the user's hinge has them
+  EXPECT_GT(m->jnt_stiffness[0], 0.0);
+  // the rod sags as without the defaults (the hub's hinge held still by its own)
+  auto tip_after = [](const std::string& xml) {
+    auto sc = load_scene_string(xml, kPath);
+    SceneData sd(*sc);
+    sc->m->jnt_stiffness[0] = 0.0;
+    sc->m->dof_damping[0] = 0.0;
+    sc->m->dof_armature[0] = 0.0;
+    sc->m->dof_frictionloss[0] = 0.0;
+    sc->m->jnt_limited[0] = 0;
+    const int tip = mj_name2id(sc->m, mjOBJ_SITE, "rod/tip");
+    auto at = [&] { return Vec3(sd.d->site_xpos[3 * tip], sd.d->site_xpos[3 * tip + 1], sd.d->site_xpos[3 * tip + 2]); };
+    forward(*sc, sd);
+    const Vec3 start = at();
+    for (int k = 0; k < 200; ++k) step(*sc, sd);
+    return std::make_pair(start, at());
+  };
+  const auto [a0, a] = tip_after(plain);
+  const auto [b0, b] = tip_after(with_defaults);
+  EXPECT_GT((a - a0).norm(), 0.01);  // it sags
+  EXPECT_LT((a - b).norm(), 1e-12) << a.transpose() << " against " << b.transpose();
+}
+
+// MuJoCo's compiled model at qpos0 is the rod's rest shape (curved here; one GVS section): MuJoCo's
+// own kinematics place the proxies, capsules and sites where the rod puts them at rest, so that
+// what its compiler computes there is the rod's: a weld of the tip body and a connect at a proxy
+// (relative poses from qpos0) and a tendon spring with no springlength (rest length from qpos0)
+// hold the rod at rest, and the tendon's length at qpos0 is its rest length.
+TEST(Scene, MujocosQpos0IsTheRodsRestShape) {
+  const char* xml = R"(<mujoco><option gravity="0 0 0"/><worldbody>
+    <body name="hub" pos="0 0 1"><joint name="yaw" type="hinge" axis="0 0 1"/><geom type="sphere" size="0.02"/>
+      <cosserat name="arm" pos="0.02 0 0" euler="0 20 0" length="0.3" sections="3" strain="kl" radius="0.01"
+                reststrain="1 0 4 1 0 0" viscosity="1">
+        <section/><section order="2" reststrain="0 -3 2 1 0 0"/><section/>
+        <site name="c1" at="0.15" pos="0 0.005 0"/>
+        <body name="tip"><geom type="sphere" size="0.01" mass="0.01"/></body>
+      </cosserat></body></worldbody>
+    <equality><weld body1="tip"/><connect body1="arm/s1" body2="hub" anchor="0.01 0 0"/></equality>
+    <tendon><spatial name="t" stiffness="50"><site site="c1"/><site site="arm/tip"/></spatial></tendon>
+  </mujoco>)";
+  auto s = load_scene_string(xml, kPath);
+  const mjModel* m = s->m;
+  SceneData sd(*s);
+  forward(*s, sd);
+  // MuJoCo's kinematics at qpos0, on its own
+  mjData* raw = mj_makeData(m);
+  mj_kinematics(m, raw);
+  const RodBinding& rb = s->rods[0];
+  for (size_t i = 0; i < rb.proxy_body.size(); ++i) {
+    const int b = rb.proxy_body[i];
+    for (int e = 0; e < 3; ++e) EXPECT_NEAR(raw->xpos[3 * b + e], sd.d->xpos[3 * b + e], 1e-14) << i;
+    for (int e = 0; e < 9; ++e) EXPECT_NEAR(raw->xmat[9 * b + e], sd.d->xmat[9 * b + e], 1e-14) << i;
+  }
+  for (int id : rb.site_id)
+    for (int e = 0; e < 3; ++e) EXPECT_NEAR(raw->site_xpos[3 * id + e], sd.d->site_xpos[3 * id + e], 1e-14) << id;
+  for (int id : rb.geom_id)
+    for (int e = 0; e < 3; ++e) EXPECT_NEAR(raw->geom_xpos[3 * id + e], sd.d->geom_xpos[3 * id + e], 1e-14) << id;
+  mj_deleteData(raw);
+  EXPECT_NEAR(m->tendon_lengthspring[0], sd.d->ten_length[0], 1e-14);
+  EXPECT_NEAR(m->tendon_length0[0], sd.d->ten_length[0], 1e-14);
+  const int tip = mj_name2id(m, mjOBJ_SITE, "arm/tip");
+  const Vec3 start(sd.d->site_xpos + 3 * tip);
+  for (int k = 0; k < 300; ++k) ASSERT_EQ(step(*s, sd), Status::Ok);
+  EXPECT_LT((Vec3(sd.d->site_xpos + 3 * tip) - start).norm(), 1e-12);
+}
+
 // Conservation: no gravity, no damping, RK4: the whole scene's energy stays put.
 TEST(Scene, EnergyConservedUndampedRK4) {
   std::string x = replace_all(arm_xml("kl", 3, 0, 0.0), "gravity=\"0 0 -9.81\"", "gravity=\"0 0 0\"");
