@@ -912,6 +912,19 @@ void recompute_invweight0(Scene& s) {
     Eigen::Map<const Eigen::RowVectorXd> Jt(sd.d->ten_J + t * nv, nv);
     m->tendon_invweight0[t] = Jt * Minv * Jt.transpose();
   }
+  // actuator_acc0 = |M^-1 moment| at qpos0: a muscle without a force (force="-1") pulls with
+  // F0 = scale / acc0 (mju_muscleGain, at run time)
+  for (int i = 0; i < m->nu; ++i) {
+    const Eigen::Map<const Eigen::VectorXd> moment(sd.d->actuator_moment + i * nv, nv);
+    m->actuator_acc0[i] = (Minv * moment).norm();
+  }
+  // the mean diagonal inertia at qpos0 (setStat's): the constraint solvers scale their tolerances
+  // by it, and the proxies' placeholder unit masses and armatures had made it about 1
+  if (nv > 0) {
+    double trace = 0.0;
+    for (int i = 0; i < nv; ++i) trace += sd.d->qM[m->dof_Madr[i]];
+    m->stat.meaninertia = trace / nv;
+  }
 }
 
 namespace {

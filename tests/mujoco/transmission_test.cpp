@@ -94,6 +94,57 @@ TEST(Transmission, SiteActuatorOnARodSiteHasTheMaterialPointsMomentArm) {
   }
 }
 
+// MuJoCo's compiler derives actuator_acc0 = |M^-1 moment| at qpos0 from its placeholder proxies
+// (unit masses and armatures); with the rod's inertia it is what mj_setConst would compute, and a
+// muscle without a force pulls with F0 = scale / acc0 (mju_muscleGain); the mean diagonal inertia
+// (the constraint solvers' scale) is the rod's too.
+TEST(Transmission, ActuatorAccelerationsAndMuscleScalesAtQpos0CountTheRodsInertia) {
+  Motion mo(R"(<mujoco><option gravity="0 0 -9.81"/><worldbody>
+    <body name="hub" pos="0 0 1"><joint name="yaw" type="hinge" axis="0 0.3 1"/><geom type="sphere" size="0.02"/>
+      <cosserat name="arm" length="0.3" sections="3" strain="kl" radius="0.01">
+        <site name="m" at="0.15" pos="0 0.006 0.002"/><site name="s" at="0.25" pos="0.001 -0.004 0.003"/>
+      </cosserat></body></worldbody>
+    <tendon><spatial name="cable"><site site="m"/><site site="s"/></spatial></tendon>
+    <actuator><motor joint="arm/s1/kz"/><motor site="m" gear="0 0 1 0 0 0"/>
+      <muscle tendon="cable" lengthrange="0.09 0.11" scale="300"/><muscle tendon="cable" lengthrange="0.09 0.11" force="5"/>
+    </actuator>
+  </mujoco>)");
+  const mjModel* m = mo.s->m;
+  const mjData* d = mo.sd->d;
+  mju_copy(mo.sd->d->qpos, m->qpos0, m->nq);
+  mju_zero(mo.sd->d->qvel, m->nv);
+  forward(*mo.s, *mo.sd);
+  std::vector<mjtNum> x(m->nv);
+  for (int i = 0; i < m->nu; ++i) {
+    mj_solveM(m, mo.sd->d, x.data(), d->actuator_moment + i * m->nv, 1);
+    const double acc0 = mju_norm(x.data(), m->nv);
+    EXPECT_GT(acc0, 1.0) << i;  // the rod is light: far above the placeholder model's value
+    EXPECT_NEAR(m->actuator_acc0[i], acc0, 1e-9 * acc0) << i;
+  }
+  // the muscles at full activation, at the cable's length: the default one with F0 = scale / acc0
+  // (acc0 from the mass matrix above), the other with its own force
+  mo.sd->d->act[0] = mo.sd->d->act[1] = 1.0;
+  forward(*mo.s, *mo.sd);
+  for (int i : {2, 3}) {
+    mj_solveM(m, mo.sd->d, x.data(), d->actuator_moment + i * m->nv, 1);
+    const double acc0 = mju_norm(x.data(), m->nv);
+    const mjtNum* g = m->actuator_gainprm + mjNGAIN * i;
+    const mjtNum* lr = m->actuator_lengthrange + 2 * i;
+    const double F0 = i == 2 ? 300.0 / acc0 : 5.0;
+    mjtNum prm[mjNGAIN];
+    mju_copy(prm, g, mjNGAIN);
+    prm[2] = F0;  // mju_muscleGain and mju_muscleBias with the force given
+    const double want = mju_muscleGain(d->actuator_length[i], d->actuator_velocity[i], lr, acc0, prm) +
+                        mju_muscleBias(d->actuator_length[i], lr, acc0, prm);
+    EXPECT_GT(std::abs(want), 1e-3) << i;
+    EXPECT_NEAR(d->actuator_force[i], want, 1e-9 * std::abs(want)) << i;
+  }
+  double trace = 0.0;
+  for (int i = 0; i < m->nv; ++i) trace += d->qM[m->dof_Madr[i]];
+  EXPECT_NEAR(m->stat.meaninertia, trace / m->nv, 1e-15);
+  EXPECT_LT(m->stat.meaninertia, 0.01);  // the placeholder model's was about 1
+}
+
 // A slider-crank's moment arm is the derivative of its length: crank and slider sites on the rod,
 // a crank on the rod with the slider on the hub, and the rod's base site as crank and as slider.
 TEST(Transmission, SliderCrankThroughRodSitesHasItsLengthsDerivative) {
