@@ -797,7 +797,7 @@ void forward(const Scene& s, SceneData& sd, Need need) {
 
 // --------------------------------------------------------------------------- load / reset --
 
-void recompute_invweight0(Scene& s) {
+void recompute_qpos0_constants(Scene& s) {
   mjModel* m = s.m;
   SceneData sd(s);
   mju_copy(sd.d->qpos, m->qpos0, m->nq);
@@ -1057,7 +1057,7 @@ std::unique_ptr<Scene> compile(const Preprocessed& pre) {
         for (int b = rb.base_body + 1; b < rb.below_end; ++b) s->velocity_skip[b] = 1;
   setup_site_readers(pre, *s);  // sensors, transmissions, tracking that read rods (scene_sites.hpp)
   setup_fluid(*s);  // fluid hook: may switch MuJoCo's own fluid off (scene_fluid.hpp)
-  if (!s->rods.empty()) recompute_invweight0(*s);
+  if (!s->rods.empty()) recompute_qpos0_constants(*s);
   s->integrator = s->rods.empty() ? Integrator::Euler : Integrator::Implicit;
   if (s->m->opt.integrator == mjINT_RK4) s->integrator = Integrator::RK4;
   // <custom><text name="cosserat:integrator" data="NAME"/> (a known name: the preprocessor checked)

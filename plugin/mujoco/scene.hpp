@@ -330,10 +330,12 @@ SE3 rod_frame(const Scene& s, const SceneData& sd, int rod, double X);
 Vec6 rod_strain(const Scene& s, const SceneData& sd, int rod, double X);
 
 // Model constants mj_setConst computed without the rods' inertia (body/dof/tendon invweight0, the
-// scale of constraint softness; camera and light offsets for tracking), recomputed from the patched
-// state at qpos0. A proxy's body_invweight0 is taken at its section's centre of mass, as MuJoCo
-// takes it at a body's.
-void recompute_invweight0(Scene& s);
+// scale of constraint softness; actuator_acc0, a muscle's default force scale; stat.meaninertia,
+// the constraint solvers' scale; camera and light offsets for tracking), recomputed from the
+// patched state at qpos0. A proxy's body_invweight0 is taken at its section's centre of mass, as
+// MuJoCo takes it at a body's. (What MuJoCo computes from positions alone at qpos0 is right as it
+// is: the compiled model at qpos0 is the rods' rest shape.)
+void recompute_qpos0_constants(Scene& s);
 
 // Lower-level stages (exposed for tests and for the static solver).
 void fwd_position(const Scene& s, SceneData& sd, Need need = Need::Acceleration);

@@ -350,7 +350,7 @@ void patch_sensors(const Scene& s, SceneData& sd, int stage) {
 // Cameras and lights that follow or look at a subtree's centre of mass (Scene::com_cameras,
 // com_lights: trackcom, targetbodycom) with rods in that subtree, placed as mj_camlight places
 // them but from the centre of mass with the rods (subtree_with_rods; their offsets cam_poscom0 and
-// light_poscom0 are set from it at load, recompute_invweight0).
+// light_poscom0 are set from it at load, recompute_qpos0_constants).
 void patch_com_tracking(const Scene& s, SceneData& sd) {
   const mjModel* m = s.m;
   mjData* d = sd.d;

@@ -103,7 +103,7 @@ TEST(Scene, RecomputedInvweight0EqualsMujocosOnRigidScene) {
   const mjModel* m = s->m;
   std::vector<double> body(m->body_invweight0, m->body_invweight0 + 2 * m->nbody),
       dof(m->dof_invweight0, m->dof_invweight0 + m->nv), ten(m->tendon_invweight0, m->tendon_invweight0 + m->ntendon);
-  recompute_invweight0(*s);
+  recompute_qpos0_constants(*s);
   for (int i = 2; i < 2 * m->nbody; ++i) EXPECT_NEAR(m->body_invweight0[i], body[i], 1e-10 * (1 + body[i])) << i;
   for (int i = 0; i < m->nv; ++i) EXPECT_NEAR(m->dof_invweight0[i], dof[i], 1e-10 * (1 + dof[i])) << i;
   for (int i = 0; i < m->ntendon; ++i) EXPECT_NEAR(m->tendon_invweight0[i], ten[i], 1e-10 * (1 + ten[i])) << i;
