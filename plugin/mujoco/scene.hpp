@@ -96,6 +96,10 @@ struct Scene {
   std::vector<int> rod_velocity_sensors;
   // likewise the acceleration sensors (accelerometer, framelinacc, frameangacc) of such sites
   std::vector<int> rod_acceleration_sensors;
+  // framequat sensors whose object or reference frame is such a site or a rod capsule: MuJoCo takes
+  // their orientation from the parent body's quaternion (the section end's), the step from the
+  // frame the rod gives them (site_xmat, geom_xmat)
+  std::vector<int> rod_quat_sensors;
   // force and torque sensors, when the model has rods: MuJoCo's cfrc_int counts rigid bodies only
   // (the rods' mass lives in their solver), so the step adds each rod's inverse dynamics to it and
   // evaluates these sensors again

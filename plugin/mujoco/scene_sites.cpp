@@ -22,6 +22,46 @@ bool moving_rod_site(const Scene& s, int type, int id) {
          !s.rods[s.site_rod[id]].site_fixed[s.site_index[id]].fixed;
 }
 
+// A rod site as above, or a capsule of a rod off a rigid section: MuJoCo orients them from their
+// proxy's quaternion, the rod places them (site_xmat, geom_xmat).
+bool moving_rod_frame(const Scene& s, int type, int id) {
+  if (type == mjOBJ_GEOM && id >= 0 && s.geom_rod[id] >= 0)
+    return !s.rods[s.geom_rod[id]].geom_fixed[s.geom_index[id]].fixed;
+  return moving_rod_site(s, type, id);
+}
+
+// The world orientation of a frame sensor's object (MuJoCo's object types of frame sensors) as a
+// quaternion of its frame matrix, which the rod sets for its sites and capsules.
+void frame_quat(const mjModel* m, const mjData* d, int type, int id, mjtNum q[4]) {
+  const mjtNum* mat = type == mjOBJ_XBODY    ? d->xmat + 9 * id
+                      : type == mjOBJ_BODY   ? d->ximat + 9 * id
+                      : type == mjOBJ_GEOM   ? d->geom_xmat + 9 * id
+                      : type == mjOBJ_SITE   ? d->site_xmat + 9 * id
+                      : type == mjOBJ_CAMERA ? d->cam_xmat + 9 * id
+                                             : nullptr;
+  if (mat) mju_mat2Quat(q, mat);
+  else q[0] = 1, q[1] = q[2] = q[3] = 0;
+}
+
+// Scene::rod_quat_sensors: the object's orientation, relative to the reference frame's if it has
+// one (MuJoCo's neg(ref) * obj), from the frames' matrices.
+void patch_quat_sensors(const Scene& s, SceneData& sd) {
+  const mjModel* m = s.m;
+  mjData* d = sd.d;
+  for (int i : s.rod_quat_sensors) {
+    mjtNum obj[4], ref[4];
+    frame_quat(m, d, m->sensor_objtype[i], m->sensor_objid[i], obj);
+    mjtNum* out = d->sensordata + m->sensor_adr[i];
+    if (m->sensor_refid[i] < 0) {
+      mju_copy4(out, obj);
+      continue;
+    }
+    frame_quat(m, d, m->sensor_reftype[i], m->sensor_refid[i], ref);
+    mju_negQuat(ref, ref);
+    mju_mulQuat(out, ref, obj);
+  }
+}
+
 // Body b's subtree with the rods hanging in it (their mass lives in the solver): its mass, centre of
 // mass and, with `velocities`, the linear velocity of that centre and the angular momentum about
 // it, from MuJoCo's rigid-body subtree quantities and the rods' own (cosserat::center_of_mass,
@@ -310,6 +350,9 @@ void setup_site_readers(const Preprocessed& pre, Scene& s) {
     if ((t == mjSENS_ACCELEROMETER || t == mjSENS_FRAMELINACC || t == mjSENS_FRAMEANGACC) &&
         moving_rod_site(s, m->sensor_objtype[i], m->sensor_objid[i]))
       s.rod_acceleration_sensors.push_back(i);
+    if (t == mjSENS_FRAMEQUAT && (moving_rod_frame(s, m->sensor_objtype[i], m->sensor_objid[i]) ||
+                                  moving_rod_frame(s, m->sensor_reftype[i], m->sensor_refid[i])))
+      s.rod_quat_sensors.push_back(i);
     if ((t == mjSENS_FORCE || t == mjSENS_TORQUE) && !s.rods.empty()) s.force_sensors.push_back(i);
     if ((t == mjSENS_SUBTREECOM || t == mjSENS_SUBTREELINVEL || t == mjSENS_SUBTREEANGMOM) &&
         rods_below(m->sensor_objid[i]))
@@ -342,6 +385,7 @@ Vec3 subtree_com_with_rods(const Scene& s, const SceneData& sd, int b) {
 void patch_sensors(const Scene& s, SceneData& sd, int stage) {
   if (s.m->opt.disableflags & mjDSBL_SENSOR) return;
   if (!s.subtree_sensors.empty() && stage != mjSTAGE_ACC) patch_subtree_sensors(s, sd, stage);
+  if (stage == mjSTAGE_POS && !s.rod_quat_sensors.empty()) patch_quat_sensors(s, sd);
   if (stage == mjSTAGE_VEL && !s.rod_velocity_sensors.empty()) patch_velocity_sensors(s, sd);
   if (stage == mjSTAGE_ACC && !s.rod_acceleration_sensors.empty()) patch_acceleration_sensors(s, sd);
   if (stage == mjSTAGE_ACC && !s.force_sensors.empty()) patch_force_sensors(s, sd);
@@ -454,6 +498,20 @@ void patch_site_transmissions(const Scene& s, SceneData& sd) {
       const Vec3 f = R * Vec3(gear[0], gear[1], gear[2]), t = R * Vec3(gear[3], gear[4], gear[5]);
       add(i, id, f, t);
       if (ref >= 0) add(i, ref, -f, -t);
+      if (ref >= 0 && (gear[3] != 0 || gear[4] != 0 || gear[5] != 0)) {
+        // the rotational length: mj_transmission takes the sites' quaternions from their parent
+        // bodies (site_quat * xquat: for a rod site the proxy's, rigid), here from both sites'
+        // frames (the site's rotation relative to the reference's, axis-angle in its frame)
+        mjtNum q[2][4], q_mj[2][4], v[3], v_mj[3];
+        for (int k = 0; k < 2; ++k) {
+          const int site = k == 0 ? id : ref;
+          mju_mulQuat(q_mj[k], m->site_quat + 4 * site, d->xquat + 4 * m->site_bodyid[site]);
+          mju_mat2Quat(q[k], d->site_xmat + 9 * site);
+        }
+        mju_subQuat(v, q[0], q[1]);
+        mju_subQuat(v_mj, q_mj[0], q_mj[1]);
+        for (int e = 0; e < 3; ++e) d->actuator_length[i] += (v[e] - v_mj[e]) * gear[3 + e];
+      }
       continue;
     }
     // slider-crank: trnid = (crank site, slider site)

@@ -5,13 +5,16 @@
 // coupling places the sites, plugin/mujoco/scene.cpp); what reads a site's motion, the mass in a
 // subtree or the wrench a body carries is evaluated again after MuJoCo's stage, from the rods' own
 // kinematics and dynamics:
+//   - framequat of rod sites and capsules (also as the reference frame): their own frames (MuJoCo
+//     takes the proxy's quaternion);
 //   - velocimeter, gyro, framelinvel and frameangvel (also with a reftype frame) of rod sites, and
 //     accelerometer, framelinacc and frameangacc: the material point's motion;
 //   - force and torque: MuJoCo's cfrc_int gets each rod's inverse dynamics (a sensor above a soft
 //     arm reads its weight and inertia; on a rod site, the wrench across that cross-section);
 //   - subtreecom, subtreelinvel and subtreeangmom of bodies with rods below, and trackcom and
 //     targetbodycom cameras and lights: the centre of mass and momentum with the rods;
-//   - site (with or without refsite) and slider-crank transmissions: the sites' material Jacobians;
+//   - site (with or without refsite) and slider-crank transmissions: the sites' material Jacobians,
+//     and with a refsite the rotational length from both sites' frames;
 //     adhesion (body) transmissions: the rod capsules' material points in contacts in the gap
 //     (the active contacts read the contact rows, which scene.cpp corrects).
 // Velocity and acceleration frame sensors of rod capsules (a chord, no material frame) are load

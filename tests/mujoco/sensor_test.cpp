@@ -132,6 +132,45 @@ TEST(Sensors, VelocitySensorsOnRodSitesReadTheMaterialPointsVelocity) {
   });
 }
 
+// framequat of rod sites and capsules (alone and relative to a rod site, to a hub site, and the
+// hub site relative to a rod site) reads the frame the rod gives them, not their proxy's.
+TEST(Sensors, FrameQuaternionsOfRodSitesAndCapsulesReadTheirOwnFrames) {
+  const std::string xml = R"(<mujoco><option gravity="0 0 -9.81"/><worldbody>
+    <body name="hub" pos="0 0 1"><joint name="yaw" type="hinge" axis="0 0.3 1"/><geom type="sphere" size="0.02"/>
+      <site name="h" pos="0.01 0.02 0.03" euler="10 20 30"/>
+      <cosserat name="arm" length="0.3" sections="3" strain="kl" radius="0.01" contype="0" conaffinity="0">
+        <site name="m" at="0.15" pos="0 0.006 0.002"/><site name="r" at="0.27" pos="0.001 -0.004 0.003"/>
+      </cosserat></body></worldbody>
+    <sensor>
+      <framequat name="q_m" objtype="site" objname="m"/>
+      <framequat name="q_m_r" objtype="site" objname="m" reftype="site" refname="r"/>
+      <framequat name="q_m_h" objtype="site" objname="m" reftype="site" refname="h"/>
+      <framequat name="q_h_m" objtype="site" objname="h" reftype="site" refname="m"/>
+      <framequat name="q_g" objtype="geom" objname="arm/s1/g0"/>
+    </sensor>
+  </mujoco>)";
+  on_pcs_and_gvs(xml, [](const Scene& scene, SceneData& sd, const cosserat::testing::BentMotion& motion) {
+    const mjModel* m = scene.m;
+    const mjData* d = sd.d;
+    motion.at(scene, sd, 0.0);
+    auto site = [&](const char* n) { return site_mat(d, mj_name2id(m, mjOBJ_SITE, n)); };
+    const int g = mj_name2id(m, mjOBJ_GEOM, "arm/s1/g0");
+    const Mat3 Rm = site("m"), Rr = site("r"), Rh = site("h"), Rg = Eigen::Map<const Mat3>(d->geom_xmat + 9 * g);
+    const std::vector<std::pair<const char*, Mat3>> expected = {
+        {"q_m", Rm}, {"q_m_r", Rr.transpose() * Rm}, {"q_m_h", Rh.transpose() * Rm}, {"q_h_m", Rm.transpose() * Rh},
+        {"q_g", Rg}};
+    for (const auto& [name, want] : expected) {
+      const mjtNum* q = d->sensordata + m->sensor_adr[mj_name2id(m, mjOBJ_SENSOR, name)];
+      const Eigen::Quaterniond got(q[0], q[1], q[2], q[3]);
+      EXPECT_NEAR(got.norm(), 1.0, 1e-12) << name;
+      EXPECT_LT((got.toRotationMatrix() - want).norm(), 1e-12) << name;
+    }
+    // the frames moved off their proxies: a proxy's rotation would be off by far more
+    const int proxy = m->site_bodyid[mj_name2id(m, mjOBJ_SITE, "m")];
+    EXPECT_GT((Eigen::Map<const Mat3>(d->xmat + 9 * proxy) - Rm).norm(), 1e-2);
+  });
+}
+
 // Acceleration sensors on rod sites (a in section 0, m in section 1, e at section 1's end): the
 // material point's acceleration, from central differences of its (checked) velocity sensors along
 // the motion (q, v) -> (q + t v, v + t qacc). MuJoCo's linear accelerations count gravity as an

@@ -92,6 +92,19 @@ TEST(Transmission, SiteActuatorOnARodSiteHasTheMaterialPointsMomentArm) {
     EXPECT_GT(std::abs(expected[a]), 1e-2) << a;
     EXPECT_NEAR(mo.moment_times_v(a), expected[a], 1e-7 * std::abs(expected[a])) << a;
   }
+  // with a reference site the length is the site's position in the reference's frame and its
+  // rotation relative to it (axis-angle in the reference's frame), dotted with the gear: m against
+  // s (both inside sections), h (on the hub) against m
+  const mjData* d = mo.sd->d;
+  auto length = [&](const char* site, const char* ref) {
+    const int a = mj_name2id(mo.s->m, mjOBJ_SITE, site), r = mj_name2id(mo.s->m, mjOBJ_SITE, ref);
+    const Mat3 Ra = Eigen::Map<const Mat3>(d->site_xmat + 9 * a), Rr = Eigen::Map<const Mat3>(d->site_xmat + 9 * r);
+    const Eigen::AngleAxisd rel(Eigen::Matrix3d(Rr.transpose() * Ra));
+    const Vec3 pos = Rr.transpose() * (Vec3(d->site_xpos + 3 * a) - Vec3(d->site_xpos + 3 * r));
+    return Vec3(0.3, -0.5, 1).dot(pos) + Vec3(0.02, 0.01, -0.03).dot(rel.angle() * rel.axis());
+  };
+  EXPECT_NEAR(d->actuator_length[1], length("m", "s"), 1e-12);
+  EXPECT_NEAR(d->actuator_length[2], length("h", "m"), 1e-12);
 }
 
 // MuJoCo's compiler derives actuator_acc0 = |M^-1 moment| at qpos0 from its placeholder proxies
