@@ -100,6 +100,12 @@ struct Scene {
   // their orientation from the parent body's quaternion (the section end's), the step from the
   // frame the rod gives them (site_xmat, geom_xmat)
   std::vector<int> rod_quat_sensors;
+  // touch sensors on a rod's sites: the rod is one body to them (MuJoCo counts the contacts of the
+  // site's proxy only, one section's capsules); rangefinders on a rod's sites: their ray leaves
+  // the rod's capsules it starts in (MuJoCo excludes the proxy's own, and a site at a section's
+  // end, or the rod's base site, starts inside the next section's capsule): (sensor, rod)
+  std::vector<int> rod_touch_sensors;
+  std::vector<std::pair<int, int>> rod_rangefinders;
   // force and torque sensors, when the model has rods: MuJoCo's cfrc_int counts rigid bodies only
   // (the rods' mass lives in their solver), so the step adds each rod's inverse dynamics to it and
   // evaluates these sensors again

@@ -22,6 +22,18 @@ bool moving_rod_site(const Scene& s, int type, int id) {
          !s.rods[s.site_rod[id]].site_fixed[s.site_index[id]].fixed;
 }
 
+// MuJoCo's cutoff of a sensor's data (engine_sensor.c's apply_cutoff), for the sensors the step
+// evaluates again: real values are clipped to [-cutoff, cutoff], positive ones (touch,
+// rangefinder) to cutoff.
+void apply_cutoff(const mjModel* m, int sensor, mjtNum* out) {
+  const mjtNum cut = m->sensor_cutoff[sensor];
+  if (cut <= 0) return;
+  for (int e = 0; e < m->sensor_dim[sensor]; ++e) {
+    if (m->sensor_datatype[sensor] == mjDATATYPE_REAL) out[e] = std::clamp(out[e], -cut, cut);
+    else if (m->sensor_datatype[sensor] == mjDATATYPE_POSITIVE) out[e] = std::min(out[e], cut);
+  }
+}
+
 // A rod site as above, or a capsule of a rod off a rigid section: MuJoCo orients them from their
 // proxy's quaternion, the rod places them (site_xmat, geom_xmat).
 bool moving_rod_frame(const Scene& s, int type, int id) {
@@ -59,6 +71,71 @@ void patch_quat_sensors(const Scene& s, SceneData& sd) {
     frame_quat(m, d, m->sensor_reftype[i], m->sensor_refid[i], ref);
     mju_negQuat(ref, ref);
     mju_mulQuat(out, ref, obj);
+  }
+}
+
+// Whether body b is one of rod r's proxies or helpers (the bodies carrying its capsules).
+bool rod_body(const Scene& s, int r, int b) {
+  return b > s.rods[r].base_body && b <= s.rods[r].proxy_body.back();
+}
+
+// Scene::rod_touch_sensors: MuJoCo's touch sensor (the normal forces of active contacts whose
+// force points into the site's zone) with the whole rod as the site's body.
+void patch_touch_sensors(const Scene& s, SceneData& sd) {
+  const mjModel* m = s.m;
+  mjData* d = sd.d;
+  for (int i : s.rod_touch_sensors) {
+    const int site = m->sensor_objid[i], r = s.site_rod[site];
+    mjtNum* out = d->sensordata + m->sensor_adr[i];
+    out[0] = 0;
+    for (int j = 0; j < d->ncon; ++j) {
+      const mjContact& con = d->contact[j];
+      const bool on1 = rod_body(s, r, m->geom_bodyid[con.geom1]), on2 = rod_body(s, r, m->geom_bodyid[con.geom2]);
+      if (con.efc_address < 0 || (!on1 && !on2)) continue;
+      mjtNum force[6], ray[3];
+      mj_contactForce(m, d, j, force);
+      if (force[0] <= 0) continue;
+      mju_scl3(ray, con.frame, force[0]);
+      mju_normalize3(ray);
+      if (!on1) mju_scl3(ray, ray, -1);  // the rod is the contact's second body
+      if (mju_rayGeom(d->site_xpos + 3 * site, d->site_xmat + 9 * site, m->site_size + 3 * site, con.pos, ray,
+                      m->site_type[site]) >= 0)
+        out[0] += force[0];
+    }
+    apply_cutoff(m, i, out);
+  }
+}
+
+// Scene::rod_rangefinders: MuJoCo's rangefinder (mj_ray along the site's z axis, the site's body
+// excluded), continued through the capsules of the site's rod that contain the site.
+void patch_rangefinders(const Scene& s, SceneData& sd) {
+  const mjModel* m = s.m;
+  mjData* d = sd.d;
+  for (const auto& [i, r] : s.rod_rangefinders) {
+    const int site = m->sensor_objid[i];
+    const mjtNum* p0 = d->site_xpos + 3 * site;
+    const mjtNum dir[3] = {d->site_xmat[9 * site + 2], d->site_xmat[9 * site + 5], d->site_xmat[9 * site + 8]};
+    mjtNum p[3] = {p0[0], p0[1], p0[2]}, travelled = 0, dist = -1;
+    for (size_t pass = 0; pass <= s.rods[r].geom_id.size(); ++pass) {
+      int g = -1;
+      dist = mj_ray(m, d, p, dir, nullptr, 1, m->site_bodyid[site], &g);
+      if (dist < 0 || g < 0 || s.geom_rod[g] != r) break;
+      // a capsule of the rod: the site's own if the site lies in it (then go on from where the ray
+      // leaves it), else an obstacle like any other
+      const mjtNum* a = d->geom_xpos + 3 * g;
+      const Vec3 axis(d->geom_xmat[9 * g + 2], d->geom_xmat[9 * g + 5], d->geom_xmat[9 * g + 8]);
+      const Vec3 rel = Vec3(p0[0], p0[1], p0[2]) - Vec3(a[0], a[1], a[2]);
+      const double half = m->geom_size[3 * g + 1];
+      const double along = std::clamp(rel.dot(axis), -half, half);
+      if ((rel - along * axis).norm() > m->geom_size[3 * g]) break;
+      const double step = dist + 1e-9 * (1.0 + dist);
+      for (int e = 0; e < 3; ++e) p[e] += step * dir[e];
+      travelled += step;
+      dist = -1;
+    }
+    mjtNum* out = d->sensordata + m->sensor_adr[i];
+    out[0] = dist < 0 ? -1 : travelled + dist;
+    apply_cutoff(m, i, out);
   }
 }
 
@@ -100,13 +177,6 @@ Subtree subtree_with_rods(const Scene& s, const SceneData& sd, int b, bool veloc
   st.linvel = st.mass > 0 ? Vec3(P / st.mass) : v0;
   st.angmom = L;
   return st;
-}
-
-// MuJoCo's cutoff of a 3-vector sensor's real-valued data (engine_sensor.c's apply_cutoff), for
-// the sensors the step evaluates again.
-void apply_cutoff(const mjModel* m, int sensor, mjtNum out[3]) {
-  if (const mjtNum cut = m->sensor_cutoff[sensor]; cut > 0)
-    for (int e = 0; e < 3; ++e) out[e] = std::clamp(out[e], -cut, cut);
 }
 
 // World-frame velocity of an object's frame in MuJoCo's layout (angular, linear): mj_objectVelocity,
@@ -350,6 +420,13 @@ void setup_site_readers(const Preprocessed& pre, Scene& s) {
     if ((t == mjSENS_ACCELEROMETER || t == mjSENS_FRAMELINACC || t == mjSENS_FRAMEANGACC) &&
         moving_rod_site(s, m->sensor_objtype[i], m->sensor_objid[i]))
       s.rod_acceleration_sensors.push_back(i);
+    if (t == mjSENS_TOUCH && s.site_rod[m->sensor_objid[i]] >= 0) s.rod_touch_sensors.push_back(i);
+    if (t == mjSENS_RANGEFINDER)  // on a rod's proxies, or its base site
+      for (size_t r = 0; r < s.rods.size(); ++r) {
+        const auto& ids = s.rods[r].site_id;
+        if (std::find(ids.begin(), ids.end(), m->sensor_objid[i]) != ids.end())
+          s.rod_rangefinders.emplace_back(i, static_cast<int>(r));
+      }
     if (t == mjSENS_FRAMEQUAT && (moving_rod_frame(s, m->sensor_objtype[i], m->sensor_objid[i]) ||
                                   moving_rod_frame(s, m->sensor_reftype[i], m->sensor_refid[i])))
       s.rod_quat_sensors.push_back(i);
@@ -386,6 +463,8 @@ void patch_sensors(const Scene& s, SceneData& sd, int stage) {
   if (s.m->opt.disableflags & mjDSBL_SENSOR) return;
   if (!s.subtree_sensors.empty() && stage != mjSTAGE_ACC) patch_subtree_sensors(s, sd, stage);
   if (stage == mjSTAGE_POS && !s.rod_quat_sensors.empty()) patch_quat_sensors(s, sd);
+  if (stage == mjSTAGE_POS && !s.rod_rangefinders.empty()) patch_rangefinders(s, sd);
+  if (stage == mjSTAGE_ACC && !s.rod_touch_sensors.empty()) patch_touch_sensors(s, sd);
   if (stage == mjSTAGE_VEL && !s.rod_velocity_sensors.empty()) patch_velocity_sensors(s, sd);
   if (stage == mjSTAGE_ACC && !s.rod_acceleration_sensors.empty()) patch_acceleration_sensors(s, sd);
   if (stage == mjSTAGE_ACC && !s.force_sensors.empty()) patch_force_sensors(s, sd);

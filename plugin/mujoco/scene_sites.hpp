@@ -7,6 +7,9 @@
 // kinematics and dynamics:
 //   - framequat of rod sites and capsules (also as the reference frame): their own frames (MuJoCo
 //     takes the proxy's quaternion);
+//   - touch on a rod site: the whole rod's contacts in the zone (MuJoCo: the site's section's);
+//     rangefinder on a rod site: the ray leaves the rod's capsules it starts in (MuJoCo excludes
+//     the site's proxy only, and a site at a section's end starts in the next section's capsule);
 //   - velocimeter, gyro, framelinvel and frameangvel (also with a reftype frame) of rod sites, and
 //     accelerometer, framelinacc and frameangacc: the material point's motion;
 //   - force and torque: MuJoCo's cfrc_int gets each rod's inverse dynamics (a sensor above a soft

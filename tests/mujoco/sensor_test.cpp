@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "dynamics.hpp"
 #include "scene.hpp"
 #include "scene_statics.hpp"
 #include "support/bent_motion.hpp"
@@ -169,6 +170,61 @@ TEST(Sensors, FrameQuaternionsOfRodSitesAndCapsulesReadTheirOwnFrames) {
     const int proxy = m->site_bodyid[mj_name2id(m, mjOBJ_SITE, "m")];
     EXPECT_GT((Eigen::Map<const Mat3>(d->xmat + 9 * proxy) - Rm).norm(), 1e-2);
   });
+}
+
+// A touch sensor on a rod site counts the whole rod's contacts in its zone (the rod is one body to
+// it; MuJoCo would count the site's section's only): a rod resting on the floor on its capsules
+// alone (its base body has no geom) carries its weight and its base's, and a zone over the whole
+// rod reads that weight; two zones splitting it between its contacts (x < 0.175 and beyond, each
+// over two sections) read it in parts that sum to it.
+TEST(Sensors, TouchOnARodSiteCountsTheWholeRodsContacts) {
+  auto s = load_scene_string(R"(<mujoco><option gravity="0 0 -9.81" timestep="0.001"/><worldbody>
+    <geom name="floor" type="plane" size="1 1 0.1"/>
+    <body name="hub" pos="0 0 0.012"><freejoint/><inertial pos="0 0 0" mass="0.02" diaginertia="1e-6 1e-6 1e-6"/>
+      <cosserat name="arm" length="0.3" sections="3" strain="kl" radius="0.01" young="1e6" viscosity="5">
+        <site name="all" at="0.15" type="box" size="0.3 0.3 0.05"/>
+        <site name="z1" at="0.0375" type="box" size="0.1375 0.3 0.05"/><site name="z2" at="0.2875" type="box" size="0.1125 0.3 0.05"/>
+      </cosserat></body></worldbody>
+    <sensor><touch name="all" site="all"/><touch name="z1" site="z1"/><touch name="z2" site="z2"/></sensor></mujoco>)",
+                             "/tmp/cosserat_sensor_test.xml");
+  SceneData sd(*s);
+  for (int k = 0; k < 3000; ++k) ASSERT_EQ(step(*s, sd), Status::Ok);
+  forward(*s, sd);
+  const mjModel* m = s->m;
+  double rod_mass = 0.0;
+  cosserat::center_of_mass(s->rods[0].model, sd.rod[0], &rod_mass);
+  const double weight = 9.81 * (rod_mass + 0.02);  // the rod and its base body
+  auto touch = [&](const char* n) { return sd.d->sensordata[m->sensor_adr[mj_name2id(m, mjOBJ_SENSOR, n)]]; };
+  EXPECT_GT(sd.d->ncon, 1);
+  EXPECT_NEAR(touch("all"), weight, 1e-6 * weight);
+  EXPECT_NEAR(touch("z1") + touch("z2"), weight, 1e-6 * weight);
+  EXPECT_GT(touch("z1"), 0.2 * weight);
+  EXPECT_GT(touch("z2"), 0.2 * weight);
+}
+
+// A rangefinder on a rod site sees past the rod's own capsules it starts in (at a section's end the
+// site lies inside the next section's capsule, another body to MuJoCo): a rod 0.5 m above the floor
+// with its sites' z axes pointing down reads 0.5 from sites inside sections, at their ends and at
+// the base; another rod's capsules below are obstacles as any geom (0.25 m below, radius 0.01).
+TEST(Sensors, RangefinderOnARodSiteSeesPastTheRodsOwnCapsules) {
+  auto s = load_scene_string(R"(<mujoco><option gravity="0 0 0"/><worldbody>
+    <geom name="floor" type="plane" size="1 1 0.1"/>
+    <cosserat name="arm" pos="0 0 0.5" euler="180 0 0" length="0.4" sections="4" strain="kl" radius="0.01">
+      <site name="in" at="0.05"/><site name="end" at="0.1"/><site name="end2" at="0.2"/><site name="at0" at="0"/>
+      <site name="over" at="0.35"/>
+    </cosserat>
+    <cosserat name="bar" pos="0.35 -0.1 0.25" euler="0 0 90" length="0.2" sections="2" strain="kl" radius="0.01"/>
+    </worldbody>
+    <sensor><rangefinder name="in" site="in"/><rangefinder name="end" site="end"/><rangefinder name="end2" site="end2"/>
+      <rangefinder name="at0" site="at0"/><rangefinder name="base" site="arm/base"/><rangefinder name="over" site="over"/>
+    </sensor></mujoco>)",
+                             "/tmp/cosserat_sensor_test.xml");
+  SceneData sd(*s);
+  forward(*s, sd);
+  const mjModel* m = s->m;
+  for (const char* n : {"in", "end", "end2", "at0", "base"})
+    EXPECT_NEAR(sd.d->sensordata[m->sensor_adr[mj_name2id(m, mjOBJ_SENSOR, n)]], 0.5, 1e-6) << n;
+  EXPECT_NEAR(sd.d->sensordata[m->sensor_adr[mj_name2id(m, mjOBJ_SENSOR, "over")]], 0.24, 1e-6);
 }
 
 // Acceleration sensors on rod sites (a in section 0, m in section 1, e at section 1's end): the
