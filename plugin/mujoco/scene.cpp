@@ -782,6 +782,11 @@ void forward(const Scene& s, SceneData& sd, Need need) {
   fwd_velocity(s, sd);
   mj_sensorVel(m, d);
   patch_sensors(s, sd, mjSTAGE_VEL);
+  if (m->opt.enableflags & mjENBL_ENERGY) {  // <flag energy="enable"/>: MuJoCo's d->energy, rods included
+    const SceneEnergy e = energy(s, sd);
+    d->energy[0] = e.gravity + e.elastic;
+    d->energy[1] = e.kinetic;
+  }
   mj_fwdActuation(m, d);
   if (sd.forces_only) {  // no constraints, no acceleration sensors: the forces are all the step needs
     smooth_forces(m, d);

@@ -420,6 +420,27 @@ TEST(Scene, MujocosQpos0IsTheRodsRestShape) {
   EXPECT_LT((Vec3(sd.d->site_xpos + 3 * tip) - start).norm(), 1e-12);
 }
 
+// With <flag energy="enable"/> MuJoCo's d->energy (potential, kinetic) counts the rods: the
+// kinetic part is 1/2 v^T M v with the scene's mass matrix, and both are energy()'s.
+TEST(Scene, EnergyFlagFillsMujocosEnergyWithTheRods) {
+  const std::string xml = replace_all(arm_xml("kl", 3, 0, 0.0), "<option timestep=\"0.001\"",
+                                      "<option timestep=\"0.001\"><flag energy=\"enable\"/></option><option");
+  auto s = load_scene_string(xml, kPath);
+  ASSERT_TRUE(s->m->opt.enableflags & mjENBL_ENERGY);
+  SceneData sd(*s);
+  for (int k = 0; k < 50; ++k) step(*s, sd);
+  forward(*s, sd);
+  const double potential = sd.d->energy[0], kinetic = sd.d->energy[1];
+  std::vector<mjtNum> Mv(s->m->nv);
+  mj_mulM(s->m, sd.d, Mv.data(), sd.d->qvel);
+  const double vMv = 0.5 * mju_dot(sd.d->qvel, Mv.data(), s->m->nv);
+  EXPECT_GT(kinetic, 1e-4);
+  EXPECT_NEAR(kinetic, vMv, 1e-9 * vMv);
+  const SceneEnergy e = energy(*s, sd);
+  EXPECT_NEAR(potential, e.gravity + e.elastic, 1e-12);
+  EXPECT_GT(e.elastic, 1e-6);
+}
+
 // Conservation: no gravity, no damping, RK4: the whole scene's energy stays put.
 TEST(Scene, EnergyConservedUndampedRK4) {
   std::string x = replace_all(arm_xml("kl", 3, 0, 0.0), "gravity=\"0 0 -9.81\"", "gravity=\"0 0 0\"");
