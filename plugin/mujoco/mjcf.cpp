@@ -344,6 +344,8 @@ class Preprocessor {
   void check_depth(const XMLElement* root) const;
   void check_custom_fields(const XMLElement* root) const;
   void check_options(const XMLElement* root) const;
+  void check_finite(const XMLElement* e) const;
+  void check_compiler(const XMLElement* root) const;
 
   Reader reader(const XMLElement* e) const { return Reader(e, origin(e), origins_); }
   const Origin& origin(const XMLElement* e) const;
@@ -923,6 +925,8 @@ Preprocessed Preprocessor::run(const std::string& text, const std::string& path)
   check_custom_fields(root);
   check_options(root);
   rewrite(root);
+  check_finite(root);  // after the checks with messages of their own (options, rods)
+  check_compiler(root);
   emit_excludes(doc, root);
   check_depth(root);
 
@@ -992,6 +996,47 @@ void Preprocessor::check_options(const XMLElement* root) const {
     for (const char* a : {"gravity", "wind", "magnetic"}) r.numbers(a, 3, 3);
     for (const char* a : {"density", "viscosity"})
       if (const auto v = r.numbers(a, 1, 1)) r.check((*v)[0] >= 0, a, "must not be negative, got '" + r.text(a) + "'");
+  }
+}
+
+// Numbers that are not finite (nan, inf, or a decimal beyond the double range such as 1e309) in any
+// attribute: MuJoCo 2.2.2 reads them, warns "XML contains a 'NaN'" without a line or nothing at
+// all, and a gear or cutoff of inf ran NaN from the first step. An attribute is numeric here when
+// every token of it reads as a number; the attributes that name things are skipped (a body may be
+// called "inf").
+void Preprocessor::check_finite(const XMLElement* e) const {
+  static const std::set<std::string_view> names = {
+      "name", "class", "childclass", "model", "file", "prefix", "content_type", "joint", "joint1", "joint2",
+      "jointinparent", "tendon", "tendon1", "tendon2", "site", "refsite", "cranksite", "slidersite", "sidesite",
+      "body", "body1", "body2", "geom", "geom1", "geom2", "objname", "refname", "target", "mesh", "material",
+      "texture", "hfield", "actuator", "data", "plugin", "instance", "type", "objtype", "reftype"};
+  for (const tinyxml2::XMLAttribute* a = e->FirstAttribute(); a; a = a->Next()) {
+    if (names.count(a->Name()) && !(is(e, "numeric") && std::string_view(a->Name()) == "data")) continue;
+    std::istringstream in(a->Value());
+    std::string tok;
+    bool numeric = true, finite = true;
+    while (numeric && in >> tok) {
+      char* end = nullptr;
+      const double v = std::strtod(tok.c_str(), &end);
+      numeric = end && *end == '\0' && end != tok.c_str();
+      finite = finite && (!numeric || std::isfinite(v));
+    }
+    if (numeric && !finite)
+      reader(e).fail_attr(a->Name(), "has a number that is not finite: '" + std::string(a->Value()) + "'");
+  }
+  for (const XMLElement* c = e->FirstChildElement(); c; c = c->NextSiblingElement()) check_finite(c);
+}
+
+// <compiler settotalmass> scales every body's mass to a total, the rods' placeholder proxies (unit
+// masses, zeroed after compiling) included: the rigid bodies came out lighter than asked for.
+void Preprocessor::check_compiler(const XMLElement* root) const {
+  if (rods_.empty()) return;
+  for (const XMLElement* c = root->FirstChildElement("compiler"); c; c = c->NextSiblingElement("compiler")) {
+    const Reader r = reader(c);
+    if (const auto v = r.numbers("settotalmass", 1, 1))
+      r.check((*v)[0] <= 0, "settotalmass",
+              "is not supported in models with <cosserat> rods (their mass comes from density and size; MuJoCo would "
+              "scale the rigid bodies with the rods' placeholder bodies counted): give the rigid bodies' masses");
   }
 }
 

@@ -192,6 +192,17 @@ std::vector<BadCase> bad_cases() {
       {"a billion sections", in_world(rod + R"( sections="999999999"/>)"), 3, "'sections' is 999999999, but each section nests one body"},
       {"radius beyond 1e6 m", in_world(rod + R"( radius="1e100"/>)"), 3, "'radius' must be at most 1e6 m"},
       {"length beyond 1e6 m", in_world(R"(<cosserat name="a" length="1e150"/>)"), 3, "'length' must be at most 1e6 m"},
+      // (outside probes, fourteenth session: a gear or cutoff of inf or nan ran NaN from the first
+      // step with MuJoCo's line-less warning; settotalmass scaled the rods' placeholder bodies too)
+      {"infinite gear", "<mujoco>\n<worldbody>\n<body>\n<joint name=\"j\"/>\n<geom size=\"0.1\"/>\n</body>\n</worldbody>\n"
+                        "<actuator>\n<motor joint=\"j\" gear=\"inf 0 0 0 0 0\"/>\n</actuator>\n</mujoco>\n",
+       9, "<motor>: attribute 'gear' has a number that is not finite: 'inf 0 0 0 0 0'"},
+      {"NaN cutoff", "<mujoco>\n<worldbody>\n<site name=\"s\"/>\n</worldbody>\n<sensor>\n<framepos objtype=\"site\" "
+                     "objname=\"s\" cutoff=\"nan\"/>\n</sensor>\n</mujoco>\n",
+       6, "'cutoff' has a number that is not finite"},
+      {"a size beyond the double range", in_world("<geom size=\"1e309\"/>"), 3, "'size' has a number that is not finite"},
+      {"settotalmass with a rod", "<mujoco>\n<compiler settotalmass=\"1\"/>\n<worldbody>\n" + rod + "/>\n</worldbody>\n</mujoco>\n",
+       2, "'settotalmass' is not supported in models with <cosserat> rods"},
   };
 }
 

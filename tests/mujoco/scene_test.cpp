@@ -154,7 +154,7 @@ TEST(Scene, MujocoCompileErrorsPointAtTheUsersFileAndLine) {
                            "<keyframe>\n<key name=\"fine\"/>\n";
   expect_load_error(rod2 + "<key qpos=\"1 2\"/>\n</keyframe>\n</mujoco>\n", dir, "keys.xml", 7, "key 1");
   expect_load_error(rod2 + "<key time=\"nan\"/>\n</keyframe>\n</mujoco>\n", dir, "nan_key.xml", 7,
-                    "'time' holds a value that is not a finite number");
+                    "'time' has a number that is not finite");
   // a velocity sensor of a rod capsule (no material frame) is refused at its line; of a site, not
   const std::string rod2s = "<mujoco>\n<worldbody>\n<cosserat name=\"rod\" length=\"0.3\" sections=\"2\">\n"
                             "<site name=\"m\" at=\"0.1\"/>\n</cosserat>\n</worldbody>\n<sensor>\n";
