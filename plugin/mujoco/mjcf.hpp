@@ -83,6 +83,10 @@ struct Preprocessed {
   std::vector<SourceLine> key_origin;
   // the children of the <sensor> elements, in order (MuJoCo's sensor ids)
   std::vector<SourceLine> sensor_origin;
+  // the children of the <actuator> elements, in order (MuJoCo's actuator ids), and whether each
+  // has an activation state (muscle, cylinder, or a dyntype other than none)
+  std::vector<SourceLine> actuator_origin;
+  std::vector<char> actuator_stateful;
 };
 
 // Reads `path`, expands <include file=...> recursively (relative to the including file), and

@@ -51,6 +51,7 @@ LoadError mujoco_error(const Preprocessed& pre, const std::string& error) {
   const size_t nl = msg.find('\n');
   std::string first = msg.substr(0, nl);
   if (first.rfind("Error: ", 0) == 0) first = first.substr(7);
+  if (!first.empty() && first.back() == ':') first.pop_back();  // its details follow on other lines
   int line = 0;  // the compiler's "line = N", or the XML reader's "Element 'geom', line N"
   if (const size_t at = msg.find("line = "); at != std::string::npos)
     line = std::atoi(msg.c_str() + at + 7);
@@ -62,12 +63,41 @@ LoadError mujoco_error(const Preprocessed& pre, const std::string& error) {
     object = object.substr(0, object.find(','));
   }
   SourceLine where = pre.origin_of_line(line);
-  // "key N: ..." (keyframe errors carry no line): the N-th <key>
-  if (line == 0 && first.rfind("key ", 0) == 0) {
-    const int k = std::atoi(first.c_str() + 4);
-    if (k >= 0 && k < static_cast<int>(pre.key_origin.size())) where = pre.key_origin[k];
+  // errors that carry an element's index instead of a line
+  auto nth = [&](const std::vector<SourceLine>& origins, size_t at) {
+    const int k = std::atoi(msg.c_str() + at);
+    if (k >= 0 && k < static_cast<int>(origins.size())) where = origins[k];
+  };
+  auto after = [&](const char* text) {
+    const size_t at = msg.find(text);
+    return at == std::string::npos ? at : at + std::strlen(text);
+  };
+  std::string hint;
+  if (line == 0) {
+    if (first.rfind("key ", 0) == 0) {  // "key N: ...": the N-th <key>
+      nth(pre.key_origin, msg.find("key ") + 4);
+    } else if (const size_t at = after("sensor array, position "); at != std::string::npos) {  // repeated name
+      nth(pre.sensor_origin, at);
+    } else if (const size_t at2 = after("actuator array, position "); at2 != std::string::npos) {
+      nth(pre.actuator_origin, at2);
+    } else if (first.find("in sensor") != std::string::npos && after("(id = ") != std::string::npos) {
+      nth(pre.sensor_origin, after("(id = "));
+    } else if (const size_t at3 = after("in actuator "); at3 != std::string::npos) {  // lengthrange
+      nth(pre.actuator_origin, at3);
+      if (!pre.rods.empty())
+        hint = " (an actuator acting on a rod needs an explicit lengthrange: MuJoCo computes it by simulating the "
+               "compiled model, in which the rods are massless placeholders)";
+    } else if (first.find("stateless actuators must come before stateful") != std::string::npos) {
+      for (size_t k = 1; k < pre.actuator_origin.size(); ++k)  // the first stateless one after a stateful one
+        if (!pre.actuator_stateful[k] &&
+            std::any_of(pre.actuator_stateful.begin(), pre.actuator_stateful.begin() + k, [](char c) { return c; })) {
+          where = pre.actuator_origin[k];
+          break;
+        }
+    }
   }
-  return LoadError(where.file, where.line, "MuJoCo: " + first + (object.empty() ? "" : " (object '" + object + "')"));
+  return LoadError(where.file, where.line,
+                   "MuJoCo: " + first + (object.empty() ? "" : " (object '" + object + "')") + hint);
 }
 
 mjModel* compile_xml(const Preprocessed& pre) {

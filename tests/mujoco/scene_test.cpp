@@ -155,6 +155,22 @@ TEST(Scene, MujocoCompileErrorsPointAtTheUsersFileAndLine) {
   expect_load_error(rod2 + "<key qpos=\"1 2\"/>\n</keyframe>\n</mujoco>\n", dir, "keys.xml", 7, "key 1");
   expect_load_error(rod2 + "<key time=\"nan\"/>\n</keyframe>\n</mujoco>\n", dir, "nan_key.xml", 7,
                     "'time' has a number that is not finite");
+  // errors MuJoCo reports with an element's index and no line (outside probe, fourteenth session):
+  // the sensor or actuator it names, the first stateless actuator after a stateful one
+  const std::string world = "<mujoco>\n<worldbody>\n<cosserat name=\"rod\" length=\"0.3\" sections=\"2\"/>\n</worldbody>\n";
+  expect_load_error(world + "<sensor>\n<framepos name=\"x\" objtype=\"site\" objname=\"rod/tip\"/>\n"
+                            "<framepos name=\"x\" objtype=\"site\" objname=\"rod/tip\"/>\n</sensor>\n</mujoco>\n",
+                    dir, "dup_sensor.xml", 7, "repeated name in sensor array");
+  expect_load_error(world + "<sensor>\n<framepos objtype=\"site\" objname=\"rod/tip\"/>\n"
+                            "<framepos name=\"fp\" objtype=\"site\" objname=\"nowhere\"/>\n</sensor>\n</mujoco>\n",
+                    dir, "unknown_sensor_object.xml", 7, "unrecognized name of sensorized object");
+  expect_load_error(world + "<actuator>\n<muscle joint=\"rod/s0/kz\" lengthrange=\"-1 1\"/>\n"
+                            "<motor joint=\"rod/s0/kz\"/>\n</actuator>\n</mujoco>\n",
+                    dir, "actuator_order.xml", 7, "stateless actuators must come before stateful actuators");
+  expect_load_error(world.substr(0, world.size() - 13) + "</worldbody>\n<tendon>\n<spatial name=\"c\">\n"
+                    "<site site=\"rod/base\"/>\n<site site=\"rod/tip\"/>\n</spatial>\n</tendon>\n<actuator>\n"
+                    "<motor tendon=\"c\"/>\n<muscle tendon=\"c\"/>\n</actuator>\n</mujoco>\n",
+                    dir, "lengthrange.xml", 13, "an actuator acting on a rod needs an explicit lengthrange");
   // a velocity sensor of a rod capsule (no material frame) is refused at its line; of a site, not
   const std::string rod2s = "<mujoco>\n<worldbody>\n<cosserat name=\"rod\" length=\"0.3\" sections=\"2\">\n"
                             "<site name=\"m\" at=\"0.1\"/>\n</cosserat>\n</worldbody>\n<sensor>\n";
