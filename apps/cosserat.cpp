@@ -46,16 +46,17 @@ using cosserat::Vec3;
 using json = nlohmann::ordered_json;
 
 // MuJoCo's warnings go to the run's report instead of the console and MUJOCO_LOG.TXT; its errors
-// end the program with a one-line reason.
+// are thrown: inside a step they end the run as a divergence (its outputs cover the run up to the
+// last good step), elsewhere the program with a one-line reason.
 std::vector<std::string> g_mujoco_warnings;
 void on_mujoco_warning(const char* msg) {
   if (std::find(g_mujoco_warnings.begin(), g_mujoco_warnings.end(), msg) == g_mujoco_warnings.end())
     g_mujoco_warnings.emplace_back(msg);
 }
-void on_mujoco_error(const char* msg) {
-  std::cerr << "cosserat: MuJoCo error: " << msg << "\n";
-  std::exit(1);
-}
+struct MujocoError : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+void on_mujoco_error(const char* msg) { throw MujocoError(std::string("MuJoCo error: ") + msg); }
 
 Integrator parse_integrator(const std::string& flag, const std::string& text) {
   const auto in = cosserat::integrator_from_name(text);
@@ -235,10 +236,20 @@ struct SimOptions {
   }
 };
 
+// mj::load_scene, with a MuJoCo error raised while the model is evaluated at load (its constants
+// at qpos0) reported against the file.
+std::unique_ptr<mj::Scene> load(const std::string& path) {
+  try {
+    return mj::load_scene(path);
+  } catch (const MujocoError& e) {
+    throw mj::LoadError(path, 0, std::string(e.what()) + ", raised while evaluating the model at its initial state");
+  }
+}
+
 // A loaded scene stepping with the command's time step and integrator.
 class Simulation {
  public:
-  Simulation(const std::string& path, const SimOptions& o, const StateOptions& state) : scene_(mj::load_scene(path)) {
+  Simulation(const std::string& path, const SimOptions& o, const StateOptions& state) : scene_(load(path)) {
     if (o.timestep) scene_->m->opt.timestep = *o.timestep;
     integrator_ = o.integrator.value_or(scene_->integrator);
     if (o.newton) scene_->newton_iterations = *o.newton;
@@ -261,9 +272,30 @@ class Simulation {
   double time() const { return data_->d->time; }
   long steps() const { return steps_; }
 
-  bool step() { return mj::step(*scene_, *data_, integrator_) == cosserat::Status::Ok; }
+  bool step() {
+    try {
+      return mj::step(*scene_, *data_, integrator_) == cosserat::Status::Ok;
+    } catch (const MujocoError& e) {
+      mj::abandon_step(*data_, e.what());
+      return false;
+    }
+  }
   // Evaluates the pipeline at the current state: positions and energy are current afterwards.
-  void observe() { mj::forward(*scene_, *data_); }
+  // False after a MuJoCo error (positions are then the position stage's; the run counts as
+  // diverged, with the error as its reason unless a divergence gave one already).
+  bool observe() {
+    try {
+      mj::forward(*scene_, *data_);
+      return true;
+    } catch (const MujocoError& e) {
+      data_->d->pstack = 0;  // the unwound MuJoCo frames did not release their stack allocations
+      if (data_->status != cosserat::Status::Diverged) {
+        data_->status = cosserat::Status::Diverged;
+        data_->warning = std::string(e.what()) + " (at t = " + std::to_string(time()) + " s)";
+      }
+      return false;
+    }
+  }
   mj::SceneEnergy energy() { return mj::energy(*scene_, *data_); }
 
  private:
@@ -308,10 +340,14 @@ int cmd_check(int argc, char** argv) {
                  {"MODEL.xml"}, {}, ""};
   const auto pos = cl.parse(argc, argv);
   if (!pos) return 0;
-  const auto s = mj::load_scene((*pos)[0]);
+  const auto s = load((*pos)[0]);
   const mjModel* m = s->m;
   mj::SceneData sd(*s);
-  mj::forward(*s, sd);
+  try {
+    mj::forward(*s, sd);
+  } catch (const MujocoError& e) {
+    throw mj::LoadError((*pos)[0], 0, std::string(e.what()) + ", raised while evaluating the model at its initial state");
+  }
   std::printf("model: %s (%s)\n", m->names, (*pos)[0].c_str());
   std::printf("rods: %zu\n", s->rods.size());
   for (const auto& r : s->rods)
@@ -404,7 +440,10 @@ int cmd_run(int argc, char** argv) {
     }
     ++k;
     if (k % every == 0 || k == s.steps()) {
-      s.observe();
+      if (!s.observe()) {
+        diverged = true;
+        break;
+      }
       energy.add(s.energy());
       if (k % every == 0) write_row(energy.final());
     }
@@ -493,7 +532,7 @@ struct Equilibrium {
   mj::SceneStaticsResult result;
 
   Equilibrium(const std::string& path, const StateOptions& state)
-      : scene(mj::load_scene(path)), data(std::make_unique<mj::SceneData>(*scene)) {
+      : scene(load(path)), data(std::make_unique<mj::SceneData>(*scene)) {
     state.apply(*scene, *data);
     result = mj::equilibrium(*scene, *data);
   }
@@ -623,11 +662,10 @@ class Sampler {
     const double t = t0_ + t_since_start;
     const double tol = 1e-9 * sim.timestep();
     while (!diverged && cur_t_ < t - tol) {
-      if (!sim.step()) {
+      if (!sim.step() || !sim.observe()) {
         diverged = true;
         break;
       }
-      sim.observe();
       prev_ = cur_;
       prev_t_ = cur_t_;
       cur_ = positions();

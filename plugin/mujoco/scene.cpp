@@ -1747,6 +1747,13 @@ bool state_finite(const mjModel* m, const mjData* d) {
 
 Status step(const Scene& s, SceneData& sd) { return step(s, sd, s.integrator); }
 
+void abandon_step(SceneData& sd, const std::string& reason) {
+  restore_state(sd.step_start, sd.d);
+  sd.d->pstack = 0;  // the unwound MuJoCo frames did not release their stack allocations
+  sd.status = Status::Diverged;
+  sd.warning = reason + " (in the step from t = " + std::to_string(sd.d->time) + " s)";
+}
+
 Status step(const Scene& s, SceneData& sd, Integrator method) {
   const mjModel* m = s.m;
   mjData* d = sd.d;

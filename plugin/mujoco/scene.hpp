@@ -318,6 +318,10 @@ Status step(const Scene& s, SceneData& sd);
 Status step(const Scene& s, SceneData& sd, Integrator method);
 // qpos = qpos0, qvel = 0, time = 0, and MuJoCo's mj_resetData.
 void reset(const Scene& s, SceneData& sd);
+// For an application whose mju_user_error handler throws: after a MuJoCo error raised (and
+// unwound) inside step, the state goes back to the step's start, MuJoCo's stack is released, and
+// the step counts as diverged (SceneData::status, warning: `reason` and the step's time).
+void abandon_step(SceneData& sd, const std::string& reason);
 
 // Energies of the whole scene (after forward): rods (core) plus MuJoCo's rigid bodies.
 struct SceneEnergy {

@@ -347,6 +347,34 @@ TEST_F(Cli, RunReportsACollapsedSection) {
   expect_quiet_cantilever_run("--duration 0.5");
 }
 
+// A MuJoCo error inside a step (its constraint solver's rank-deficient Hessian after a mixed rod's
+// section collapsed) ends the run as a divergence: exit 1 with one line naming the error, the CSV
+// and JSON written up to the last good step; one at load names the file (outside probe,
+// fourteenth session: the run had exited with empty outputs, `check` without the file).
+TEST_F(Cli, MujocoErrorsEndARunAsADivergenceWithItsOutputs) {
+  const std::string model = COSSERAT_SOURCE_DIR "/tests/mujoco/data/mujoco_error_midrun.xml";
+  const fs::path csv = scratch() / "e.csv", js = scratch() / "e.json";
+  const Result r = cosserat("run '" + model + "' --integrator euler --duration 0.1 --csv '" + csv.string() +
+                            "' --json '" + js.string() + "'");
+  EXPECT_EQ(r.status, 1);
+  EXPECT_EQ(lines(r.err).size(), 1u) << r.err;
+  EXPECT_NE(r.err.find("simulation diverged: MuJoCo error: "), std::string::npos) << r.err;
+  const json j = json::parse(read_text(js));
+  EXPECT_TRUE(j["diverged"].get<bool>());
+  const long steps = j["steps"].get<long>();
+  EXPECT_GT(steps, 0);
+  EXPECT_LT(steps, 100);
+  const long rows = static_cast<long>(lines(read_text(csv)).size());  // header, step 0, the good steps
+  EXPECT_GE(rows, 1 + steps);
+  EXPECT_LE(rows, 1 + steps + 1);
+  EXPECT_NE(j["warnings"][0].get<std::string>().find("MuJoCo error"), std::string::npos);
+  const std::string bad = COSSERAT_SOURCE_DIR "/tests/mujoco/data/mujoco_error_at_load.xml";
+  const Result c = cosserat("check '" + bad + "'");
+  EXPECT_EQ(c.status, 1);
+  EXPECT_EQ(lines(c.err).size(), 1u) << c.err;
+  EXPECT_EQ(c.err.rfind(bad + ":0: MuJoCo error: ", 0), 0u) << c.err;
+}
+
 // --newton-refresh reaches Scene::newton_refresh: on the undamped cantilever of the Newton tests
 // (E = 1e7, L/r = 100) at 5 ms over 20 s the trapezoidal rule needs at least a sixth fewer
 // corrections with it (measured 3.9 against 4.9 per step).
