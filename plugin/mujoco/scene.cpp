@@ -736,6 +736,12 @@ bool has_acceleration_sensors(const mjModel* m) {
   return !(m->opt.disableflags & mjDSBL_SENSOR) && has_sensor_from(m, mjSTAGE_ACC);
 }
 
+// Whether the last forward's M qacc is qfrc_smooth, exactly: no constraint rows (with acceleration
+// sensors forward solves for qacc all the same). The implicit steps then take the forces, not
+// M qacc: with a nearly singular M (a high-order GVS rod) M (M^-1 f) is f only to cond(M) times
+// the round-off, which had kept a Newton iteration from converging once a sensor was added.
+bool smooth_only(const SceneData& sd) { return sd.forces_only || sd.d->nefc == 0; }
+
 // MuJoCo 2.2.2's mj_fwdAcceleration without its solve for qacc_smooth: qfrc_smooth = passive -
 // bias + applied + actuator forces and the bodies' xfrc_applied (mj_xfrcAccumulate, not exported,
 // applies them at the bodies' centres of mass with mj_applyFT).
@@ -1239,7 +1245,7 @@ void implicit_step(const Scene& s, SceneData& sd, bool rods = true, double theta
   const double th = theta * m->opt.timestep;
   // rhs = M qacc - theta h K v (M qacc = qfrc_smooth when forward skipped the accelerations: there
   // are no constraint forces then)
-  if (sd.forces_only)
+  if (smooth_only(sd))
     mju_copy(sd.qacc_tmp.data(), d->qfrc_smooth, nv);
   else
     mj_mulM(m, d, sd.qacc_tmp.data(), d->qacc);
@@ -1458,10 +1464,10 @@ bool newton_step(const Scene& s, SceneData& sd, const Scheme& sc, int iterations
     // constraints), M f(q+, v+) = qfrc_smooth: y = M z + c qfrc_smooth
     for (int i = 0; i < nv; ++i) {
       w.r[i] = (sc.af * w.f0[i] - sc.am * w.A0[i]) / (1.0 - sc.am) - w.A[i];
-      if (!sd.forces_only) w.r[i] += c * d->qacc[i];
+      if (!smooth_only(sd)) w.r[i] += c * d->qacc[i];
     }
     mj_mulM(m, d, w.y.data(), w.r.data());
-    if (sd.forces_only) mju_addToScl(w.y.data(), d->qfrc_smooth, c, nv);
+    if (smooth_only(sd)) mju_addToScl(w.y.data(), d->qfrc_smooth, c, nv);
     solve_implicit(s, sd, w.delta.data(), w.y.data());
     const Iterate it = apply_correction(s, sd, sc, k, stored, first);
     set_end_state(s, sd, sc);
@@ -1552,7 +1558,7 @@ bool midpoint_step(const Scene& s, SceneData& sd, int iterations) {
     const double S = mju_dot(vm, Mv, nv);
     const double P = mju_dot(vm, w.y.data(), nv) + mju_dot(vm, d->qfrc_bias, nv);
     // r = M (f(q_m, v_m) - A); M f = qfrc_smooth when forward skipped the accelerations
-    if (sd.forces_only) {
+    if (smooth_only(sd)) {
       mju_sub(w.r.data(), d->qfrc_smooth, w.y.data(), nv);
     } else {
       mj_mulM(m, d, w.r.data(), d->qacc);
