@@ -932,7 +932,7 @@ Preprocessed Preprocessor::run(const std::string& text, const std::string& path)
 
   tinyxml2::XMLPrinter printer;
   doc.Print(&printer);
-  Preprocessed out{printer.CStr(), path, std::move(rods_), {}, {}, {}, {}, {}};
+  Preprocessed out{printer.CStr(), path, std::move(rods_), {}, {}, {}, {}, {}, {}};
   map_lines(root, out);
   for (const XMLElement* kf = root->FirstChildElement("keyframe"); kf; kf = kf->NextSiblingElement("keyframe"))
     for (const XMLElement* k = kf->FirstChildElement("key"); k; k = k->NextSiblingElement("key"))
@@ -940,9 +940,23 @@ Preprocessed Preprocessor::run(const std::string& text, const std::string& path)
   for (const XMLElement* se = root->FirstChildElement("sensor"); se; se = se->NextSiblingElement("sensor"))
     for (const XMLElement* k = se->FirstChildElement(); k; k = k->NextSiblingElement())
       out.sensor_origin.push_back(SourceLine{origin(k).file, origin(k).line});
+  // a lengthrange in any <default> may reach any actuator through its class (not resolved here)
+  bool default_lengthrange = false;
+  std::vector<const XMLElement*> defaults;
+  for (const XMLElement* d = root->FirstChildElement("default"); d; d = d->NextSiblingElement("default"))
+    defaults.push_back(d);
+  while (!defaults.empty() && !default_lengthrange) {
+    const XMLElement* d = defaults.back();
+    defaults.pop_back();
+    for (const XMLElement* c = d->FirstChildElement(); c; c = c->NextSiblingElement()) {
+      if (is(c, "default")) defaults.push_back(c);
+      else if (c->Attribute("lengthrange")) default_lengthrange = true;
+    }
+  }
   for (const XMLElement* ac = root->FirstChildElement("actuator"); ac; ac = ac->NextSiblingElement("actuator"))
     for (const XMLElement* k = ac->FirstChildElement(); k; k = k->NextSiblingElement()) {
       out.actuator_origin.push_back(SourceLine{origin(k).file, origin(k).line});
+      out.actuator_lengthrange_given.push_back(default_lengthrange || k->Attribute("lengthrange"));
       const char* dyn = k->Attribute("dyntype");
       out.actuator_stateful.push_back(is(k, "muscle") || is(k, "cylinder") || (dyn && std::string_view(dyn) != "none"));
     }

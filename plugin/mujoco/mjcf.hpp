@@ -87,6 +87,9 @@ struct Preprocessed {
   // has an activation state (muscle, cylinder, or a dyntype other than none)
   std::vector<SourceLine> actuator_origin;
   std::vector<char> actuator_stateful;
+  // per actuator: it or a <default> of the model may give its lengthrange (else MuJoCo's compiler
+  // computes a muscle's by simulating the compiled model)
+  std::vector<char> actuator_lengthrange_given;
 };
 
 // Reads `path`, expands <include file=...> recursively (relative to the including file), and

@@ -1034,6 +1034,34 @@ void check_keyframes(const Preprocessed& pre, const mjModel* m) {
   }
 }
 
+// A muscle acting on a rod whose lengthrange MuJoCo's compiler computed itself (by simulating the
+// compiled model, in which the rods are massless placeholders without elasticity): not the rod's
+// range, refused at the actuator's line.
+void check_muscle_lengthranges(const Preprocessed& pre, const Scene& s) {
+  const mjModel* m = s.m;
+  std::unique_ptr<SceneData> sd;
+  for (int i = 0; i < m->nu; ++i) {
+    const bool muscle = m->actuator_gaintype[i] == mjGAIN_MUSCLE || m->actuator_biastype[i] == mjBIAS_MUSCLE;
+    if (!muscle || i >= static_cast<int>(pre.actuator_lengthrange_given.size()) || pre.actuator_lengthrange_given[i])
+      continue;
+    if (!sd) {  // the moments at qpos0
+      sd = std::make_unique<SceneData>(s);
+      mju_copy(sd->d->qpos, m->qpos0, m->nq);
+      fwd_position(s, *sd);
+    }
+    for (const RodBinding& rb : s.rods)
+      for (int k = 0; k < rb.model.nv; ++k)
+        if (sd->d->actuator_moment[i * m->nv + rb.dof0 + k] != 0) {
+          const SourceLine& where = pre.actuator_origin[i];
+          throw LoadError(where.file, where.line,
+                          "<" + std::string(m->actuator_gaintype[i] == mjGAIN_MUSCLE ? "muscle" : "general") +
+                              ">: a muscle acting on rod '" + rb.decl.name +
+                              "' needs an explicit lengthrange (MuJoCo computes one by simulating the compiled "
+                              "model, in which the rods are massless placeholders)");
+        }
+  }
+}
+
 std::unique_ptr<Scene> compile(const Preprocessed& pre) {
   auto s = std::make_unique<Scene>();
   s->path = pre.path;
@@ -1098,7 +1126,10 @@ std::unique_ptr<Scene> compile(const Preprocessed& pre) {
         for (int b = rb.base_body + 1; b < rb.below_end; ++b) s->velocity_skip[b] = 1;
   setup_site_readers(pre, *s);  // sensors, transmissions, tracking that read rods (scene_sites.hpp)
   setup_fluid(*s);  // fluid hook: may switch MuJoCo's own fluid off (scene_fluid.hpp)
-  if (!s->rods.empty()) recompute_qpos0_constants(*s);
+  if (!s->rods.empty()) {
+    recompute_qpos0_constants(*s);
+    check_muscle_lengthranges(pre, *s);
+  }
   s->integrator = s->rods.empty() ? Integrator::Euler : Integrator::Implicit;
   if (s->m->opt.integrator == mjINT_RK4) s->integrator = Integrator::RK4;
   // <custom><text name="cosserat:integrator" data="NAME"/> (a known name: the preprocessor checked)

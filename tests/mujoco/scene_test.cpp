@@ -171,6 +171,15 @@ TEST(Scene, MujocoCompileErrorsPointAtTheUsersFileAndLine) {
                     "<site site=\"rod/base\"/>\n<site site=\"rod/tip\"/>\n</spatial>\n</tendon>\n<actuator>\n"
                     "<motor tendon=\"c\"/>\n<muscle tendon=\"c\"/>\n</actuator>\n</mujoco>\n",
                     dir, "lengthrange.xml", 13, "an actuator acting on a rod needs an explicit lengthrange");
+  // where MuJoCo's lengthrange simulation of the placeholder rod converges (a loose tolerance), its
+  // result is no range of the rod: refused at the muscle's line; an explicit one loads
+  const std::string loose = "<mujoco>\n<compiler>\n<lengthrange tolrange=\"100\"/>\n</compiler>\n"
+                            "<worldbody>\n<cosserat name=\"rod\" length=\"0.3\" sections=\"2\"/>\n</worldbody>\n"
+                            "<tendon>\n<spatial name=\"c\">\n<site site=\"rod/base\"/>\n<site site=\"rod/tip\"/>\n"
+                            "</spatial>\n</tendon>\n<actuator>\n<muscle tendon=\"c\"LR/>\n</actuator>\n</mujoco>\n";
+  expect_load_error(replace_all(loose, "LR", ""), dir, "loose_lengthrange.xml", 15,
+                    "a muscle acting on rod 'rod' needs an explicit lengthrange");
+  EXPECT_NO_THROW(load_scene_string(replace_all(loose, "LR", " lengthrange=\"0.25 0.31\""), dir + "/given.xml"));
   // a velocity sensor of a rod capsule (no material frame) is refused at its line; of a site, not
   const std::string rod2s = "<mujoco>\n<worldbody>\n<cosserat name=\"rod\" length=\"0.3\" sections=\"2\">\n"
                             "<site name=\"m\" at=\"0.1\"/>\n</cosserat>\n</worldbody>\n<sensor>\n";
