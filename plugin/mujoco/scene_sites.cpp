@@ -34,11 +34,11 @@ void apply_cutoff(const mjModel* m, int sensor, mjtNum* out) {
   }
 }
 
-// A rod site as above, or a capsule of a rod off a rigid section: MuJoCo orients them from their
-// proxy's quaternion, the rod places them (site_xmat, geom_xmat).
+// A rod site as above, or any rod capsule: MuJoCo orients them from their proxy's quaternion and
+// their compiled frame (a capsule's from its fromto, which points its z axis the other way than
+// the rod's chord frame, on rigid sections too), the rod places them (site_xmat, geom_xmat).
 bool moving_rod_frame(const Scene& s, int type, int id) {
-  if (type == mjOBJ_GEOM && id >= 0 && s.geom_rod[id] >= 0)
-    return !s.rods[s.geom_rod[id]].geom_fixed[s.geom_index[id]].fixed;
+  if (type == mjOBJ_GEOM && id >= 0) return s.geom_rod[id] >= 0;
   return moving_rod_site(s, type, id);
 }
 
@@ -447,9 +447,12 @@ void setup_site_readers(const Preprocessed& pre, Scene& s) {
     const int t = m->actuator_trntype[i];
     // site (and its refsite) or slider-crank (crank and slider sites) through rod sites; adhesion
     // (body transmission) wherever rods can touch something
+    // (and site transmissions with a refsite where either site is on a rod, rigid sections too:
+    // their rotational length from the sites' frames, whichever the sections' strain)
+    const int a = m->actuator_trnid[2 * i], b = m->actuator_trnid[2 * i + 1];
+    const bool on_rod_refsite = t == mjTRN_SITE && b >= 0 && (s.site_rod[a] >= 0 || s.site_rod[b] >= 0);
     if (((t == mjTRN_SITE || t == mjTRN_SLIDERCRANK) &&
-         (moving_rod_site(s, mjOBJ_SITE, m->actuator_trnid[2 * i]) ||
-          moving_rod_site(s, mjOBJ_SITE, m->actuator_trnid[2 * i + 1]))) ||
+         (moving_rod_site(s, mjOBJ_SITE, a) || moving_rod_site(s, mjOBJ_SITE, b) || on_rod_refsite)) ||
         (t == mjTRN_BODY && !s.rods.empty()))
       s.rod_site_actuators.push_back(i);
   }

@@ -2,6 +2,7 @@
 // contact rows against finite-difference velocities of the material contact points, dense
 // against sparse Jacobians, and resting/friction physics against Newton and Coulomb.
 #include "scene.hpp"
+#include "support/text_file.hpp"
 
 #include <gtest/gtest.h>
 
@@ -21,10 +22,7 @@ namespace {
 
 const char* kPath = "/tmp/cosserat_contact_test.xml";
 
-std::string replace_all(std::string s, const std::string& a, const std::string& b) {
-  for (size_t p = s.find(a); p != std::string::npos; p = s.find(a, p + b.size())) s.replace(p, a.size(), b);
-  return s;
-}
+using cosserat::testing::replace_all;
 
 // A soft rod on a free body, near a plane.
 const char* kScene = R"(<mujoco>

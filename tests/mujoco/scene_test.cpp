@@ -28,10 +28,7 @@ std::string fmt(double v) {
   return b;
 }
 
-std::string replace_all(std::string s, const std::string& a, const std::string& b) {
-  for (size_t p = s.find(a); p != std::string::npos; p = s.find(a, p + b.size())) s.replace(p, a.size(), b);
-  return s;
-}
+using cosserat::testing::replace_all;
 
 struct Loaded {
   mjModel* m = nullptr;

@@ -15,11 +15,14 @@
 #include "scene.hpp"
 #include "scene_statics.hpp"
 #include "support/bent_motion.hpp"
+#include "support/text_file.hpp"
 
 using namespace cosserat;
 using namespace cosserat::mj;
 
 namespace {
+
+using cosserat::testing::replace_all;
 
 using Mat3 = Eigen::Matrix<double, 3, 3, Eigen::RowMajor>;
 
@@ -170,6 +173,21 @@ TEST(Sensors, FrameQuaternionsOfRodSitesAndCapsulesReadTheirOwnFrames) {
     const int proxy = m->site_bodyid[mj_name2id(m, mjOBJ_SITE, "m")];
     EXPECT_GT((Eigen::Map<const Mat3>(d->xmat + 9 * proxy) - Rm).norm(), 1e-2);
   });
+  // a rigid rod's capsules too (MuJoCo's frame of a capsule compiled from its fromto points its z
+  // axis the other way: half a turn off, an outside probe found), and its sites
+  auto s = load_scene_string(replace_all(xml, "strain=\"kl\"", "strain=\"rigid\""), "/tmp/cosserat_sensor_test.xml");
+  SceneData sd(*s);
+  sd.d->qpos[0] = 0.7;
+  forward(*s, sd);
+  const mjModel* m = s->m;
+  const int g = mj_name2id(m, mjOBJ_GEOM, "arm/s1/g0");
+  const std::vector<std::pair<const char*, Mat3>> expected = {
+      {"q_g", Eigen::Map<const Mat3>(sd.d->geom_xmat + 9 * g)},
+      {"q_m", site_mat(sd.d, mj_name2id(m, mjOBJ_SITE, "m"))}};
+  for (const auto& [name, want] : expected) {
+    const mjtNum* q = sd.d->sensordata + m->sensor_adr[mj_name2id(m, mjOBJ_SENSOR, name)];
+    EXPECT_LT((Eigen::Quaterniond(q[0], q[1], q[2], q[3]).toRotationMatrix() - want).norm(), 1e-12) << "rigid " << name;
+  }
 }
 
 // A touch sensor on a rod site counts the whole rod's contacts in its zone (the rod is one body to

@@ -12,12 +12,15 @@
 
 #include "scene.hpp"
 #include "support/bent_motion.hpp"
+#include "support/text_file.hpp"
 #include "support/material_point.hpp"
 
 using namespace cosserat;
 using namespace cosserat::mj;
 
 namespace {
+
+using cosserat::testing::replace_all;
 
 using Mat3 = Eigen::Matrix<double, 3, 3, Eigen::RowMajor>;
 
@@ -105,6 +108,14 @@ TEST(Transmission, SiteActuatorOnARodSiteHasTheMaterialPointsMomentArm) {
   };
   EXPECT_NEAR(d->actuator_length[1], length("m", "s"), 1e-12);
   EXPECT_NEAR(d->actuator_length[2], length("h", "m"), 1e-12);
+  // the same on a rigid rod (its sites rigid with their proxies): the length from the frames too,
+  // so that a rod's strain does not change what the actuator measures
+  Motion rigid(replace_all(arm(R"(<site name="h" pos="0.01 0.02 0.03" euler="10 20 30"/>)",
+                               "<motor site=\"m\" refsite=\"s" + gear + "<motor site=\"h\" refsite=\"m" + gear),
+                           "strain=\"kl\"", "strain=\"rigid\""));
+  d = rigid.at(0.0);
+  EXPECT_NEAR(d->actuator_length[0], length("m", "s"), 1e-12);
+  EXPECT_NEAR(d->actuator_length[1], length("h", "m"), 1e-12);
 }
 
 // MuJoCo's compiler derives actuator_acc0 = |M^-1 moment| at qpos0 from its placeholder proxies

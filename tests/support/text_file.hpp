@@ -1,4 +1,5 @@
-// The whole text of a file (empty if it cannot be read): the tests' fixtures and tool outputs.
+// The whole text of a file (empty if it cannot be read): the tests' fixtures and tool outputs;
+// and text replacement for model variants.
 #pragma once
 
 #include <filesystem>
@@ -13,6 +14,12 @@ inline std::string read_text(const std::filesystem::path& path) {
   std::stringstream ss;
   ss << in.rdbuf();
   return ss.str();
+}
+
+// s with every occurrence of a replaced by b: the tests' model variants.
+inline std::string replace_all(std::string s, const std::string& a, const std::string& b) {
+  for (size_t p = s.find(a); p != std::string::npos; p = s.find(a, p + b.size())) s.replace(p, a.size(), b);
+  return s;
 }
 
 }  // namespace cosserat::testing
