@@ -693,7 +693,7 @@ XMLElement* new_slide_joint(XMLDocument& doc, const std::string& name) {
                       {"springdamper", "0 0"}});
 }
 
-// The bodies of one section under `parent`: normally just the proxy `prefix`, at `offset` along x,
+// The bodies of one section under `parent`: normally just the proxy `prefix`, at pose `offset` in it,
 // with all the section's slide joints and the explicit inertia the compiler requires of moving
 // bodies (the coupling zeroes it). MuJoCo 2.2.2 refuses more than 6 dofs in a body, so a section
 // with more joints gets a chain of helper bodies "<prefix>/h<k>" at the same frame above the proxy
