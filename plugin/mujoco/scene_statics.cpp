@@ -229,8 +229,10 @@ bool newton(StaticProblem& p, double lambda, const SceneStaticsOptions& opt, Sce
 // Stability of the equilibrium at the current qpos under load factor lambda: the smallest
 // eigenvalue omega^2 of Ks x = omega^2 M x, Ks the symmetric part of the tangent stiffness (a
 // negative one: the equilibrium is unstable, the rod would fall away from it). Returns true when
-// stable: omega^2_min >= -1e-7 |omega^2|_max (central differences leave noise of that order;
-// neutral directions, such as a free hinge without gravity, count as stable).
+// stable: omega^2_min >= -1e-9 |omega^2|_max (central differences leave noise below that;
+// neutral directions, such as a free hinge without gravity, count as stable). (It was 1e-7, which
+// with a rod's stiff axial and shear modes at 3e6 let a standing column through 5% past its
+// buckling load, omega^2_min = -0.23: an outside probe.)
 bool stable_equilibrium(StaticProblem& p, const Scene& s, SceneData& sd, double lambda, double& omega2_min) {
   const int n = p.nv();
   omega2_min = 0.0;
@@ -249,7 +251,7 @@ bool stable_equilibrium(StaticProblem& p, const Scene& s, SceneData& sd, double 
   const VectorXd& w = es.eigenvalues();
   omega2_min = w(0);
   const double big = std::max(std::abs(w(0)), std::abs(w(n - 1)));
-  return w(0) >= -1e-7 * big;
+  return w(0) >= -1e-9 * big;
 }
 
 // Newton with load continuation (statics.cpp's scheme). On failure qpos is the last good step.
@@ -409,6 +411,21 @@ SceneStaticsResult equilibrium(const Scene& s, SceneData& sd, const SceneStatics
   res.message = (res.converged ? "" : res.message + "; ") + "relaxation used because " + why;
   forward(s, sd);
   res.constraint_rows = load_bearing_rows(d);
+  // relaxation settles where the motion stops, which a symmetric start can do on an unstable
+  // equilibrium (a straight column above its buckling load): without constraint rows carrying
+  // load its stability is the smooth one's
+  if (res.converged && opt.stable && res.constraint_rows == 0) {
+    StaticProblem p(s, sd);
+    double w2 = 0.0;
+    if (!stable_equilibrium(p, s, sd, 1.0, w2)) {
+      res.converged = false;
+      res.omega2_min = w2;
+      res.message += "; the state it settled in is an unstable equilibrium (omega^2_min = " + std::to_string(w2) +
+                     "): the rod would fall away from it (start from a perturbed state, e.g. a keyframe)";
+    }
+    mju_zero(d->qvel, m->nv);
+    forward(s, sd);
+  }
   return res;
 }
 

@@ -271,3 +271,37 @@ TEST(SceneStatics, SoftRodHangsOnTheStableBranch) {
   const Vec3 p1 = Eigen::Map<const Vec3>(sd.d->site_xpos + 3 * tip);
   EXPECT_LT((p1 - p0).norm(), 1e-6 * 0.5);
 }
+
+// A column standing up under its own weight buckles at w L^3 / EI = 7.837 (Greenhill): E = 1 MPa,
+// r = 1 cm, L = 0.5 m, rho = 1000 carries 0.1598 g standing straight. Below that the equilibrium is
+// the straight column; above it the straight column is an unstable equilibrium, which neither the
+// load continuation (it stalls at the buckling load) nor the dynamic relaxation fallback (a
+// straight start settles straight: symmetric) may report as converged. (Outside probe, fourteenth
+// session: a stability tolerance relative to the stiff axial modes let Newton through to 0.168 g
+// with omega^2_min = -0.23, and the relaxation returned the straight column at full gravity.)
+TEST(SceneStatics, AStandingColumnBeyondItsBucklingLoadIsNoEquilibrium) {
+  auto column = [](double g) {
+    return std::string(R"(<mujoco><option gravity="0 0 -)") + std::to_string(9.81 * g) + R"("/><worldbody>
+      <cosserat name="beam" euler="0 -90 0" length="0.5" sections="8" strain="kl" radius="0.01" density="1000"
+                young="1e6" poisson="0.5" contype="0" conaffinity="0"/></worldbody></mujoco>)";
+  };
+  {
+    auto s = load_scene_string(column(0.155), kPath);
+    SceneData sd(*s);
+    const SceneStaticsResult r = equilibrium(*s, sd);
+    EXPECT_TRUE(r.converged) << r.message;
+    EXPECT_GT(r.omega2_min, 0.0);
+  }
+  for (double g : {0.168, 1.0}) {
+    SCOPED_TRACE(g);
+    auto s = load_scene_string(column(g), kPath);
+    SceneData sd(*s);
+    const SceneStaticsResult r = equilibrium(*s, sd);
+    EXPECT_FALSE(r.converged);
+    EXPECT_NE(r.message.find("unstable"), std::string::npos) << r.message;
+    // the continuation stalled at the buckling load, 0.1598 g
+    const size_t at = r.message.find("stalled at load factor ");
+    ASSERT_NE(at, std::string::npos) << r.message;
+    EXPECT_NEAR(std::atof(r.message.c_str() + at + 23) * g, 0.1598, 0.005);
+  }
+}
