@@ -716,7 +716,16 @@ int cmd_compare(int argc, char** argv) {
       "second half of the run. Exit status 1 when either simulation diverges.\n";
   const auto pos = cl.parse(argc, argv);
   if (!pos) return 0;
-  Sampler a((*pos)[0], sim, state), b((*pos)[1], sim, state);
+  // a keyframe or controls that one of the two models cannot take: say which
+  auto sampler = [&](int k) {
+    try {
+      return std::make_unique<Sampler>((*pos)[k], sim, state);
+    } catch (const Failure& f) {
+      fail(std::string(k == 0 ? "A" : "B") + " (" + (*pos)[k] + "): " + f.what());
+    }
+  };
+  const std::unique_ptr<Sampler> sampler_a = sampler(0), sampler_b = sampler(1);
+  Sampler &a = *sampler_a, &b = *sampler_b;
 
   // name pairs: index in A's and B's output lists, sites then bodies
   struct Pair {

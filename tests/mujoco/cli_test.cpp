@@ -259,6 +259,12 @@ TEST_F(Cli, CompareNeedsSomethingInCommon) {
   EXPECT_TRUE(j["swimming_speed"]["a"].contains("head")) << j.dump();
   ASSERT_FALSE(j["warnings"].empty());
   EXPECT_NE(j["warnings"][0].get<std::string>().find("only the free bodies' swimming speeds"), std::string::npos);
+  // a keyframe or controls one of the two models cannot take: the message says which (outside
+  // probe, fourteenth session)
+  const Result key = cosserat("compare '" + arm + "' '" + kCantilever + "' --key reach --duration 0.02");
+  EXPECT_EQ(key.status, 1);
+  EXPECT_EQ(lines(key.err).size(), 1u) << key.err;
+  EXPECT_NE(key.err.find("B (" + kCantilever + "): --key: no keyframe 'reach'"), std::string::npos) << key.err;
 }
 
 TEST_F(Cli, EquilibriumAndLinearizeJson) {
