@@ -604,6 +604,14 @@ int cmd_linearize(int argc, char** argv) {
   if (!eq.result.converged) fail("no static equilibrium to linearise about: " + eq.result.message);
   const mj::SceneLinearization lin = mj::linearize(*eq.scene, *eq.data);
   const mjModel* m = eq.scene->m;
+  // the linearisation is of the smooth dynamics: constraints that carry load at the equilibrium
+  // (a welded tip, a floor) are left out, and the frequencies are the unconstrained system's
+  std::string constraint_warning;
+  if (eq.result.constraint_rows > 0 || eq.result.method != "newton")
+    constraint_warning = std::to_string(eq.result.constraint_rows) +
+                         " constraint rows (contacts, limits, equality constraints) act at the equilibrium (found by " +
+                         eq.result.method + "); the linearisation leaves them out: these are the frequencies "
+                         "without them";
   if (!json_path.empty()) {
     json j;
     j["frequencies_hz"] = std::vector<double>(lin.frequencies_hz.data(), lin.frequencies_hz.data() + lin.frequencies_hz.size());
@@ -617,8 +625,7 @@ int cmd_linearize(int argc, char** argv) {
     j["nu"] = m->nu;
     j["equilibrium"] = eq.report();
     json warnings = json::array();
-    if (eq.result.method != "newton")
-      warnings.push_back("equilibrium found by " + eq.result.method + "; constraint forces are not linearised");
+    if (!constraint_warning.empty()) warnings.push_back(constraint_warning);
     if (lin.unstable_modes > 0)
       warnings.push_back(std::to_string(lin.unstable_modes) + " unstable mode(s) (omega2 < 0): the equilibrium is unstable");
     if (!warnings.empty()) j["warnings"] = warnings;
@@ -632,6 +639,7 @@ int cmd_linearize(int argc, char** argv) {
   }
   if (json_path != "-") {
     eq.print();
+    if (!constraint_warning.empty()) std::printf("warning: %s\n", constraint_warning.c_str());
     if (lin.unstable_modes > 0)
       std::printf("warning: %d unstable mode(s) (omega^2 < 0, listed as 0 Hz): the equilibrium is unstable\n",
                   lin.unstable_modes);
