@@ -236,13 +236,18 @@ struct SimOptions {
   }
 };
 
-// mj::load_scene, with a MuJoCo error raised while the model is evaluated at load (its constants
-// at qpos0) reported against the file.
+// A MuJoCo error raised while a model is evaluated at its initial state (at load: its constants at
+// qpos0; in check: its first forward), reported against the file.
+mj::LoadError error_at_initial_state(const std::string& path, const MujocoError& e) {
+  return mj::LoadError(path, 0, std::string(e.what()) + ", raised while evaluating the model at its initial state");
+}
+
+// mj::load_scene, with error_at_initial_state's report.
 std::unique_ptr<mj::Scene> load(const std::string& path) {
   try {
     return mj::load_scene(path);
   } catch (const MujocoError& e) {
-    throw mj::LoadError(path, 0, std::string(e.what()) + ", raised while evaluating the model at its initial state");
+    throw error_at_initial_state(path, e);
   }
 }
 
@@ -346,7 +351,7 @@ int cmd_check(int argc, char** argv) {
   try {
     mj::forward(*s, sd);
   } catch (const MujocoError& e) {
-    throw mj::LoadError((*pos)[0], 0, std::string(e.what()) + ", raised while evaluating the model at its initial state");
+    throw error_at_initial_state((*pos)[0], e);
   }
   std::printf("model: %s (%s)\n", m->names, (*pos)[0].c_str());
   std::printf("rods: %zu\n", s->rods.size());

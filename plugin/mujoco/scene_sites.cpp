@@ -34,10 +34,10 @@ void apply_cutoff(const mjModel* m, int sensor, mjtNum* out) {
   }
 }
 
-// A rod site as above, or any rod capsule: MuJoCo orients them from their proxy's quaternion and
-// their compiled frame (a capsule's from its fromto, which points its z axis the other way than
-// the rod's chord frame, on rigid sections too), the rod places them (site_xmat, geom_xmat).
-bool moving_rod_frame(const Scene& s, int type, int id) {
+// A rod site as above, or any rod capsule (rigid sections' too): MuJoCo orients them from their
+// proxy's quaternion and their compiled frame (a capsule's from its fromto, which points its z
+// axis the other way than the rod's chord frame), the rod places them (site_xmat, geom_xmat).
+bool rod_placed_frame(const Scene& s, int type, int id) {
   if (type == mjOBJ_GEOM && id >= 0) return s.geom_rod[id] >= 0;
   return moving_rod_site(s, type, id);
 }
@@ -427,8 +427,8 @@ void setup_site_readers(const Preprocessed& pre, Scene& s) {
         if (std::find(ids.begin(), ids.end(), m->sensor_objid[i]) != ids.end())
           s.rod_rangefinders.emplace_back(i, static_cast<int>(r));
       }
-    if (t == mjSENS_FRAMEQUAT && (moving_rod_frame(s, m->sensor_objtype[i], m->sensor_objid[i]) ||
-                                  moving_rod_frame(s, m->sensor_reftype[i], m->sensor_refid[i])))
+    if (t == mjSENS_FRAMEQUAT && (rod_placed_frame(s, m->sensor_objtype[i], m->sensor_objid[i]) ||
+                                  rod_placed_frame(s, m->sensor_reftype[i], m->sensor_refid[i])))
       s.rod_quat_sensors.push_back(i);
     if ((t == mjSENS_FORCE || t == mjSENS_TORQUE) && !s.rods.empty()) s.force_sensors.push_back(i);
     if ((t == mjSENS_SUBTREECOM || t == mjSENS_SUBTREELINVEL || t == mjSENS_SUBTREEANGMOM) &&
