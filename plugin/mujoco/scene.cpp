@@ -742,6 +742,8 @@ bool has_acceleration_sensors(const mjModel* m) {
 // the round-off, which had kept a Newton iteration from converging once a sensor was added.
 bool smooth_only(const SceneData& sd) { return sd.forces_only || sd.d->nefc == 0; }
 
+}  // namespace
+
 // MuJoCo 2.2.2's mj_fwdAcceleration without its solve for qacc_smooth: qfrc_smooth = passive -
 // bias + applied + actuator forces and the bodies' xfrc_applied (mj_xfrcAccumulate, not exported,
 // applies them at the bodies' centres of mass with mj_applyFT).
@@ -754,15 +756,18 @@ void smooth_forces(const mjModel* m, mjData* d) {
     if (!mju_isZero(d->xfrc_applied + 6 * b, 6))
       mj_applyFT(m, d, d->xfrc_applied + 6 * b, d->xfrc_applied + 6 * b + 3, d->xipos + 3 * b, b, d->qfrc_smooth);
 }
-}  // namespace
 
-void fwd_inertia(const Scene& s, SceneData& sd) {
+void fwd_inertia(const Scene& s, SceneData& sd, bool mass) {
   const mjModel* m = s.m;
   mjData* d = sd.d;
   kinematics_except(m, d, s.body_by_rod.data());
   for (size_t r = 0; r < s.rods.size(); ++r) patch_rod_kinematics(s, sd, static_cast<int>(r));
   mj_comPos(m, d);
   for (size_t r = 0; r < s.rods.size(); ++r) patch_cdof(s, sd, static_cast<int>(r));
+  if (!mass) {  // the ancestors' base-frame columns patch_qM leaves for the fluid's damping matrix
+    for (size_t r = 0; r < s.rods.size(); ++r) base_columns(s, sd, static_cast<int>(r));
+    return;
+  }
   crb_skipping_massless(m, d);
   for (size_t r = 0; r < s.rods.size(); ++r) patch_qM(s, sd, static_cast<int>(r));
 }
@@ -770,7 +775,7 @@ void fwd_inertia(const Scene& s, SceneData& sd) {
 void fwd_position(const Scene& s, SceneData& sd, Need need) {
   const mjModel* m = s.m;
   mjData* d = sd.d;
-  fwd_inertia(s, sd);
+  fwd_inertia(s, sd, need != Need::StaticForces);
   mj_camlight(m, d);
   if (!s.com_cameras.empty() || !s.com_lights.empty()) patch_com_tracking(s, sd);
   mj_tendon(m, d);
@@ -786,7 +791,8 @@ void fwd_position(const Scene& s, SceneData& sd, Need need) {
   if (d->ncon && !s.rods.empty()) patch_contacts(s, sd);
   mj_transmission(m, d);
   if (!s.rod_site_actuators.empty()) patch_site_transmissions(s, sd);
-  sd.forces_only = need == Need::Forces && d->nefc == 0 && !has_acceleration_sensors(m);
+  sd.forces_only = need == Need::StaticForces ||
+                   (need == Need::Forces && d->nefc == 0 && !has_acceleration_sensors(m));
   if (sd.forces_only) return;
   mj_factorM(m, d);
   mj_projectConstraint(m, d);

@@ -210,7 +210,8 @@ struct SceneData {
     int rod = -1, section = -1;
   } compression;
   // the last forward skipped M's factorisation and the accelerations (Need::Forces without
-  // constraints): d->qfrc_smooth holds the forces, d->qacc, d->qacc_smooth and d->qLD are stale
+  // constraints, Need::StaticForces): d->qfrc_smooth holds the forces, d->qacc, d->qacc_smooth
+  // and d->qLD are stale (and after Need::StaticForces d->qM too)
   bool forces_only = false;
   // scratch (sized once)
   std::vector<mjtNum> tmp_nv, qacc_tmp;
@@ -304,7 +305,10 @@ std::unique_ptr<Scene> load_scene_string(const std::string& xml, const std::stri
 //     acceleration stage, the factorisation of M and the solves for qacc_smooth and qacc are
 //     skipped: d->qLD, d->qacc_smooth and d->qacc are not computed (SceneData::forces_only).
 //     With constraints the constraint solver needs M's factor and nothing is skipped.
-enum class Need { Acceleration, Forces };
+//   StaticForces: the static solver's finite differences need qfrc_smooth at rest only, after
+//     fwd_position, fwd_velocity, mj_fwdActuation and smooth_forces: the mass matrix (d->qM, d->crb,
+//     the rods' M) is not assembled either, constraints or not (SceneData::forces_only).
+enum class Need { Acceleration, Forces, StaticForces };
 
 // Staged MuJoCo pipeline with the rod patches: position, velocity, actuation, acceleration,
 // constraint solve. With Need::Acceleration it leaves d->qacc as MuJoCo's forward would.
@@ -353,8 +357,12 @@ void recompute_qpos0_constants(Scene& s);
 
 // Lower-level stages (exposed for tests and for the static solver).
 void fwd_position(const Scene& s, SceneData& sd, Need need = Need::Acceleration);
-// The part of fwd_position that energy() needs: poses (rods patched), cdof and the mass matrix.
-void fwd_inertia(const Scene& s, SceneData& sd);
+// The part of fwd_position that energy() needs: poses (rods patched), cdof and (with `mass`) the
+// mass matrix.
+void fwd_inertia(const Scene& s, SceneData& sd, bool mass = true);
 void fwd_velocity(const Scene& s, SceneData& sd);
+// MuJoCo's mj_fwdAcceleration without its solve for qacc_smooth: d->qfrc_smooth only (no factor
+// of M needed; what the implicit steps and the static solver take when no constraint acts).
+void smooth_forces(const mjModel* m, mjData* d);
 
 }  // namespace cosserat::mj

@@ -53,16 +53,24 @@ class StaticProblem {
   }
 
   // f = qfrc_smooth at the current qpos, at rest, under load factor lambda. Returns the scale.
-  double force(double lambda, VectorXd& f) {
+  // Without `mass` the mass matrix is left stale (Need::StaticForces); M's factorisation, O(nv^3)
+  // for one long rod (whose dofs all share one branch), is skipped whenever no constraint acts.
+  double force(double lambda, VectorXd& f, bool mass = true) {
     set_loads(lambda);
     mju_zero(d_->qvel, m_->nv);
-    fwd_position(s_, sd_);
+    fwd_position(s_, sd_, mass ? Need::Forces : Need::StaticForces);
     fwd_velocity(s_, sd_);
     mj_fwdActuation(m_, d_);
-    mj_fwdAcceleration(m_, d_);  // qfrc_smooth = passive - bias + applied + actuator + J^T xfrc
+    if (sd_.forces_only)
+      smooth_forces(m_, d_);  // qfrc_smooth = passive - bias + applied + actuator + J^T xfrc
+    else
+      mj_fwdAcceleration(m_, d_);  // the same, and qacc_smooth
     f = Eigen::Map<const VectorXd>(d_->qfrc_smooth, m_->nv);
     const Eigen::Map<const VectorXd> passive(d_->qfrc_passive, m_->nv);
-    if (weight_scale_ < 0) weight_scale_ = weight_scale();
+    if (weight_scale_ < 0) {  // needs the mass matrix
+      if (!mass) fwd_inertia(s_, sd_);
+      weight_scale_ = weight_scale();
+    }
     return std::max({passive.norm(), (f - passive).norm(), lambda * weight_scale_, 1e-300});
   }
 
@@ -76,9 +84,9 @@ class StaticProblem {
       const double h = 1e-6 * std::max(1.0, std::abs(scalar_coordinate(q0, j)));
       e(j) = 1.0;
       move(q0, e, h);
-      force(lambda, fp);
+      force(lambda, fp, false);
       move(q0, e, -h);
-      force(lambda, fm);
+      force(lambda, fm, false);
       e(j) = 0.0;
       Kt.col(j) = -(fp - fm) / (2.0 * h);
     }

@@ -731,6 +731,41 @@ TEST(Scene, ForcesOnlyForwardGivesMujocosSmoothForces) {
   EXPECT_FALSE(sda.forces_only);
 }
 
+// Need::StaticForces (the static solver's finite differences) gives the full pipeline's qfrc_smooth
+// at rest without assembling the mass matrix (qM is left as it was), with and without constraint
+// rows (a joint limit in force, which makes the full pipeline factorise M).
+TEST(Scene, StaticForcesAreMujocosWithoutTheMassMatrix) {
+  for (const bool limited : {false, true}) {
+    SCOPED_TRACE(limited ? "a joint limit in force" : "no constraint");
+    std::string xml = forces_only_xml(false);
+    if (limited) xml = replace_all(xml, R"(damping="0.01")", R"(damping="0.01" limited="true" range="-0.1 0.1")");
+    auto s = load_scene_string(xml, kPath);
+    SceneData sd(*s);
+    const int nv = s->m->nv;
+    sd.d->qpos[0] = 0.4;
+    for (int i = 1; i < s->m->nq; ++i) sd.d->qpos[i] = 0.2 * std::sin(1.3 * i);
+    push_weight(*s, sd);
+    forward(*s, sd);
+    EXPECT_EQ(sd.d->nefc > 0, limited);
+    const std::vector<double> f(sd.d->qfrc_smooth, sd.d->qfrc_smooth + nv);
+    std::fill(sd.d->qM, sd.d->qM + s->m->nM, std::nan(""));  // a sentinel: must stay
+    mju_zero(sd.d->qfrc_smooth, nv);
+    fwd_position(*s, sd, Need::StaticForces);
+    fwd_velocity(*s, sd);
+    mj_fwdActuation(s->m, sd.d);
+    smooth_forces(s->m, sd.d);
+    EXPECT_TRUE(sd.forces_only);
+    double scale = 0.0, err = 0.0;
+    for (int i = 0; i < nv; ++i) {
+      scale = std::max(scale, std::abs(f[i]));
+      err = std::max(err, std::abs(sd.d->qfrc_smooth[i] - f[i]));
+    }
+    EXPECT_GT(scale, 0.0);
+    EXPECT_LE(err, 1e-14 * scale);
+    for (int i = 0; i < s->m->nM; ++i) ASSERT_TRUE(std::isnan(sd.d->qM[i])) << "qM[" << i << "] was assembled";
+  }
+}
+
 // Steps that skip the accelerations equal those that compute them (the scene with the sensor),
 // for every scheme that solves with the implicit matrix: the linearised implicit and trapezoidal
 // steps and the Newton iterations of backward Euler, the trapezoidal rule and the generalized alpha.
