@@ -726,7 +726,8 @@ int cmd_compare(int argc, char** argv) {
   cl.details =
       "Positions are sampled every max(h_A, h_B) (linear interpolation between steps); deviations are\n"
       "|p_A - p_B|. The swimming speed of a free body is |mean velocity of its position| over the\n"
-      "second half of the run. Exit status 1 when either simulation diverges.\n";
+      "second half of the run. Both models step with one integrator: --integrator, else implicit when\n"
+      "either has rods (euler when neither has). Exit status 1 when either simulation diverges.\n";
   const auto pos = cl.parse(argc, argv);
   if (!pos) return 0;
   // a keyframe or controls that one of the two models cannot take: say which
@@ -737,7 +738,14 @@ int cmd_compare(int argc, char** argv) {
       fail(std::string(k == 0 ? "A" : "B") + " (" + (*pos)[k] + "): " + f.what());
     }
   };
-  const std::unique_ptr<Sampler> sampler_a = sampler(0), sampler_b = sampler(1);
+  std::unique_ptr<Sampler> sampler_a = sampler(0), sampler_b = sampler(1);
+  // one integrator for both: without --integrator, the default of the model with rods (implicit)
+  // when only one has them (each model's own default would make a motor spin up one step apart,
+  // a phase offset that outlasts the run)
+  if (!sim.integrator && sampler_a->sim.integrator() != sampler_b->sim.integrator()) {
+    sim.integrator = Integrator::Implicit;
+    sampler_a = sampler(0), sampler_b = sampler(1);
+  }
   Sampler &a = *sampler_a, &b = *sampler_b;
 
   // name pairs: index in A's and B's output lists, sites then bodies
@@ -798,6 +806,8 @@ int cmd_compare(int argc, char** argv) {
   json j;
   j["models"] = {(*pos)[0], (*pos)[1]};
   j["duration"] = sim.duration;
+  j["integrator"] = integrator_name(a.sim.integrator());
+  j["timestep"] = {a.sim.timestep(), b.sim.timestep()};
   j["samples"] = n + 1;
   j["sample_interval"] = sim.duration / n;
   j["sites"] = json::object();
@@ -811,6 +821,8 @@ int cmd_compare(int argc, char** argv) {
   j["warnings"] = warnings;
   if (!json_path.empty()) write_json(json_path, j);
   if (json_path != "-") {
+    std::printf("integrator: %s (both models), time steps %g s (A) and %g s (B)\n", integrator_name(a.sim.integrator()),
+                a.sim.timestep(), b.sim.timestep());
     std::printf("%-8s %-28s %14s %14s\n", "kind", "name", "max dev [m]", "rms dev [m]");
     for (const auto& p : pairs)
       std::printf("%-8s %-28s %14.6g %14.6g\n", p.site ? "site" : "body", p.name.c_str(), p.max, std::sqrt(p.sum2 / (n + 1)));
