@@ -450,7 +450,7 @@ int cmd_run(int argc, char** argv) {
         break;
       }
       energy.add(s.energy());
-      if (k % every == 0) write_row(energy.final());
+      write_row(energy.final());
     }
     progress.update(k, s.time());
   }

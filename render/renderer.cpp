@@ -42,11 +42,14 @@ Renderer::Renderer(const mj::Scene& s, const RenderOptions& o)
   mjv_makeScene(s.m, &scn_, scene_capacity(s));
   scn_.flags[mjRND_SHADOW] = o.shadows;
   mjr_defaultContext(&con_);
-  // mjr_makeContext sizes its buffer from the model: widen it for this picture, not for others
+  // mjr_makeContext sizes its buffers from the model: this picture's size (a model's larger
+  // offwidth/offheight had sized it, up to 2.3 GB for 100x100 pixels or a framebuffer OpenGL
+  // refuses) and no shadow map without shadows (an outside probe)
   mjVisual& vis = s.m->vis;
   const mjVisual saved = vis;
-  vis.global.offwidth = std::max(vis.global.offwidth, width_);
-  vis.global.offheight = std::max(vis.global.offheight, height_);
+  vis.global.offwidth = width_;
+  vis.global.offheight = height_;
+  if (!o.shadows) vis.quality.shadowsize = 0;
   if (o.samples >= 0) vis.quality.offsamples = o.samples;
   mjr_makeContext(s.m, &con_, mjFONTSCALE_100);
   vis = saved;

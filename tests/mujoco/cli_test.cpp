@@ -138,6 +138,14 @@ TEST_F(Cli, RunWritesCsvWithExactHeaderAndRows) {
   EXPECT_DOUBLE_EQ(first[8], 0.5);
   EXPECT_DOUBLE_EQ(first[10], 1.0);
   EXPECT_LT(last[10], 1.0);
+  // the last step has its row also when N does not divide the step count (steps 0, 30 and 50; the
+  // row at 50 had been left out: an outside probe)
+  const Result uneven = cosserat("run '" + kCantilever + "' --duration 0.05 --every 30 --csv '" + csv.string() + "'");
+  ASSERT_EQ(uneven.status, 0) << uneven.err;
+  const auto urows = lines(read_text(csv));
+  ASSERT_EQ(urows.size(), 1u + 3u);
+  EXPECT_NEAR(std::stod(urows[2]), 0.03, 1e-9);
+  EXPECT_NEAR(std::stod(urows[3]), 0.05, 1e-9);
   EXPECT_TRUE(std::isfinite(last[1]));
 }
 

@@ -245,6 +245,24 @@ TEST_F(RendererTest, PicturesLargerThanTheModelsBufferAreNotCropped) {
   EXPECT_GT(beyond, 10);
 }
 
+// The picture's own size sizes MuJoCo's off-screen buffer, not a model's larger offwidth and
+// offheight: 16385 pixels, beyond what OpenGL allows here, had made every picture fail with
+// MuJoCo's line-less "Offscreen framebuffer is not complete", even at 100x100 (an outside probe).
+TEST_F(RendererTest, AModelsLargerOffscreenBufferDoesNotSizeASmallerPicture) {
+  Loaded l("cantilever.xml");
+  l.scene->m->vis.global.offwidth = 16385;
+  l.scene->m->vis.global.offheight = 16385;
+  rd::RenderOptions o = sized(100, 80);
+  o.shadows = false;
+  rd::Renderer r(*l.scene, o);
+  const rd::Image img = r.render(*l.data);
+  EXPECT_EQ(img.width, 100);
+  EXPECT_EQ(img.height, 80);
+  check_picture(l, r, img, o);
+  EXPECT_EQ(l.scene->m->vis.global.offwidth, 16385) << "the model is left as it was";
+  EXPECT_EQ(l.scene->m->vis.quality.shadowsize, 4096);
+}
+
 TEST_F(RendererTest, RodCapsulesAreReplacedByTubes) {
   Loaded l("octopus_arm.xml");
   rd::Renderer r(*l.scene, sized(320, 240));
