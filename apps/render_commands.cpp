@@ -64,8 +64,8 @@ struct PictureOptions {
     rd::RenderOptions& r = render;
     c.options.push_back(int_option("--width", "W", "picture width in pixels (default: the model's offwidth)", r.width, 1));
     c.options.push_back(int_option("--height", "H", "picture height in pixels (default: the model's offheight)", r.height, 1));
-    c.options.push_back(text_option("--camera", "NAME", "a camera of the model (default: a free camera framing the scene)", r.camera.name));
-    c.options.push_back(text_option("--track", "BODY", "the free camera follows this body", r.camera.track));
+    c.options.push_back(text_option("--camera", "NAME", "a camera of the model (default: a free camera framing the scene: render's the whole run, snapshot's the picture's state)", r.camera.name));
+    c.options.push_back(text_option("--track", "BODY", "the free camera follows this body (framed on the first picture's state)", r.camera.track));
     c.options.push_back(number("--azimuth", "DEG", "free camera azimuth (default 90: looking along +y)", r.camera.azimuth));
     c.options.push_back(number("--elevation", "DEG", "free camera elevation (default -20: from above)", r.camera.elevation, -89, 89));
     c.options.push_back(number("--margin", "F", "free camera: empty border, fraction of the picture (default 0.08)", r.camera.margin, 0, 0.45));
@@ -106,9 +106,15 @@ struct Simulation {
       integrator = *in;
     }
     apply_step_tol(*scene, integrator, o.step_tol);
+    restart(o);
+  }
+
+  // Back to the initial state (the same scene: a Renderer made for it stays valid).
+  void restart(const PictureOptions& o) {
     data = std::make_unique<mj::SceneData>(*scene);
     o.state.apply(*scene, *data);
     t0 = data->d->time;
+    steps = 0;
   }
 
   // Steps until `t` after the start (to the nearest step) and brings the kinematics up to date.
@@ -131,7 +137,8 @@ struct Simulation {
 // A progress bar on stderr when it is a terminal; nothing otherwise.
 class Progress {
  public:
-  explicit Progress(long total) : total_(std::max(total, 1L)), tty_(isatty(STDERR_FILENO)) {}
+  explicit Progress(long total, const char* label = "render")
+      : total_(std::max(total, 1L)), tty_(isatty(STDERR_FILENO)), label_(label) {}
   ~Progress() { clear(); }
   void clear() {
     if (tty_ && shown_ >= 0) std::fprintf(stderr, "\r%*s\r", 80, "");
@@ -142,7 +149,7 @@ class Progress {
     if (!tty_ || pct == shown_) return;
     shown_ = pct;
     const int w = 30, filled = w * pct / 100;
-    std::fprintf(stderr, "\rrender [%.*s%*s] %3d%%  frame %ld/%ld  t = %.3f s", filled,
+    std::fprintf(stderr, "\r%s [%.*s%*s] %3d%%  frame %ld/%ld  t = %.3f s", label_, filled,
                  "##############################", w - filled, "", pct, done, total_, t);
     std::fflush(stderr);
   }
@@ -150,6 +157,7 @@ class Progress {
  private:
   long total_;
   bool tty_;
+  const char* label_;
   int shown_ = -1;
 };
 
@@ -210,6 +218,26 @@ int render_command(int argc, char** argv) {
     std::error_code ec;
     fs::create_directories(o.out, ec);
     if (!fs::is_directory(o.out)) fail("cannot create directory " + o.out + (ec ? " (" + ec.message() + ")" : ""));
+    if (renderer.free_camera() && o.render.camera.track.empty()) {
+      // the free camera frames the whole run: a first pass simulates it (up to a divergence, which
+      // the second pass then reports after writing the frames before it) and merges the extents
+      // of at most 2000 frames evenly spread
+      Progress progress(frames, "frame the motion");
+      const long every = std::max(1L, (frames + 1999) / 2000);
+      rd::Extent e;
+      try {
+        for (long k = 0; k < frames; ++k) {
+          if (k % every != 0 && k != frames - 1) continue;
+          sim.advance_to(k / fps);
+          e.add(rd::scene_extent(*sim.scene, *sim.data, renderer.option()));
+          progress.update(k + 1, sim.time());
+        }
+      } catch (const std::exception&) {
+      }
+      progress.clear();
+      renderer.frame(e);
+      sim.restart(o);
+    }
     rd::remove_frames(o.out);
 
     Progress progress(frames);

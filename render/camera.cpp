@@ -138,14 +138,17 @@ void CameraRig::update(const mj::Scene& s, const mj::SceneData& sd, const mjvOpt
     return;
   }
   const Vec3 body = body_id_ >= 0 ? Vec3(Eigen::Map<const Vec3>(sd.d->xpos + 3 * body_id_)) : Vec3::Zero();
-  if (!framed_) {
-    frame_extent(s.m, scene_extent(s, sd, opt), aspect, options_.azimuth, options_.elevation, options_.margin, &free_);
-    offset_ = Eigen::Map<const Vec3>(free_.lookat) - body;
-    framed_ = true;
-  }
+  if (!framed_) frame(s.m, scene_extent(s, sd, opt), aspect, body);
   *cam = free_;
   if (body_id_ >= 0)
     for (int k = 0; k < 3; ++k) cam->lookat[k] = body[k] + offset_[k];
+}
+
+void CameraRig::frame(const mjModel* m, const Extent& e, double aspect, const Vec3& body) {
+  if (camera_id_ >= 0) return;
+  frame_extent(m, e, aspect, options_.azimuth, options_.elevation, options_.margin, &free_);
+  offset_ = Eigen::Map<const Vec3>(free_.lookat) - body;
+  framed_ = true;
 }
 
 }  // namespace cosserat::render

@@ -27,6 +27,10 @@ struct Extent {
   std::vector<double> radii;
   bool empty() const { return centres.empty(); }
   void add(const Vec3& p, double r = 0.0) { centres.push_back(p), radii.push_back(r); }
+  void add(const Extent& e) {
+    centres.insert(centres.end(), e.centres.begin(), e.centres.end());
+    radii.insert(radii.end(), e.radii.begin(), e.radii.end());
+  }
 };
 Extent scene_extent(const mj::Scene& s, const mj::SceneData& sd, const mjvOption& opt);
 
@@ -40,9 +44,14 @@ class CameraRig {
  public:
   // Throws std::invalid_argument naming the unknown camera or body (and the known ones).
   CameraRig(const mj::Scene& s, const CameraOptions& o);
-  // The camera for the current state: the free camera is framed at the first call and then stays
-  // (or follows the tracked body), so a frame sequence has a steady view.
+  // The camera for the current state: the free camera is framed at the first call (unless
+  // frame() framed it) and then stays (or follows the tracked body), so a frame sequence has a
+  // steady view.
   void update(const mj::Scene& s, const mj::SceneData& sd, const mjvOption& opt, double aspect, mjvCamera* cam);
+  // Frames the free camera on `e` (e.g. the union of a whole run's extents) for the pictures to
+  // come; for a tracked body, keeps the offset to its position `body`. No effect on a model camera.
+  void frame(const mjModel* m, const Extent& e, double aspect, const Vec3& body = Vec3::Zero());
+  bool free() const { return camera_id_ < 0; }
 
  private:
   CameraOptions options_;

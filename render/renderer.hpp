@@ -47,6 +47,11 @@ class Renderer {
 
   // The picture of the current state.
   Image render(const mj::SceneData& sd);
+  // Whether the pictures use the free camera (no model camera named), and framing it on `e`
+  // (scene_extent of states under option(), merged) for the pictures to come; without it the free
+  // camera frames the first picture's state.
+  bool free_camera() const { return rig_.free(); }
+  void frame(const Extent& e) { rig_.frame(s_.m, e, static_cast<double>(width_) / height_); }
 
   int width() const { return width_; }
   int height() const { return height_; }

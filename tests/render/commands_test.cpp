@@ -206,6 +206,41 @@ TEST_F(CommandsTest, CollapsedSectionIsReported) {
   EXPECT_EQ(testing::internal::GetCapturedStderr().find("warning:"), std::string::npos);
 }
 
+// render's free camera frames the whole run, not its first state: a soft red rod released straight
+// and horizontal swings down far below where it started, and every frame shows all of it and its
+// green tip ball inside the picture (none of their pixels on the border). Framed on the first
+// state, the ball had left the picture in half the frames (an outside probe).
+TEST_F(CommandsTest, RenderFramesTheWholeRun) {
+  const fs::path model = dir / "swing.xml";
+  fs::create_directories(dir);
+  std::ofstream(model) << R"(<mujoco><option timestep="0.001" gravity="0 0 -9.81"/>
+  <visual><quality offsamples="0"/></visual>
+  <worldbody><light pos="0 -1 2" dir="0 0.5 -1" directional="true"/>
+    <cosserat name="beam" pos="0 0 1" length="0.5" sections="8" strain="kl" radius="0.01" density="1000"
+              young="1e6" poisson="0.5" viscosity="0.5" rgba="1 0 0 1">
+      <body name="tipball" pos="0.02 0 0"><geom type="sphere" size="0.02" mass="0.01" rgba="0 1 0 1"/></body>
+    </cosserat></worldbody></mujoco>)";
+  ASSERT_EQ(run(render_command, {"render", model.string(), "--out", (dir / "f").string(), "--duration", "1", "--fps",
+                                 "10", "--width", "160", "--height", "120", "--no-shadows"}),
+            0);
+  const auto names = frames_in(dir / "f");
+  ASSERT_EQ(names.size(), 10u);
+  for (const auto& n : names) {
+    SCOPED_TRACE(n);
+    const rd::Image img = rd::read_png((dir / "f" / n).string());
+    int ball = 0, on_border = 0;
+    for (int y = 0; y < img.height; ++y)
+      for (int x = 0; x < img.width; ++x) {
+        const std::uint8_t* c = img.pixel(x, y);
+        const bool red = c[0] > 90 && c[1] < 60 && c[2] < 60, green = c[1] > 90 && c[0] < 60 && c[2] < 60;
+        ball += green;
+        if ((red || green) && (x < 2 || y < 2 || x >= img.width - 2 || y >= img.height - 2)) ++on_border;
+      }
+    EXPECT_GT(ball, 4);
+    EXPECT_EQ(on_border, 0);
+  }
+}
+
 // --step-tol reaches the pictures' simulation: the whipping heavy tip at 1.5 s under adaptive
 // substeps is not the picture of its fixed 5 ms steps (whose energy wanders), and rk4 refuses it.
 TEST_F(CommandsTest, SnapshotTakesAdaptiveSubsteps) {
