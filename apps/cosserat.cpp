@@ -26,6 +26,7 @@
 #include <nlohmann/json.hpp>
 
 #include "adaptive_option.hpp"
+#include "newton_options.hpp"
 #include "dynamics.hpp"
 #include "integrators.hpp"
 #include "kinematics.hpp"
@@ -182,41 +183,14 @@ struct SimOptions {
   double duration = 1.0;
   std::optional<double> timestep;
   std::optional<Integrator> integrator;
-  std::optional<int> newton;
-  double newton_tol = 1e-6;
-  int newton_memory = 3;
-  bool newton_refresh = false;
+  NewtonOptions newton;  // --newton*, --rho
   std::optional<double> step_tol;
-  std::optional<double> rho;
 
   void add_to(CommandLine& c) {
     c.options.push_back(positive_option("--duration", "T", "simulated time [s] (default 1)", duration));
     c.options.push_back(optional_positive_option("--timestep", "h", "time step [s] (default: the model's <option timestep>)", timestep));
     c.options.push_back(integrator_option(integrator));
-    c.options.push_back({"--newton", "N",
-                         "implicit and trapezoidal: up to N Newton corrections per step, making the step fully implicit "
-                         "(every force, constraints included, at the end of the step); a step that does not converge is "
-                         "split in halves. 1: one correction per step, without a convergence test or splitting (a "
-                         "linearly implicit step). 0: one linearised solve (default: 10 for trapezoidal, genalpha and "
-                         "midpoint, 0 for implicit; genalpha and midpoint always make at least 1)",
-                         [this](const std::string& v) { newton = parse_int("--newton", v, 0); }});
-    c.options.push_back(positive_option("--newton-tol", "TOL",
-                                        "tolerance of the Newton corrections: h |delta a| <= TOL (|v| + h |a|), "
-                                        "max norms over the dofs (default 1e-6)",
-                                        newton_tol));
-    c.options.push_back({"--newton-memory", "M",
-                         "Anderson acceleration of the Newton corrections from the last M corrections, 0 <= M <= 4 "
-                         "(default 3; 0: plain simplified Newton with the step's frozen matrix)",
-                         [this](const std::string& v) {
-                           newton_memory = parse_int("--newton-memory", v, 0);
-                           if (newton_memory > 4) fail("--newton-memory: " + v + " is more than 4");
-                         }});
-    c.options.push_back(flag_option("--newton-refresh",
-                                    "trapezoidal, genalpha, implicit with --newton: factorise the Newton matrix again at "
-                                    "the first iterate (fewer corrections on smooth motion; at steps where the default "
-                                    "iteration fails and splits, the scheme's full step is taken instead; always on "
-                                    "with --step-tol)",
-                                    newton_refresh));
+    newton.add_newton_to(c);
     c.options.push_back(optional_positive_option(
         "--step-tol", "TOL",
         "implicit, trapezoidal, genalpha, midpoint: adaptive substeps. Each step is taken as substeps of h/2^k "
@@ -226,13 +200,7 @@ struct SimOptions {
         "(default: the model's <custom><numeric name=\"cosserat:step_tol\">, else off: fixed steps; 1e-2 keeps the energy of a whipping heavy-tipped rod to 0.1%, 1e-3 is "
         "about 10 times more accurate)",
         step_tol));
-    c.options.push_back({"--rho", "R",
-                         "genalpha: spectral radius at infinite frequency, 0 <= R <= 1 (default 0.8; 1: no damping of "
-                         "stiff modes, the trapezoidal rule; 0: the most damping)",
-                         [this](const std::string& v) {
-                           rho = parse_number("--rho", v);
-                           if (!(*rho >= 0.0 && *rho <= 1.0)) fail("--rho: " + v + " is not in [0, 1]");
-                         }});
+    newton.add_rho_to(c);
   }
 };
 
@@ -257,12 +225,8 @@ class Simulation {
   Simulation(const std::string& path, const SimOptions& o, const StateOptions& state) : scene_(load(path)) {
     if (o.timestep) scene_->m->opt.timestep = *o.timestep;
     integrator_ = o.integrator.value_or(scene_->integrator);
-    if (o.newton) scene_->newton_iterations = *o.newton;
-    scene_->newton_tol = o.newton_tol;
-    scene_->newton_memory = o.newton_memory;
-    scene_->newton_refresh = o.newton_refresh;
+    o.newton.apply(*scene_);
     apply_step_tol(*scene_, integrator_, o.step_tol);
-    if (o.rho) scene_->rho_inf = *o.rho;
     data_ = std::make_unique<mj::SceneData>(*scene_);
     state.apply(*scene_, *data_);
     steps_ = step_count(o.duration, timestep(), "--duration");

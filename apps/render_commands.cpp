@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "adaptive_option.hpp"
+#include "newton_options.hpp"
 #include "state_options.hpp"
 #include "cli.hpp"
 #include "integrators.hpp"
@@ -59,6 +60,7 @@ struct PictureOptions {
   double timestep = 0;  // 0: the model's
   std::string integrator;
   std::optional<double> step_tol;  // mj::Scene::step_tol (none: the model's)
+  NewtonOptions newton;            // --newton*, --rho
 
   void add_to(CommandLine& c) {
     rd::RenderOptions& r = render;
@@ -79,6 +81,8 @@ struct PictureOptions {
     c.options.push_back(positive_option("--timestep", "h", "time step [s] (default: the model's <option timestep>)", timestep));
     c.options.push_back(text_option("--integrator", "NAME", "euler | implicit | trapezoidal | genalpha | midpoint | rk4 (default: implicit with rods, euler without; see 'cosserat run --help')", integrator));
     c.options.push_back(optional_positive_option("--step-tol", "TOL", "adaptive substeps to this tolerance (implicit, trapezoidal, genalpha, midpoint; default: the model's cosserat:step_tol, else fixed steps; see 'cosserat run --help')", step_tol));
+    newton.add_newton_to(c);
+    newton.add_rho_to(c);
   }
 
   void finish() {
@@ -105,6 +109,7 @@ struct Simulation {
       if (!in) fail("--integrator: unknown integrator '" + o.integrator + "' (" + cosserat::kIntegratorNames + ")");
       integrator = *in;
     }
+    o.newton.apply(*scene);
     apply_step_tol(*scene, integrator, o.step_tol);
     restart(o);
   }
@@ -213,7 +218,11 @@ int render_command(int argc, char** argv) {
       fail("--video needs ffmpeg, which is not installed (apt-get install ffmpeg); without --video only the frames are written");
 
     Simulation sim((*pos)[0], o);
-    step_count((frames - 1) / fps, sim.scene->m->opt.timestep, "--duration");  // before any frame is written
+    const double h = sim.scene->m->opt.timestep;
+    step_count((frames - 1) / fps, h, "--duration");  // before any frame is written
+    if (frames > 1 && fps * h > 1.0 + 1e-9)  // frames closer than a step: repeated pictures, or none at all
+      fail("--fps " + format(fps) + " puts frames " + format(1.0 / fps) + " s apart, closer than the time step " +
+           format(h) + " s: use --fps " + format(1.0 / h) + " or less, or a smaller --timestep");
     rd::Renderer renderer(*sim.scene, o.render);
     std::error_code ec;
     fs::create_directories(o.out, ec);

@@ -152,6 +152,13 @@ TEST_F(CommandsTest, BadInputIsAOneLineError) {
   EXPECT_NE(failure(snapshot_command, {"snapshot", model, "--out", (dir / "s.png").string(), "--camera", "top"}).find("side"),
             std::string::npos);
   EXPECT_NE(failure(render_command, {"render", model, "--out", dir.string(), "--fps", "0"}).find("--fps"), std::string::npos);
+  // frames closer than a time step (1 ms here): refused before any frame is written, naming --fps
+  // (3000 fps had written frame 0 and then failed about "the simulated time": an outside probe)
+  const std::string fast = failure(render_command, {"render", model, "--out", (dir / "fast").string(), "--duration",
+                                                    "0.01", "--fps", "3000", "--width", "32", "--height", "24"});
+  EXPECT_NE(fast.find("--fps 3000"), std::string::npos) << fast;
+  EXPECT_NE(fast.find("--fps 1000 or less"), std::string::npos) << fast;
+  EXPECT_FALSE(fs::exists(dir / "fast" / "frame_00000.png"));
   EXPECT_NE(failure(render_command, {"render", model, "--out", dir.string(), "--frobnicate"}).find("--frobnicate"),
             std::string::npos);
   EXPECT_NE(failure(snapshot_command, {"snapshot", model, "--out", (dir / "s.png").string(), "--color-by", "heat"}).find("heat"),
@@ -172,7 +179,8 @@ TEST_F(CommandsTest, HelpListsTheOptions) {
   testing::internal::CaptureStdout();
   EXPECT_EQ(run(render_command, {"render", "--help"}), 0);
   const std::string help = testing::internal::GetCapturedStdout();
-  for (const char* o : {"--out", "--duration", "--fps", "--width", "--height", "--camera", "--video", "--track", "--color-by"})
+  for (const char* o : {"--out", "--duration", "--fps", "--width", "--height", "--camera", "--video", "--track", "--color-by",
+                        "--newton", "--newton-tol", "--newton-memory", "--newton-refresh", "--rho"})
     EXPECT_NE(help.find(o), std::string::npos) << o;
   testing::internal::CaptureStdout();
   EXPECT_EQ(run(snapshot_command, {"snapshot", "--help"}), 0);
@@ -256,6 +264,15 @@ TEST_F(CommandsTest, SnapshotTakesAdaptiveSubsteps) {
   const std::string err = failure(snapshot_command, {"snapshot", tip, "--out", (dir / "rk4.png").string(), "--time",
                                                      "0.01", "--integrator", "rk4", "--step-tol", "1e-2"});
   EXPECT_NE(err.find("--step-tol: adaptive substeps are for implicit"), std::string::npos) << err;
+  // and run's Newton and genalpha options (they were missing: a run could not be pictured with the
+  // settings it ran with; an outside probe)
+  const std::string newton10 = snap("newton10.png", {}), newton2 = snap("newton2.png", {"--newton", "2"});
+  EXPECT_NE(newton10, newton2);
+  EXPECT_EQ(newton10, snap("newton10_again.png", {"--newton", "10", "--newton-tol", "1e-6", "--newton-memory", "3"}));
+  const std::string rho0 = snap("rho0.png", {"--integrator", "genalpha", "--rho", "0"});
+  EXPECT_NE(rho0, snap("rho1.png", {"--integrator", "genalpha", "--rho", "1"}));
+  const std::string bad = failure(snapshot_command, {"snapshot", tip, "--out", (dir / "bad.png").string(), "--rho", "2"});
+  EXPECT_NE(bad.find("--rho: 2 is not in [0, 1]"), std::string::npos) << bad;
 }
 
 }  // namespace
