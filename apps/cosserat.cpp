@@ -174,6 +174,7 @@ std::vector<std::string> collect_warnings(const mj::Scene& sc, const mj::SceneDa
       w.push_back(std::string(mju_warningText(i, d->warning[i].lastinfo)) + " (" + std::to_string(d->warning[i].number) +
                   " times)");
   w.insert(w.end(), g_mujoco_warnings.begin(), g_mujoco_warnings.end());
+  for (const auto& f : sc.fluid.warnings) w.push_back("fluid: " + f);
   return w;
 }
 
@@ -330,6 +331,13 @@ int cmd_check(int argc, char** argv) {
   if (!s->may_collide)
     std::printf("contacts: none possible (no two geoms pass the contype/conaffinity filters, no <pair>): "
                 "collision detection skipped\n");
+  if (s->fluid.active)
+    std::printf("fluid: resistive-force theory (%s), viscosity %g Pa s; rigid bodies: %zu, rods: %d\n",
+                s->fluid.model == cosserat::RftModel::Lighthill ? "Lighthill" : "Gray & Hancock", s->fluid.viscosity,
+                s->fluid.bodies.size(),
+                static_cast<int>(std::count(s->fluid.rod_enabled.begin(), s->fluid.rod_enabled.end(), true)));
+  for (const auto& n : s->fluid.notes) std::printf("fluid: %s\n", n.c_str());
+  for (const auto& w : s->fluid.warnings) std::printf("warning: fluid: %s\n", w.c_str());
   for (int i = 0; i < m->nv; ++i)
     if (!std::isfinite(sd.d->qacc[i])) fail("the model's accelerations at qpos0 are not finite");
   return 0;

@@ -132,9 +132,11 @@ struct Simulation {
       }
     mj::fwd_position(*scene, *data);
   }
-  // The collapse warning on stderr, if a rod section collapsed (mj::collapse_warning).
+  // The collapse warning on stderr, if a rod section collapsed (mj::collapse_warning), and the
+  // fluid's warnings.
   void warn() const {
     if (const std::string c = mj::collapse_warning(*scene, *data); !c.empty()) std::fprintf(stderr, "warning: %s\n", c.c_str());
+    for (const auto& w : scene->fluid.warnings) std::fprintf(stderr, "warning: fluid: %s\n", w.c_str());
   }
   double time() const { return data->d->time - t0; }
 };

@@ -355,6 +355,7 @@ class Preprocessor {
   std::set<std::pair<std::string, std::string>> names_;  // (kind, name) of MuJoCo objects
   std::set<std::string> classes_{"main"};                 // <default class=...> names
   std::map<std::string, Origin> rod_names_;
+  std::set<std::string> declared_rods_;  // names of the <cosserat> elements (collect_names)
   std::vector<RodDecl> rods_;
   std::vector<std::pair<std::string, std::string>> excludes_;
 };
@@ -450,6 +451,7 @@ void Preprocessor::collect_names(const XMLElement* e) {
   for (const XMLElement* c = e->FirstChildElement(); c; c = c->NextSiblingElement()) {
     if (is(c, "default") && c->Attribute("class")) classes_.insert(c->Attribute("class"));
     if (is(c, "site") && is(e, "cosserat")) continue;
+    if (is(c, "cosserat") && c->Attribute("name")) declared_rods_.insert(c->Attribute("name"));
     const std::string kind = is(c, "freejoint") ? "joint" : c->Name();
     if (c->Attribute("name") &&
         std::find(std::begin(kNamedKinds), std::end(kNamedKinds), kind) != std::end(kNamedKinds))
@@ -988,8 +990,12 @@ void Preprocessor::check_custom_fields(const XMLElement* root) const {
                 "of '" + name + "' must be 'gray-hancock', 'lighthill' or 'mujoco', got '" + v + "'");
       } else if (is(c, "numeric") && name.rfind("cosserat:drag:", 0) == 0) {
         const std::string target = name.substr(14);
-        r.check(names_.count({"geom", target}) || names_.count({"body", target}), "name",
-                "'" + name + "' names no geom or body '" + target + "'");
+        const bool user = names_.count({"geom", target}) || names_.count({"body", target});
+        for (const std::string& rod : declared_rods_)  // a rod, or a body or geom it generates
+          r.check(user || (target != rod && target.rfind(rod + "/", 0) != 0), "name",
+                  "'" + name + "' names rod '" + rod + "' or a part of it: a rod's fluid force is set by the drag "
+                  "attribute of its <cosserat> element");
+        r.check(user, "name", "'" + name + "' names no geom or body '" + target + "'");
         const auto v = r.numbers("data", 1, 3);
         r.check(v.has_value(), "data", "is missing");
         if (v->size() == 1)

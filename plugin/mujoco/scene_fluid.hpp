@@ -21,7 +21,7 @@
 //    (a, a, L/2). A capsule or cylinder with explicit coefficients is a piece of a longer filament
 //    (e.g. a native capsule chain): RFT over its segment 2 * halfheight only, since chained
 //    capsules overlap their neighbours' caps;
-//  - meshes, planes, height fields: no fluid force (noted in SceneFluid::notes).
+//  - meshes, planes, height fields: no fluid force (SceneFluid::warnings).
 // MJCF (MuJoCo's own <custom> elements, so the file still loads in plain MuJoCo):
 //   <custom>
 //     <text name="cosserat:fluid" data="gray-hancock"/>      (or "lighthill", or "mujoco": leave
@@ -61,7 +61,9 @@ struct SceneFluid {
   std::vector<RodFluidInfo> rods;      // per Scene::rods (when active)
   std::vector<bool> rod_enabled;       // per Scene::rods
   int max_chain = 0;
-  std::vector<std::string> notes;      // decisions worth reporting (fallback shapes, skipped geoms)
+  std::vector<std::string> notes;      // decisions worth reporting (fallback shapes)
+  std::vector<std::string> warnings;   // what the scene asks for and does not get (ignored options and
+                                       // coefficients, geoms without fluid force)
 };
 
 // At load, after the rods are bound: decides who owns the fluid, sets the rods' node drag and the

@@ -251,6 +251,24 @@ TEST_F(Cli, CompareStartsAtTheKeyframesTime) {
   EXPECT_NEAR(from1, from0, 1e-9 * from0);
 }
 
+// The fluid's warnings reach the user: check prints them, run's JSON lists them (MuJoCo's density
+// and wind, which the plugin's Stokes fluid ignores, had been noted where no user could see them).
+TEST_F(Cli, FluidWarningsAreShown) {
+  const fs::path model = scratch() / "windy.xml";
+  std::ofstream(model) << "<mujoco><option viscosity=\"1\" density=\"1000\" wind=\"0.1 0 0\"/><worldbody>"
+                          "<cosserat name=\"rod\" length=\"0.2\" radius=\"0.005\"/></worldbody></mujoco>";
+  const Result check = cosserat("check '" + model.string() + "'");
+  ASSERT_EQ(check.status, 0) << check.err;
+  EXPECT_NE(check.out.find("fluid: resistive-force theory (Gray & Hancock), viscosity 1 Pa s"), std::string::npos) << check.out;
+  EXPECT_NE(check.out.find("warning: fluid: <option wind> ignored"), std::string::npos) << check.out;
+  const Result run = cosserat("run '" + model.string() + "' --duration 0.01 --json -");
+  ASSERT_EQ(run.status, 0) << run.err;
+  const json j = json::parse(run.out);
+  bool density = false;
+  for (const auto& w : j["warnings"]) density = density || w.get<std::string>().find("fluid: <option density> ignored") == 0;
+  EXPECT_TRUE(density) << j["warnings"].dump();
+}
+
 // One integrator for both models: a damped, servoed pendulum beside a rod that does not touch it
 // (A) and the pendulum alone (B) move alike. Each model's own default (implicit with rods, euler
 // without) had put the pendulum 0.8 mm apart after 1 s (an outside probe: the README's rigid

@@ -293,6 +293,39 @@ TEST(SceneFluid, ImplicitDragAgreesWithRK4) {
 }
 
 // Bad fluid input is a LoadError naming the file and line.
+// What a scene asks of the fluid and does not get is a warning (SceneFluid::warnings, which the
+// command-line tool prints): MuJoCo's density and wind, coefficients per unit length on a sphere or
+// on a body without capsules or cylinders, coefficients without viscosity. Until an outside probe,
+// all of it was silent. The shipped swimmers have none.
+TEST(SceneFluid, WarningsSayWhatTheFluidIgnores) {
+  auto warned = [](const std::string& xml, const std::string& text) {
+    auto s = load_scene_string(xml, kPath);
+    for (const auto& w : s->fluid.warnings)
+      if (w.find(text) != std::string::npos) return true;
+    ADD_FAILURE() << "no warning with '" << text << "' (" << s->fluid.warnings.size() << " warnings)";
+    return false;
+  };
+  std::string windy = rod_scene("2");
+  windy.replace(windy.find("<option "), 8, "<option density=\"1000\" wind=\"0.1 0 0\" ");
+  EXPECT_TRUE(warned(windy, "<option density> ignored"));
+  EXPECT_TRUE(warned(windy, "<option wind> ignored"));
+  // coefficients per unit length on the hub (a body with one sphere) and on the sphere itself
+  std::string on_hub = rod_scene("2");
+  on_hub.replace(on_hub.find("<worldbody>"), 11,
+                 R"(<custom><numeric name="cosserat:drag:hub" data="1 2"/></custom><worldbody>)");
+  EXPECT_TRUE(warned(on_hub, "body 'hub' has none"));
+  std::string on_sphere = rod_scene("2");
+  on_sphere.replace(on_sphere.find("<geom type=\"sphere\""), 5, "<geom name=\"ball\"");
+  on_sphere.replace(on_sphere.find("<worldbody>"), 11,
+                    R"(<custom><numeric name="cosserat:drag:ball" data="1 2"/></custom><worldbody>)");
+  EXPECT_TRUE(warned(on_sphere, "geom 'ball' keeps its Stokes resistance"));
+  EXPECT_TRUE(warned(rod_scene("0", "drag=\"1 2\""), "<option viscosity> is 0"));
+  for (const char* model : {"flagellate.xml", "flagellate_rigid.xml", "lophotrichous.xml"}) {
+    auto s = load_scene(std::string(COSSERAT_SOURCE_DIR) + "/models/" + model);
+    EXPECT_TRUE(s->fluid.warnings.empty()) << model << ": " << s->fluid.warnings.front();
+  }
+}
+
 TEST(SceneFluid, BadInputNamesFileAndLine) {
   struct Case {
     std::string xml;
@@ -311,6 +344,9 @@ TEST(SceneFluid, BadInputNamesFileAndLine) {
       {head + rod + "radius=\"0.5\" wavelength=\"0.3\"/>\n</worldbody>\n</mujoco>", 4, "too thick"},
       {head + "<custom>\n<numeric name=\"cosserat:drag:nosuch\" data=\"1 2\"/>\n</custom>\n" + body + "</mujoco>", 4,
        "names no geom or body 'nosuch'"},
+      // the rod's own bodies take its drag attribute (this said "names no geom or body 'a/base'")
+      {head + "<custom>\n<numeric name=\"cosserat:drag:a/base\" data=\"1 2\"/>\n</custom>\n" + rod + "/>\n</worldbody>\n</mujoco>",
+       4, "names rod 'a' or a part of it"},
       {head + "<custom>\n<numeric name=\"cosserat:drag:g\" data=\"1\"/>\n</custom>\n" + body + "</mujoco>", 4,
        "needs 'c_t c_n [c_rot]'"},
       {head + "<custom>\n<numeric name=\"cosserat:drag:b\" data=\"1 -2\"/>\n</custom>\n" + body + "</mujoco>", 4,
