@@ -322,6 +322,55 @@ FullResidual full_residual(const Scene& s, SceneData& sd) {
   return r;
 }
 
+// Whether the straight path in configuration space from q0 to q1 runs into an obstacle: some
+// contact deeper than any at q0 (by more than 1e-6 m) at one of the samples along it. The smooth
+// solution ignores contacts, and the check at its end misses a support the rod passed through on
+// the way (a thin plate under a cantilever's tip: an outside probe). Samples are spaced at most
+// half the smallest size of the colliding geoms apart, by the largest geom displacement (16 to
+// 2048 samples). Leaves qpos at q1; `where` gets the path fraction of the first deep contact.
+bool path_runs_into_contact(const Scene& s, SceneData& sd, const std::vector<mjtNum>& q0,
+                            const std::vector<mjtNum>& q1, double& where) {
+  const mjModel* m = s.m;
+  mjData* d = sd.d;
+  if (!s.may_collide) return false;
+  auto deepest = [&](const std::vector<mjtNum>& q, std::vector<mjtNum>* xpos) {
+    mju_copy(d->qpos, q.data(), m->nq);
+    fwd_position(s, sd, Need::StaticForces);
+    if (xpos) xpos->assign(d->geom_xpos, d->geom_xpos + 3 * m->ngeom);
+    double depth = 0.0;
+    for (int i = 0; i < d->ncon; ++i) depth = std::min(depth, d->contact[i].dist);
+    return depth;
+  };
+  std::vector<mjtNum> x0, x1;
+  const double depth0 = deepest(q0, &x0);
+  deepest(q1, &x1);
+  double moved = 0.0, smallest = HUGE_VAL;
+  for (int g = 0; g < m->ngeom; ++g) {
+    if (!m->geom_contype[g] && !m->geom_conaffinity[g]) continue;
+    moved = std::max(moved, mju_dist3(x0.data() + 3 * g, x1.data() + 3 * g));
+    if (m->geom_type[g] == mjGEOM_PLANE || m->geom_type[g] == mjGEOM_HFIELD) continue;
+    const mjtNum* size = m->geom_size + 3 * g;
+    const double least = m->geom_type[g] == mjGEOM_BOX || m->geom_type[g] == mjGEOM_ELLIPSOID
+                             ? std::min({size[0], size[1], size[2]})
+                         : m->geom_type[g] == mjGEOM_MESH ? m->geom_rbound[g]
+                                                           : size[0];  // sphere, capsule, cylinder radius
+    if (least > 0) smallest = std::min(smallest, least);
+  }
+  const int n = std::isfinite(smallest)
+                    ? static_cast<int>(std::clamp(std::ceil(2.0 * moved / smallest), 16.0, 2048.0))
+                    : 16;
+  std::vector<mjtNum> dq(m->nv), q(m->nq);
+  mj_differentiatePos(m, dq.data(), 1.0, q0.data(), q1.data());
+  bool hit = false;
+  for (int k = 1; k <= n && !hit; ++k) {
+    q = q0;
+    mj_integratePos(m, q.data(), dq.data(), static_cast<double>(k) / n);
+    if (deepest(q, nullptr) < std::min(0.0, depth0) - 1e-6) hit = true, where = static_cast<double>(k) / n;
+  }
+  mju_copy(d->qpos, q1.data(), m->nq);
+  return hit;
+}
+
 double kinetic_energy(const Scene& s, SceneData& sd) {
   std::vector<mjtNum> Mv(s.m->nv);
   mj_mulM(s.m, sd.d, Mv.data(), sd.d->qvel);
@@ -399,17 +448,23 @@ SceneStaticsResult equilibrium(const Scene& s, SceneData& sd, const SceneStatics
     StaticProblem p(s, sd);
     res.converged = solve_smooth(p, s, sd, opt, res);
   }
-  // the smooth solution ignores constraint forces: check that none is needed there
+  // the smooth solution ignores constraint forces: check that none is needed there, and that the
+  // way there does not pass through a support
+  double where = 0.0;
+  const bool through = res.converged && path_runs_into_contact(s, sd, q_start, std::vector<mjtNum>(d->qpos, d->qpos + m->nq), where);
   mju_zero(d->qvel, m->nv);
   forward(s, sd);
   const FullResidual r = full_residual(s, sd);
   res.constraint_rows = load_bearing_rows(d);
   const bool constrained = res.constraint_rows > 0 && r.constraint > std::max(1e-8, 100 * opt.tolerance) * r.scale;
-  if (res.converged && !constrained) return res;
-  const std::string why = constrained ? std::to_string(res.constraint_rows) +
-                                            " constraint rows (contacts, limits, equalities) carry load at the "
-                                            "smooth equilibrium, which ignores them"
-                                      : "Newton failed (" + res.message + ")";
+  if (res.converged && !constrained && !through) return res;
+  const std::string why =
+      constrained ? std::to_string(res.constraint_rows) +
+                        " constraint rows (contacts, limits, equalities) carry load at the smooth equilibrium, which "
+                        "ignores them"
+      : through ? "the way from the start to the smooth equilibrium, which ignores contacts, runs into a contact (at " +
+                      std::to_string(static_cast<int>(std::lround(100 * where))) + "% of the way)"
+                : "Newton failed (" + res.message + ")";
   res.converged = false;
   if (!opt.relaxation) {
     res.message = why;

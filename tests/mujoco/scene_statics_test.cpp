@@ -217,6 +217,33 @@ TEST(SceneStatics, ContactSceneFallsBackToRelaxation) {
   EXPECT_NEAR(sd.d->qpos[0], -std::asin(0.08 / 0.3), 0.01);
 }
 
+// A cantilever whose tip would come to rest on a thin plate (2 mm, its top at the rod's underside):
+// the smooth solution, which ignores contacts, sags 3 cm, through the plate and out below it, where
+// no contact is left to reject it; the path to it runs into the plate, so relaxation settles the
+// propped rod, as it does with a plate 10 cm thick (an outside probe: "converged" by Newton 2 cm
+// below the plate).
+TEST(SceneStatics, TheWayToTheSmoothEquilibriumMustNotPassThroughASupport) {
+  auto propped = [](const std::string& half_height) {
+    const double h = std::stod(half_height);
+    auto s = load_scene_string(R"(<mujoco><option timestep="0.001"/><worldbody>
+      <geom name="prop" type="box" pos="0.5 0 )" + std::to_string(0.29 - h) + R"(" size="0.002 0.03 )" + half_height + R"("/>
+      <cosserat name="beam" pos="0 0 0.3" length="0.5" sections="8" strain="kl" radius="0.01" density="1000"
+                young="1e8" poisson="0.5" viscosity="2000"/></worldbody></mujoco>)",
+                               kPath);
+    SceneData sd(*s);
+    const SceneStaticsResult res = equilibrium(*s, sd);
+    EXPECT_TRUE(res.converged) << res.message;
+    EXPECT_EQ(res.method, "dynamic relaxation");
+    return std::make_pair(res.message, sd.d->site_xpos[3 * mj_name2id(s->m, mjOBJ_SITE, "beam/tip") + 2]);
+  };
+  const auto [thin_message, thin_tip] = propped("0.001");
+  const auto [thick_message, thick_tip] = propped("0.05");
+  EXPECT_NE(thin_message.find("runs into a contact"), std::string::npos) << thin_message;
+  EXPECT_NE(thick_message.find("carry load"), std::string::npos) << thick_message;
+  EXPECT_GT(thin_tip, 0.29 - 0.002);  // on the plate, not through it (the free cantilever's tip: 0.2693)
+  EXPECT_NEAR(thin_tip, thick_tip, 1e-5);
+}
+
 }  // namespace
 
 // A very soft rod clamped horizontally under gravity (E = 1 kPa, L/r = 100: w L^3 / EI ~ 1e5) hangs
