@@ -47,6 +47,11 @@ void add_chain_block(const mjModel* m, mjtNum* qD, const std::vector<int>& chain
   }
 }
 
+// Capsules and cylinders: the geoms that drag coefficients per unit length apply to.
+bool slender(const mjModel* m, int g) {
+  return m->geom_type[g] == mjGEOM_CAPSULE || m->geom_type[g] == mjGEOM_CYLINDER;
+}
+
 // The resistance of one geom in its own frame, or false (with a warning) when it feels no fluid.
 bool geom_resistance(const mjModel* m, int g, double mu, const std::vector<double>* drag, Mat6& C,
                      std::vector<std::string>& notes, std::vector<std::string>& warnings) {
@@ -105,11 +110,7 @@ void setup_fluid(Scene& s) {
     else throw LoadError(s.path, 0, std::string("<text name=\"") + kFluidText + "\">: data must be 'gray-hancock', 'lighthill' or 'mujoco', got '" + v + "'");
     marked = true;
   }
-  // the rods' own bodies (their fluid force is the rod's, set by its drag attribute)
-  std::vector<bool> rod_body(m->nbody, false);
-  for (const auto& rb : s.rods)
-    for (int b = rb.base_body; b <= rb.proxy_body.back(); ++b) rod_body[b] = true;
-  // per geom/body overrides
+  // per geom/body overrides (the preprocessor refuses names of a rod's own bodies and geoms)
   std::vector<const std::vector<double>*> geom_drag(m->ngeom, nullptr), body_drag(m->nbody, nullptr);
   std::vector<std::string> drag_name(m->nbody);
   bool coefficients = false;  // some drag coefficients given (a numeric, or a rod's drag)
@@ -128,25 +129,21 @@ void setup_fluid(Scene& s) {
     if (!off && !coeffs)
       throw LoadError(s.path, 0, "<numeric name=\"" + name + "\">: data must be 'c_t c_n [c_rot]' (positive) or '0'");
     const int g = mj_name2id(m, mjOBJ_GEOM, target.c_str()), b = mj_name2id(m, mjOBJ_BODY, target.c_str());
-    const int rod_of = g >= 0 ? s.geom_rod[g] : b >= 0 && rod_body[b] ? 0 : -1;
-    if (rod_of >= 0)
-      throw LoadError(s.path, 0, "<numeric name=\"" + name + "\">: '" + target + "' belongs to a rod, whose fluid force "
-                                 "is set by the <cosserat> element's drag attribute");
     if (g >= 0) geom_drag[g] = &v;
     else if (b >= 0) body_drag[b] = &v, drag_name[b] = name;
     else throw LoadError(s.path, 0, "<numeric name=\"" + name + "\">: no geom or body named '" + target + "'");
     coefficients = coefficients || coeffs;
     // coefficients per unit length are for slender geoms: say so where they would be dropped
-    if (coeffs && g >= 0 && m->geom_type[g] != mjGEOM_CAPSULE && m->geom_type[g] != mjGEOM_CYLINDER)
+    if (coeffs && g >= 0 && !slender(m, g))
       f.warnings.push_back("<numeric name=\"" + name + "\">: drag coefficients per unit length apply to capsules and "
                            "cylinders; geom '" + target + "' keeps its Stokes resistance");
   }
   for (int b = 1; b < m->nbody; ++b) {
     if (!body_drag[b] || body_drag[b]->size() == 1) continue;
-    bool slender = false;
+    bool any_slender = false;
     for (int g = m->body_geomadr[b]; g >= 0 && g < m->body_geomadr[b] + m->body_geomnum[b]; ++g)
-      slender = slender || m->geom_type[g] == mjGEOM_CAPSULE || m->geom_type[g] == mjGEOM_CYLINDER;
-    if (!slender)
+      any_slender = any_slender || slender(m, g);
+    if (!any_slender)
       f.warnings.push_back("<numeric name=\"" + drag_name[b] + "\">: drag coefficients per unit length apply to capsules "
                            "and cylinders, and body '" + name_of(m, mjOBJ_BODY, b) + "' has none: its geoms keep their "
                            "Stokes resistance");
@@ -185,6 +182,9 @@ void setup_fluid(Scene& s) {
   }
 
   // rigid bodies: every geom of a body that can move, except the rods' own
+  std::vector<bool> rod_body(m->nbody, false);
+  for (const auto& rb : s.rods)
+    for (int b = rb.base_body; b <= rb.proxy_body.back(); ++b) rod_body[b] = true;
   for (int b = 1; b < m->nbody; ++b) {
     if (rod_body[b]) continue;
     FluidBody fb;
@@ -198,9 +198,8 @@ void setup_fluid(Scene& s) {
       if (g < 0 || s.geom_rod[g] >= 0) continue;
       const std::vector<double>* drag = geom_drag[g] ? geom_drag[g] : body_drag[b];
       if (drag && drag->size() == 1) continue;  // "0": no fluid force
-      const bool slender = m->geom_type[g] == mjGEOM_CAPSULE || m->geom_type[g] == mjGEOM_CYLINDER;
       Mat6 Cg;
-      if (!geom_resistance(m, g, mu, slender ? drag : nullptr, Cg, f.notes, f.warnings)) continue;
+      if (!geom_resistance(m, g, mu, slender(m, g) ? drag : nullptr, Cg, f.notes, f.warnings)) continue;
       // geom frame in the body frame: eta_geom = Ad^-1_{g_bg} eta_body
       SE3 gbg;
       gbg.u = Vec3(m->geom_pos[3 * g], m->geom_pos[3 * g + 1], m->geom_pos[3 * g + 2]);

@@ -342,8 +342,8 @@ bool path_runs_into_contact(const Scene& s, SceneData& sd, const std::vector<mjt
     return depth;
   };
   std::vector<mjtNum> x0, x1;
-  const double depth0 = deepest(q0, &x0);
-  deepest(q1, &x1);
+  const double depth0 = deepest(q0, &x0), depth1 = deepest(q1, &x1);
+  const double limit = std::min(0.0, depth0) - 1e-6;
   double moved = 0.0, smallest = HUGE_VAL;
   for (int g = 0; g < m->ngeom; ++g) {
     if (!m->geom_contype[g] && !m->geom_conaffinity[g]) continue;
@@ -362,11 +362,12 @@ bool path_runs_into_contact(const Scene& s, SceneData& sd, const std::vector<mjt
   std::vector<mjtNum> dq(m->nv), q(m->nq);
   mj_differentiatePos(m, dq.data(), 1.0, q0.data(), q1.data());
   bool hit = false;
-  for (int k = 1; k <= n && !hit; ++k) {
+  for (int k = 1; k < n && !hit; ++k) {
     q = q0;
     mj_integratePos(m, q.data(), dq.data(), static_cast<double>(k) / n);
-    if (deepest(q, nullptr) < std::min(0.0, depth0) - 1e-6) hit = true, where = static_cast<double>(k) / n;
+    if (deepest(q, nullptr) < limit) hit = true, where = static_cast<double>(k) / n;
   }
+  if (!hit && depth1 < limit) hit = true, where = 1.0;
   mju_copy(d->qpos, q1.data(), m->nq);
   return hit;
 }
