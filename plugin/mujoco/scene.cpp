@@ -452,7 +452,57 @@ int point_correction(const Scene& s, const SceneData& sd, int r, int si, double 
   return point_correction(s, sd, r, si, J, g_start_X, p, dJ);
 }
 
+// The body Jacobian (rows: rotation, translation, in the frame's own axes) in MuJoCo's dofs of the
+// cross-section frame g at abscissa X of section si of rod r. After fwd_position.
+void cross_section_jacobian(const Scene& s, const SceneData& sd, int r, int si, double X, const SE3& g,
+                            Eigen::MatrixXd& Jb) {
+  const int nv = s.m->nv;
+  std::vector<mjtNum> jp(3 * nv), jr(3 * nv);
+  mj_jac(s.m, sd.d, jp.data(), jr.data(), g.u.data(), s.rods[r].proxy_body[si]);
+  Eigen::MatrixXd Jw(6, nv);  // world axes: rotation, translation
+  for (int i = 0; i < 3; ++i)
+    for (int k = 0; k < nv; ++k) Jw(i, k) = jr[i * nv + k], Jw(3 + i, k) = jp[i * nv + k];
+  SectionCols dJ;
+  const int c0 = point_correction(s, sd, r, si, X, g.u, dJ);
+  Jw.block(0, c0, 3, dJ.cols()) += dJ.bottomRows<3>();
+  Jw.block(3, c0, 3, dJ.cols()) += dJ.topRows<3>();
+  Jb.resize(6, nv);
+  Jb.topRows<3>().noalias() = g.R.transpose() * Jw.topRows<3>();
+  Jb.bottomRows<3>().noalias() = g.R.transpose() * Jw.bottomRows<3>();
+}
+
 }  // namespace
+
+Eigen::MatrixXd rod_inertia(const Scene& s, SceneData& sd, int r, int points) {
+  const cosserat::Model& rm = s.rods[r].model;
+  const cosserat::Data& rd = sd.rod[r];
+  const int nv = s.m->nv;
+  Eigen::MatrixXd M = Eigen::MatrixXd::Zero(nv, nv), Jb;
+  auto add = [&](int si, double X, const SE3& g, const Mat6& I) {
+    cross_section_jacobian(s, sd, r, si, X, g, Jb);
+    M.noalias() += Jb.transpose() * I * Jb;
+  };
+  if (points <= 0) {
+    for (int i = rm.rods[0].first_node; i <= rm.rods[0].tip_node; ++i) {
+      const Node& n = rm.nodes[i];
+      if (n.inertia.isZero()) continue;
+      add(std::max(n.section, 0), n.X, rd.g[i], n.inertia);
+    }
+    return M;
+  }
+  std::vector<double> x, w;
+  cosserat::gauss_legendre01(points, x, w);
+  const cosserat::Rod& rod = rm.rods[0];
+  for (int si = 0; si < static_cast<int>(rm.sections.size()); ++si) {
+    const Section& sec = rm.sections[si];
+    for (int k = 0; k < points; ++k) {
+      const double X = sec.X0 + x[k] * sec.length;
+      const Mat6 I = (w[k] * sec.length * section_inertia_density(sec.material, rod.radius(X))).asDiagonal();
+      add(si, X, cosserat::rod_pose(rm, rd, 0, X), I);
+    }
+  }
+  return M;
+}
 
 // point_correction for the material point of rod site `site` at world position p (the cached
 // section Jacobian of a tendon path point, RodBinding::site_point, when it has one).
@@ -883,15 +933,21 @@ void recompute_qpos0_constants(Scene& s) {
     const Vec3 c = subtree_com_with_rods(s, sd, m->light_bodyid[i]);
     for (int e = 0; e < 3; ++e) m->light_poscom0[3 * i + e] += sd.d->subtree_com[3 * m->light_bodyid[i] + e] - c(e);
   }
+  // These constants are scales (of constraint softness, of a muscle's force): they take the rods'
+  // continuum inertia, integrated by kConstantsQuadrature Gauss points per section, not the mass
+  // rule of the dynamics. With its 2 points per PCS section a free section has a mode that moves
+  // neither mass point (held only by the cross-sections' rotary inertia): its end's inverse weight
+  // was 70x a rod's, and MuJoCo's contact regulariser, which grows with it, let a one-section rod
+  // sink 8 radii into a floor.
   const int nv = m->nv;
-  Eigen::MatrixXd Minv(nv, nv);
-  std::vector<mjtNum> e(nv), x(nv);
-  for (int j = 0; j < nv; ++j) {
-    std::fill(e.begin(), e.end(), 0.0);
-    e[j] = 1.0;
-    mj_solveM(m, sd.d, x.data(), e.data(), 1);
-    for (int i = 0; i < nv; ++i) Minv(i, j) = x[i];
+  Eigen::MatrixXd M(nv, nv);
+  mj_fullM(m, M.data(), sd.d->qM);  // symmetric: row- and column-major alike
+  for (size_t r = 0; r < s.rods.size(); ++r) {
+    int points = kConstantsQuadrature;
+    for (const Section& sec : s.rods[r].model.sections) points = std::max(points, sec.order + 6);
+    M += rod_inertia(s, sd, static_cast<int>(r), points) - rod_inertia(s, sd, static_cast<int>(r), 0);
   }
+  const Eigen::MatrixXd Minv = M.ldlt().solve(Eigen::MatrixXd::Identity(nv, nv));
   for (int j = 0; j < m->njnt; ++j) {
     const int a = m->jnt_dofadr[j];
     switch (m->jnt_type[j]) {
@@ -969,7 +1025,7 @@ void recompute_qpos0_constants(Scene& s) {
   // by it, and the proxies' placeholder unit masses and armatures had made it about 1
   if (nv > 0) {
     double trace = 0.0;
-    for (int i = 0; i < nv; ++i) trace += sd.d->qM[m->dof_Madr[i]];
+    for (int i = 0; i < nv; ++i) trace += M(i, i);
     m->stat.meaninertia = trace / nv;
   }
 }

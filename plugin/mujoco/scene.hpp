@@ -353,7 +353,16 @@ Vec6 rod_strain(const Scene& s, const SceneData& sd, int rod, double X);
 // patched state at qpos0. A proxy's body_invweight0 is taken at its section's centre of mass, as
 // MuJoCo takes it at a body's. (What MuJoCo computes from positions alone at qpos0 is right as it
 // is: the compiled model at qpos0 is the rods' rest shape.)
+// These take the rods' inertia integrated by max(kConstantsQuadrature, order + 6) Gauss points per
+// section (rod_inertia), not the dynamics' mass rule, whose few points leave nearly massless modes
+// that inflated a short rod's inverse weights (and so its contacts' softness) many times over.
 void recompute_qpos0_constants(Scene& s);
+constexpr int kConstantsQuadrature = 8;
+
+// The kinetic-energy metric (nv x nv, MuJoCo's dofs) of rod r's cross-sections after fwd_position:
+// their inertia summed over the rod's mass points (points = 0: the dynamics' mass rule, what qM
+// holds of the rod), or integrated by a `points`-point Gauss rule on each section.
+Eigen::MatrixXd rod_inertia(const Scene& s, SceneData& sd, int r, int points);
 
 // Lower-level stages (exposed for tests and for the static solver).
 void fwd_position(const Scene& s, SceneData& sd, Need need = Need::Acceleration);

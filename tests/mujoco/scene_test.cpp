@@ -106,6 +106,83 @@ TEST(Scene, RecomputedInvweight0EqualsMujocosOnRigidScene) {
   for (int i = 0; i < m->ntendon; ++i) EXPECT_NEAR(m->tendon_invweight0[i], ten[i], 1e-10 * (1 + ten[i])) << i;
 }
 
+// rod_inertia at the rod's own mass points is the rod's part of qM, whatever the mass rule; with
+// the same Gauss rule it is the same sum (points at the same abscissae).
+TEST(Scene, RodInertiaAtItsMassPointsIsTheRodsPartOfQm) {
+  for (const std::string& rule : {std::string(), std::string(R"( quadrature="3")"), std::string(R"( quadrature="lobatto")"),
+                                  std::string(R"( order="1")")}) {
+    for (bool free_hub : {false, true}) {
+      const std::string xml = std::string(R"(<mujoco><worldbody><body name="hub" pos="0 0 1">)") +
+                              (free_hub ? "<freejoint/>" : R"(<joint type="hinge" axis="0 1 0"/>)") +
+                              R"(<geom type="sphere" size="0.03" mass="0.2"/>
+          <cosserat name="rod" length="0.4" sections="3" strain="kl" radius="0.01")" + rule + R"(/>
+        </body></worldbody></mujoco>)";
+      auto s = load_scene_string(xml, kPath);
+      SceneData sd(*s);
+      const mjModel* m = s->m;
+      mju_copy(sd.d->qpos, m->qpos0, m->nq);  // bent and moved: qpos0 + a displacement
+      std::vector<mjtNum> dq(m->nv);
+      for (int i = 0; i < m->nv; ++i) dq[i] = std::sin(1.7 * i + 0.3);
+      mj_integratePos(m, sd.d->qpos, dq.data(), 1.0);
+      fwd_position(*s, sd);
+      const int nv = m->nv;
+      Eigen::MatrixXd M(nv, nv);
+      mj_fullM(m, M.data(), sd.d->qM);
+      const Eigen::MatrixXd R = rod_inertia(*s, sd, 0, 0);
+      // what is left is the hub's own inertia: in its own dofs only
+      const Eigen::MatrixXd H = M - R;
+      const int nh = free_hub ? 6 : 1;
+      EXPECT_LT(H.bottomRows(nv - nh).norm(), 1e-12 * M.norm()) << rule << free_hub;
+      EXPECT_LT(H.rightCols(nv - nh).norm(), 1e-12 * M.norm()) << rule << free_hub;
+      EXPECT_GT(R.bottomRightCorner(nv - nh, nv - nh).norm(), 1e-4) << rule;  // not a trivial pass
+      if (rule.find('3') != std::string::npos || rule.find("order") != std::string::npos)
+        EXPECT_LT((rod_inertia(*s, sd, 0, 3) - R).norm(), 1e-12 * R.norm()) << rule << free_hub;
+    }
+  }
+}
+
+// The constants MuJoCo derives from the mass at qpos0 (inverse weights: the softness of contacts
+// and limits) take the rod's continuum inertia, not the mass rule of the dynamics. A free
+// one-section rod's 2 Gauss points leave a mode that moves neither of them (the ends swing
+// against the middle, held by the cross-sections' rotary inertia only), which made its end's
+// inverse weight 70x the continuum's: MuJoCo's contact regulariser grew with it and the rod sank
+// 8 radii into the floor. Reference: a uniform rod whose points move by a base translation, a
+// linear stretch and a parabola across it (one PCS section's motions near rest), with the
+// cross-sections turning by the parabola's slope, and a point mass at its end: the inverse weights
+// there along the rod and across it (m/4 and m/9 without rotary inertia and end mass), averaged.
+TEST(Scene, InverseWeightsTakeTheRodsContinuumInertia) {
+  const double L = 0.5, r = 0.01, rho = 1000.0, A = M_PI * r * r, I = A * r * r / 4.0, m_hub = 1e-5;
+  auto end_inverse_weight = [&](int n) {  // fields 1, s, .. s^(n-1)
+    Eigen::MatrixXd K(n, n);
+    for (int i = 0; i < n; ++i)
+      for (int j = 0; j < n; ++j)
+        K(i, j) = rho * A * std::pow(L, i + j + 1) / (i + j + 1) +
+                  (i > 0 && j > 0 && n == 3 ? rho * I * i * j * std::pow(L, i + j - 1) / (i + j - 1) : 0.0);
+    K(0, 0) += m_hub;
+    return K.inverse()(0, 0);
+  };
+  const double want = (end_inverse_weight(2) + 2.0 * end_inverse_weight(3)) / 3.0;
+  EXPECT_NEAR(want * rho * A * L, 22.0 / 3.0, 0.03);  // 7.33: with rotary inertia and the hub
+  std::vector<double> hub;
+  for (const char* rule : {"", R"( quadrature="3")", R"( quadrature="lobatto")", R"( quadrature="8")"}) {
+    auto s = load_scene_string(std::string(R"(<mujoco><worldbody><geom name="floor" type="plane" size="5 5 0.1"/>
+        <body name="hub" pos="0 0 0.0099"><freejoint/><inertial pos="0 0 0" mass="1e-5" diaginertia="1e-10 1e-10 1e-10"/>
+          <cosserat name="rod" length="0.5" sections="1" strain="kl" radius="0.01" density="1000")") +
+                                   rule + R"(/></body></worldbody></mujoco>)",
+                               kPath);
+    hub.push_back(s->m->body_invweight0[2 * mj_name2id(s->m, mjOBJ_BODY, "hub")]);
+    EXPECT_NEAR(hub.back(), want, 1e-4 * want) << rule;
+    EXPECT_NEAR(hub.back(), hub.front(), 1e-9 * hub.front()) << rule;
+    // and the rod rests on the floor (its centre line r above it, less MuJoCo's soft penetration:
+    // 0.6 mm here; it was 8.8 cm below the floor)
+    SceneData sd(*s);
+    reset(*s, sd);
+    for (int k = 0; k < 2000; ++k) ASSERT_EQ(step(*s, sd), Status::Ok) << rule;
+    const std::vector<Vec3> c = rod_centerline(*s, sd, 0, 5);
+    for (const Vec3& p : c) EXPECT_NEAR(p.z(), r, 1e-3) << rule;
+  }
+}
+
 // MuJoCo's own compiler errors name lines of the generated MJCF; the user must see their file and
 // line, also inside included files and around <cosserat> elements.
 // Loading `xml` (named dir/name) fails with a LoadError at `file` (default: the same) and `line`
