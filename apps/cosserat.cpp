@@ -365,7 +365,7 @@ int cmd_run(int argc, char** argv) {
   CommandLine cl{"run", "simulate a model from its initial state", {"MODEL.xml"}, {}, ""};
   sim.add_to(cl);
   state.add_to(cl);
-  cl.options.push_back(text_option("--csv", "F", "write time,energy,<name>.x,<name>.y,<name>.z,... (sites, then bodies)", csv));
+  cl.options.push_back(text_option("--csv", "F", "write time,energy,<name>.x,<name>.y,<name>.z,... (sites, then bodies; '-': stdout)", csv));
   cl.options.push_back(int_option("--every", "N",
                                   "CSV rows and energy samples every N steps (steps 0, N, 2N, ... and the last; default: "
                                   "1 with --csv, otherwise about 1000 samples per run). Each sample costs about one "
@@ -375,13 +375,23 @@ int cmd_run(int argc, char** argv) {
   cl.details = "Exit status 1 when the simulation diverges (the outputs cover the run up to there).\n";
   const auto pos = cl.parse(argc, argv);
   if (!pos) return 0;
+  if (csv == "-" && json_path == "-") fail("--csv - and --json - both ask for stdout: give one of them a file");
+  check_writable("--csv", csv);
+  check_writable("--json", json_path);
 
   Simulation s(pos->front(), sim, state);
   if (every == 0) every = csv.empty() ? static_cast<int>(std::max(1L, s.steps() / 1000)) : 1;
   const Outputs& out = s.outputs();
-  std::ofstream f;
-  if (!csv.empty()) {
-    f = open_output(csv);
+  std::ofstream file;
+  std::ostream* csv_out = nullptr;  // stdout or the file
+  if (csv == "-") {
+    csv_out = &std::cout;
+  } else if (!csv.empty()) {
+    file = open_output(csv);
+    csv_out = &file;
+  }
+  if (csv_out) {
+    std::ostream& f = *csv_out;
     f << "time,energy";
     for (const auto& n : out.sites) f << "," << n.name << ".x," << n.name << ".y," << n.name << ".z";
     for (const auto& n : out.bodies) f << "," << n.name << ".x," << n.name << ".y," << n.name << ".z";
@@ -389,7 +399,8 @@ int cmd_run(int argc, char** argv) {
     f.precision(10);
   }
   auto write_row = [&](double e) {
-    if (!f.is_open()) return;
+    if (!csv_out) return;
+    std::ostream& f = *csv_out;
     f << s.time() << "," << e;
     for (const auto& n : out.sites) {
       const Vec3 p = site_position(s.data(), n.id);
@@ -431,7 +442,7 @@ int cmd_run(int argc, char** argv) {
     energy.add(s.energy());
   }
   const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  if (f.is_open() && !f.flush()) fail("cannot write " + csv);
+  if (csv_out && !csv_out->flush()) fail("cannot write " + (csv == "-" ? std::string("stdout") : csv));
 
   std::vector<std::string> warnings = collect_warnings(s.scene(), s.data());
   if (s.scene().newton_for(s.integrator()) > 0 && k > 0) {
@@ -482,7 +493,7 @@ int cmd_run(int argc, char** argv) {
     }
     write_json(json_path, j);
   }
-  if (json_path != "-") {
+  if (json_path != "-" && csv != "-") {  // stdout carries the JSON or the CSV alone
     std::printf("simulated %.6g s in %ld steps (%s, h = %g s) in %.3f s wall; energy %.6g -> %.6g J (max drift %.2e)\n",
                 s.time(), k, integrator_name(s.integrator()), s.timestep(), wall, energy.initial(), energy.final(),
                 energy.max_rel_drift());
@@ -541,6 +552,7 @@ int cmd_equilibrium(int argc, char** argv) {
   state.add_to(cl);
   const auto pos = cl.parse(argc, argv);
   if (!pos) return 0;
+  check_writable("--json", json_path);
   const Equilibrium eq(pos->front(), state);
   const Outputs out = named_outputs(*eq.scene);
   if (!json_path.empty()) {
@@ -577,6 +589,7 @@ int cmd_linearize(int argc, char** argv) {
   state.add_to(cl);
   const auto pos = cl.parse(argc, argv);
   if (!pos) return 0;
+  check_writable("--json", json_path);
   const Equilibrium eq(pos->front(), state);
   if (!eq.result.converged) fail("no static equilibrium to linearise about: " + eq.result.message);
   const mj::SceneLinearization lin = mj::linearize(*eq.scene, *eq.data);
@@ -702,6 +715,7 @@ int cmd_compare(int argc, char** argv) {
       "either has rods (euler when neither has). Exit status 1 when either simulation diverges.\n";
   const auto pos = cl.parse(argc, argv);
   if (!pos) return 0;
+  check_writable("--json", json_path);
   // a keyframe or controls that one of the two models cannot take: say which
   auto sampler = [&](int k) {
     try {

@@ -218,6 +218,7 @@ int render_command(int argc, char** argv) {
     if (frames < 1) fail("--duration " + format(duration) + " at --fps " + format(fps) + " makes no frame");
     if (!video.empty() && rd::find_program("ffmpeg").empty())
       fail("--video needs ffmpeg, which is not installed (apt-get install ffmpeg); without --video only the frames are written");
+    check_writable("--video", video);
 
     Simulation sim((*pos)[0], o);
     const double h = sim.scene->m->opt.timestep;
@@ -281,6 +282,7 @@ int snapshot_command(int argc, char** argv) {
     const auto pos = cl.parse(argc - 1, argv + 1);  // after the command name
     if (!pos) return 0;
     o.finish();
+    check_writable("--out", o.out);
 
     Simulation sim((*pos)[0], o);
     rd::Renderer renderer(*sim.scene, o.render);

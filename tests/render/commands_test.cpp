@@ -167,6 +167,11 @@ TEST_F(CommandsTest, BadInputIsAOneLineError) {
             std::string::npos);
   EXPECT_NE(failure(snapshot_command, {"snapshot", kModels + "missing.xml", "--out", (dir / "s.png").string()}).find("missing.xml"),
             std::string::npos);
+  // an unwritable picture is refused before the simulation, naming --out (it had simulated to
+  // --time first)
+  EXPECT_NE(failure(snapshot_command, {"snapshot", model, "--out", "/proc/no_such_dir/s.png", "--time", "1e6"})
+                .find("--out: cannot write /proc/no_such_dir/s.png"),
+            std::string::npos);
   // a model error names file and line
   fs::create_directories(dir);
   std::ofstream(dir / "bad.xml") << "<mujoco>\n<worldbody>\n<cosserat name=\"r\" length=\"-1\"/>\n</worldbody>\n</mujoco>\n";
