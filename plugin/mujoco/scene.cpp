@@ -96,6 +96,10 @@ LoadError mujoco_error(const Preprocessed& pre, const std::string& error) {
         }
     }
   }
+  if (first.find("mass and inertia of moving bodies must be larger than mjMINVAL") != std::string::npos &&
+      !pre.rods.empty())
+    hint = ": a rod's mass is the rod's own, not its parent body's; give the body an <inertial> (it may be tiny, "
+           "e.g. mass=\"1e-6\" diaginertia=\"1e-12 1e-12 1e-12\") or a geom";
   return LoadError(where.file, where.line,
                    "MuJoCo: " + first + (object.empty() ? "" : " (object '" + object + "')") + hint);
 }

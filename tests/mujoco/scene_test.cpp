@@ -222,6 +222,11 @@ TEST(Scene, MujocoCompileErrorsPointAtTheUsersFileAndLine) {
     expect_load_error(rod5 + "<body name=\"c\">\n<joint type=\"slide\"/>\n<geom " + attr + "/>\n</body>\n"
                              "</worldbody>\n</mujoco>\n",
                       dir, "schema.xml", 6, "XML Error");
+  // a moving body whose only mass is a rod's: MuJoCo's refusal says what to do (the rod's mass is
+  // its own; an outside probe had to find that out)
+  expect_load_error("<mujoco>\n<worldbody>\n<body name=\"hub\">\n<freejoint/>\n"
+                    "<cosserat name=\"rod\" length=\"0.3\" sections=\"2\"/>\n</body>\n</worldbody>\n</mujoco>\n",
+                    dir, "hub.xml", 3, "object 'hub'): a rod's mass is the rod's own, not its parent body's; give the body an <inertial>");
   // keyframe errors name the key's index and no line: the index's <key> (was line 0); a value
   // MuJoCo reads as NaN (with only a warning) is refused at its <key>
   const std::string rod2 = "<mujoco>\n<worldbody>\n<cosserat name=\"rod\" length=\"0.3\" sections=\"2\"/>\n</worldbody>\n"
