@@ -29,17 +29,19 @@ struct Failure : std::runtime_error {
 [[noreturn]] inline void fail(const std::string& msg) { throw Failure(msg); }
 
 // Fails at once if `path` (an output named by `option`) cannot be written, so that a long run does
-// not end to find that out. Leaves an existing file as it is and no new file behind.
+// not end to find that out. Creates its directory; leaves an existing file as it is and no new
+// file behind.
 inline void check_writable(const std::string& option, const std::string& path) {
   if (path.empty() || path == "-") return;
   std::error_code ec;
   const bool existed = std::filesystem::exists(path, ec);
   if (std::filesystem::is_directory(path, ec)) fail(option + ": " + path + " is a directory");
   const std::filesystem::path dir = std::filesystem::path(path).parent_path();
-  if (!dir.empty()) std::filesystem::create_directories(dir, ec);
+  std::error_code dir_ec;  // why the directory could not be made, if it could not
+  if (!dir.empty()) std::filesystem::create_directories(dir, dir_ec);
   {
     std::ofstream f(path, std::ios::app);
-    if (!f) fail(option + ": cannot write " + path + (ec ? " (" + ec.message() + ")" : ""));
+    if (!f) fail(option + ": cannot write " + path + (dir_ec ? " (" + dir_ec.message() + ")" : ""));
   }
   if (!existed) std::filesystem::remove(path, ec);
 }

@@ -73,13 +73,10 @@ Option integrator_option(std::optional<Integrator>& target) {
 
 // ------------------------------------------------------------------------------------ output --
 
-// Opens `path` for writing, creating its directory first.
+// Opens `path` for writing (its directory was created by check_writable, before the command ran).
 std::ofstream open_output(const std::string& path) {
-  const std::filesystem::path dir = std::filesystem::path(path).parent_path();
-  std::error_code ec;
-  if (!dir.empty()) std::filesystem::create_directories(dir, ec);
   std::ofstream f(path);
-  if (!f) fail("cannot write " + path + (ec ? " (" + ec.message() + ")" : ""));
+  if (!f) fail("cannot write " + path);
   return f;
 }
 
@@ -89,7 +86,6 @@ void write_json(const std::string& path, const json& j) {
     return;
   }
   std::ofstream f = open_output(path);
-  if (!f) fail("cannot write " + path);
   f << j.dump(2) << "\n";
   if (!f) fail("cannot write " + path);
 }

@@ -168,12 +168,6 @@ class Progress {
   int shown_ = -1;
 };
 
-void make_parent_dir(const std::string& file) {
-  const fs::path dir = fs::path(file).parent_path();
-  std::error_code ec;
-  if (!dir.empty()) fs::create_directories(dir, ec);
-}
-
 // Runs a command body and turns every failure into a one-line message and status 1.
 int guarded(const std::function<int()>& body) {
   auto one_line = [](std::string s) {
@@ -259,10 +253,7 @@ int render_command(int argc, char** argv) {
       progress.update(k + 1, sim.time());
     }
     progress.clear();
-    if (!video.empty()) {
-      make_parent_dir(video);
-      rd::encode_video(o.out, fps, video);
-    }
+    if (!video.empty()) rd::encode_video(o.out, fps, video);  // its directory: check_writable's
     std::printf("render: %ld frames %dx%d in %s%s\n", frames, renderer.width(), renderer.height(), o.out.c_str(),
                 video.empty() ? "" : (", video " + video).c_str());
     sim.warn();
@@ -286,8 +277,7 @@ int snapshot_command(int argc, char** argv) {
 
     Simulation sim((*pos)[0], o);
     rd::Renderer renderer(*sim.scene, o.render);
-    sim.advance_to(time);
-    make_parent_dir(o.out);
+    sim.advance_to(time);  // the picture's directory: check_writable's
     rd::write_png(o.out, renderer.render(*sim.data));
     std::printf("snapshot: %s %dx%d at t = %g s\n", o.out.c_str(), renderer.width(), renderer.height(), sim.time());
     sim.warn();
