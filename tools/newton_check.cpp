@@ -8,7 +8,7 @@
 // then split the steps (the "corr./step" marks of the stress tables). The configuration
 // dependence of M itself is left out.
 //
-// Usage: newton_check MODEL.xml [--timestep h] [--times t1,t2,...]
+// Usage: newton_check MODEL.xml [--timestep h] [--times t1,t2,...] [--key K] [--ctrl U]
 #include <algorithm>
 #include <cmath>
 #include <complex>
@@ -20,6 +20,7 @@
 #include <Eigen/Dense>
 
 #include "../apps/cli.hpp"
+#include "../apps/state_options.hpp"
 #include "scene.hpp"
 
 using namespace cosserat;
@@ -43,6 +44,11 @@ int run(int argc, char** argv) {
                       {cli::optional_positive_option("--timestep", "h", "time step [s] (default: the model's)", timestep),
                        cli::text_option("--times", "T1,T2,...", "simulated times to check, increasing (default 0.5,1,1.5)",
                                         times)}};
+  bool no_mass_term = false;
+  cl.options.push_back(cli::flag_option(
+      "--no-mass-term", "leave out the change of the mass matrix times the acceleration in the q part", no_mass_term));
+  cli::StateOptions state;
+  state.add_to(cl);
   cl.program.clear();
   const auto pos = cl.parse(argc - 1, argv + 1);
   if (!pos) return 0;
@@ -62,6 +68,7 @@ int run(int argc, char** argv) {
   const double h = s->m->opt.timestep;
   mj::SceneData sd(*s);
   mjData* d = sd.d;
+  state.apply(*s, sd);
   const int nv = s->m->nv, nq = s->m->nq;
   Eigen::MatrixXd K = Eigen::MatrixXd::Zero(nv, nv);
   for (const auto& rb : s->rods)
@@ -72,9 +79,19 @@ int run(int argc, char** argv) {
     while (d->time < t - 0.5 * h)
       if (mj::step(*s, sd, Integrator::Trapezoidal) != Status::Ok) cli::fail("diverged at t = " + std::to_string(d->time));
     const std::vector<double> q0(d->qpos, d->qpos + nq), v0(d->qvel, d->qvel + nv);
+    // the acceleration a at this state: the residual's q-derivative is d(F - M(q) a)/dq, the
+    // change of the mass matrix times a included (large where light parts carry heavy bodies)
+    mj::forward(*s, sd, mj::Need::Acceleration);
+    const std::vector<double> a(d->qacc, d->qacc + nv);
+    std::vector<double> Ma(nv);
+    bool with_mass = false;
     auto forces = [&](Eigen::VectorXd& f) {
       mj::forward(*s, sd, mj::Need::Forces);
       f = Eigen::Map<const Eigen::VectorXd>(d->qfrc_smooth, nv);
+      if (with_mass) {
+        mj_mulM(s->m, d, Ma.data(), a.data());
+        f -= Eigen::Map<const Eigen::VectorXd>(Ma.data(), nv);
+      }
     };
     Eigen::VectorXd fp, fm;
     forces(fp);
@@ -85,6 +102,7 @@ int run(int argc, char** argv) {
     const double e = 1e-7;
     std::vector<double> dq(nv);
     for (int j = 0; j < nv; ++j) {
+      with_mass = !no_mass_term;
       for (double sign : {1.0, -1.0}) {
         std::fill(dq.begin(), dq.end(), 0.0);
         dq[j] = sign * e;
@@ -94,6 +112,7 @@ int run(int argc, char** argv) {
       }
       Kq.col(j) = -(fp - fm) / (2 * e);
       std::copy(q0.begin(), q0.end(), d->qpos);
+      with_mass = false;  // M does not depend on v
       for (double sign : {1.0, -1.0}) {
         std::copy(v0.begin(), v0.end(), d->qvel);
         d->qvel[j] += sign * e;
