@@ -248,10 +248,19 @@ class Simulation {
   }
   // Evaluates the pipeline at the current state: positions and energy are current afterwards.
   // False after a MuJoCo error (positions are then the position stage's; the run counts as
-  // diverged, with the error as its reason unless a divergence gave one already).
+  // diverged, with the error as its reason unless a divergence gave one already). The observation
+  // leaves the run as it was: the kinematics normalises quaternions in qpos in place (not exactly
+  // idempotent), and the evaluation overwrites the constraint solver's warm start; both are put
+  // back, so a sampled run is bit for bit an unsampled one (they had differed in the last bits).
   bool observe() {
+    mjData* d = data_->d;
+    const mjModel* m = scene_->m;
+    kept_.assign(d->qpos, d->qpos + m->nq);
+    kept_.insert(kept_.end(), d->qacc_warmstart, d->qacc_warmstart + m->nv);
     try {
       mj::forward(*scene_, *data_);
+      std::copy(kept_.begin(), kept_.begin() + m->nq, d->qpos);
+      std::copy(kept_.begin() + m->nq, kept_.end(), d->qacc_warmstart);
       return true;
     } catch (const MujocoError& e) {
       data_->d->pstack = 0;  // the unwound MuJoCo frames did not release their stack allocations
@@ -268,6 +277,7 @@ class Simulation {
   std::unique_ptr<mj::Scene> scene_;
   std::unique_ptr<mj::SceneData> data_;
   Integrator integrator_ = Integrator::Implicit;
+  std::vector<mjtNum> kept_;  // observe()'s copy of d->qpos and d->qacc_warmstart
   long steps_ = 0;
   Outputs outputs_;
 };

@@ -33,6 +33,10 @@
 #include "scene_sites.hpp"
 #include "tree_ldl.hpp"
 
+// MuJoCo 2.2.2's implicit-in-velocity integrator (mj_step's for <option integrator="implicit">),
+// exported by libmujoco but not declared in its public header.
+extern "C" void mj_implicit(const mjModel* m, mjData* d);
+
 namespace cosserat::mj {
 
 namespace {
@@ -1198,6 +1202,7 @@ std::unique_ptr<Scene> compile(const Preprocessed& pre) {
   }
   s->integrator = s->rods.empty() ? Integrator::Euler : Integrator::Implicit;
   if (s->m->opt.integrator == mjINT_RK4) s->integrator = Integrator::RK4;
+  if (s->m->opt.integrator == mjINT_IMPLICIT) s->integrator = Integrator::Implicit;
   // <custom><text name="cosserat:integrator" data="NAME"/> (a known name: the preprocessor checked)
   if (const int t = mj_name2id(s->m, mjOBJ_TEXT, "cosserat:integrator"); t >= 0)
     if (const auto in = integrator_from_name(s->m->text_data + s->m->text_adr[t])) s->integrator = *in;
@@ -1692,6 +1697,11 @@ bool single_step(const Scene& s, SceneData& sd, Integrator method) {
   switch (method) {
     case Integrator::Implicit:
       if (n > 0) return newton_step(s, sd, backward_euler(), n) || n == 1;
+      if (s.rods.empty() && !s.fluid.active) {  // MuJoCo's own implicit integrator (mj_step's)
+        forward(s, sd);
+        mj_implicit(s.m, sd.d);
+        return true;
+      }
       forward(s, sd, Need::Forces);
       implicit_step(s, sd);
       return true;

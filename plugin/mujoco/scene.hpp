@@ -130,7 +130,8 @@ struct Scene {
   // this again (mj::scene_may_collide).
   bool may_collide = true;
   // step()'s integrator: the model's <custom><text name="cosserat:integrator" data="NAME"/> if it
-  // has one, else RK4 for <option integrator="RK4">, Implicit with rods, Euler without
+  // has one, else RK4 for <option integrator="RK4">, Implicit for <option integrator="implicit">,
+  // Implicit with rods, Euler without
   Integrator integrator = Integrator::Implicit;
   // Newton iterations of the implicit and trapezoidal steps. With N > 0 the step is the fully
   // implicit theta method (backward Euler, or the trapezoidal rule, with every force at the end of
@@ -317,7 +318,10 @@ void forward(const Scene& s, SceneData& sd, Need need = Need::Acceleration);
 // the state goes non-finite. Euler and Implicit treat the fluid's damping implicitly (as joint
 // damping); with the plugin's fluid inactive, Euler is MuJoCo's mj_Euler. Implicit also treats
 // the rods' stiffness and damping and the velocity dependence of actuators on hinge and slide
-// joints implicitly (linearised backward Euler).
+// joints implicitly (linearised backward Euler); on a scene without rods and with the plugin's
+// fluid inactive, Implicit without Newton corrections is MuJoCo's own implicit integrator
+// (mj_implicit: joint damping and the velocity derivatives of the passive, actuator and bias
+// forces implicit), as mj_step runs it.
 Status step(const Scene& s, SceneData& sd);
 Status step(const Scene& s, SceneData& sd, Integrator method);
 // qpos = qpos0, qvel = 0, time = 0, and MuJoCo's mj_resetData.

@@ -15,7 +15,9 @@ namespace {
 
 const char* kPath = "/tmp/cosserat_actuator_implicit_test.xml";
 
-// A light wheel on a hinge (no gravity, no contacts) driven by a velocity servo of gain kv.
+// A light wheel on a hinge (no gravity, no contacts) driven by a velocity servo of gain kv, and a
+// rod standing apart (at rest: without gravity nothing moves it) that makes the step ours: on a
+// scene without rods, Implicit is MuJoCo's own integrator.
 std::string wheel_xml(double kv, const char* extra = "") {
   char buf[1024];
   std::snprintf(buf, sizeof buf, R"(<mujoco>
@@ -25,6 +27,7 @@ std::string wheel_xml(double kv, const char* extra = "") {
       <joint name="spin" type="hinge" axis="0 0 1"/>
       <geom type="cylinder" size="0.01 0.002" mass="0.001" contype="0" conaffinity="0"/>
     </body>
+    <cosserat name="apart" pos="1 0 0" length="0.1" contype="0" conaffinity="0"/>
   </worldbody>
   <actuator>
     <velocity name="servo" joint="spin" kv="%g" gear="2" %s/>

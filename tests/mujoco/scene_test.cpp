@@ -64,8 +64,13 @@ const char* kRigidScene = R"(<mujoco>
   <actuator><motor joint="h" gear="1"/></actuator>
 </mujoco>)";
 
-TEST(Scene, StagedPipelineReproducesMjStepBitForBit) {
-  auto s = load_scene_string(kRigidScene, kPath);
+// Our step against mj_step, 300 steps of the rigid scene with the model's <option> integrator
+// (`option`: the attribute added to kRigidScene's <option>), stepped with s->integrator.
+void expect_mj_step_bit_for_bit(const std::string& option, Integrator expected) {
+  std::string xml = kRigidScene;
+  xml.replace(xml.find("<option "), 8, "<option " + option + " ");
+  auto s = load_scene_string(xml, kPath);
+  ASSERT_EQ(s->integrator, expected);
   SceneData sd(*s);
   mjModel* m = mj_copyModel(nullptr, s->m);
   mjData* d = mj_makeData(m);
@@ -80,7 +85,7 @@ TEST(Scene, StagedPipelineReproducesMjStepBitForBit) {
       std::copy(mocap + 3, mocap + 7, x->mocap_quat);
     }
     mj_step(m, d);
-    ASSERT_EQ(step(*s, sd, Integrator::Euler), Status::Ok);
+    ASSERT_EQ(step(*s, sd), Status::Ok);
   }
   EXPECT_GT(d->ncon, 0);  // the box rests on the plane: contacts were exercised
   EXPECT_EQ(std::memcmp(d->qpos, sd.d->qpos, sizeof(mjtNum) * m->nq), 0);
@@ -93,6 +98,14 @@ TEST(Scene, StagedPipelineReproducesMjStepBitForBit) {
   EXPECT_EQ(std::memcmp(d->mocap_quat, sd.d->mocap_quat, sizeof(mjtNum) * 4 * m->nmocap), 0);
   mj_deleteData(d);
   mj_deleteModel(m);
+}
+
+TEST(Scene, StagedPipelineReproducesMjStepBitForBit) { expect_mj_step_bit_for_bit("", Integrator::Euler); }
+
+// <option integrator="implicit"> on a rod-free scene is MuJoCo's implicit integrator (it had been
+// run as Euler, silently)
+TEST(Scene, RodFreeImplicitIsMujocosImplicitBitForBit) {
+  expect_mj_step_bit_for_bit("integrator=\"implicit\"", Integrator::Implicit);
 }
 
 TEST(Scene, RecomputedInvweight0EqualsMujocosOnRigidScene) {
