@@ -272,6 +272,13 @@ StrainMask read_strain_mask(const Reader& r, const StrainMask& fallback) {
   return fallback;
 }
 
+// x as %g prints it (for messages).
+std::string format_number(double x) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%g", x);
+  return buf;
+}
+
 // Upper bounds of counts that would otherwise only exhaust memory: Gauss points per section (the
 // mass quadrature of order 20 GVS needs 22) and collision capsules per section.
 constexpr int kMaxQuadrature = 64;
@@ -282,7 +289,14 @@ SectionSpec read_section_spec(const Reader& r, SectionSpec s) {
   s.dofs = read_strain_mask(r, s.dofs);
   s.order = r.integer("order", s.order, 0);
   r.check(s.order <= 20, "order", "must be <= 20");
-  if (const auto v = r.numbers("reststrain", 6, 6)) s.rest_strain = Eigen::Map<const Vec6>(v->data());
+  if (const auto v = r.numbers("reststrain", 6, 6)) {
+    s.rest_strain = Eigen::Map<const Vec6>(v->data());
+    // (a stretch of 0 had reached MuJoCo as capsules of zero length, a negative one loaded silently)
+    r.check(s.rest_strain(3) > kCollapsedStretch, "reststrain",
+            "has a rest axial stretch px (its 4th number) of " + format_number(s.rest_strain(3)) +
+                ": it must be above " + format_number(kCollapsedStretch) +
+                " (1 for a rod as long as its 'length'; at or below it a section has collapsed)");
+  }
   s.material.density = r.number("density", s.material.density);
   r.check(s.material.density > 0, "density", "must be positive");
   s.material.young = r.number("young", s.material.young);
@@ -791,7 +805,9 @@ XMLElement* Preprocessor::build_rod(XMLDocument& doc, RodInput& rod) {
       g.u += g.R * s.decl.pos;
       Attributes attrs = pose_attributes(to_end * g);
       attrs.insert(attrs.begin(), {"name", s.decl.name});
-      proxy->InsertEndChild(new_element(doc, "site", attrs, s.attrs));
+      XMLElement* site = new_element(doc, "site", attrs, s.attrs);
+      origins_[site] = origin(s.element);  // MuJoCo's errors on it point at the user's <site>
+      proxy->InsertEndChild(site);
       d.sites.push_back(s.decl);
     }
 
@@ -853,8 +869,22 @@ XMLElement* Preprocessor::replace_rod(XMLElement* parent, XMLElement* cosserat) 
   claim("site", name + "/tip", r, false);
   for (const RodSite& s : rod.sites) claim("site", s.decl.name, reader(s.element), true);
 
-  // splice the generated subtree in place of the <cosserat>
+  // splice the generated subtree in place of the <cosserat>: its generated elements take the
+  // <cosserat>'s origin (MuJoCo's errors on a capsule point at the rod's line, not its parent's),
+  // and the origins of the elements deleted with it are forgotten (a new element may reuse one's
+  // memory)
+  const Origin rod_origin = origin(cosserat);
+  const auto adopt = [&](auto&& self, XMLElement* e) -> void {
+    origins_.try_emplace(e, rod_origin);
+    for (XMLElement* c = e->FirstChildElement(); c; c = c->NextSiblingElement()) self(self, c);
+  };
+  adopt(adopt, base);
+  const auto forget = [&](auto&& self, const XMLElement* e) -> void {
+    origins_.erase(e);
+    for (const XMLElement* c = e->FirstChildElement(); c; c = c->NextSiblingElement()) self(self, c);
+  };
   parent->InsertAfterChild(cosserat, base);
+  forget(forget, cosserat);
   parent->DeleteChild(cosserat);
   add_excludes(rod);
   rods_.push_back(std::move(rod.decl));

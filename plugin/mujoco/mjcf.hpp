@@ -27,6 +27,11 @@
 
 namespace cosserat::mj {
 
+// A rod section compressed to this fraction of its length or less (SceneData::compression) has
+// collapsed: the linear constitutive law does not resist it, and the motion from there on is not
+// physical. A rest shape must be longer (the loader refuses a rest stretch at or below it).
+constexpr double kCollapsedStretch = 0.1;
+
 // A load error that knows where it comes from: what() is "file:line: message".
 class LoadError : public std::runtime_error {
  public:

@@ -285,10 +285,6 @@ struct SceneData {
   Mat6X fluid_cols;
 };
 
-// A rod section compressed to this fraction of its length or less (SceneData::compression) has
-// collapsed: the linear constitutive law does not resist it, and the motion from there on is not
-// physical.
-constexpr double kCollapsedStretch = 0.1;
 // The warning for such a collapse (rod, section, stretch, time), or "" when none happened.
 std::string collapse_warning(const Scene& s, const SceneData& sd);
 

@@ -96,6 +96,10 @@ std::vector<BadCase> bad_cases() {
       {"unknown child element", in_world(rod + ">\n<geom size=\"1\"/>\n</cosserat>"), 4, "unknown child element <geom>"},
       {"pos with 2 numbers", in_world(rod + R"( pos="0 1"/>)"), 3, "'pos' needs 3 numbers, got 2"},
       {"reststrain with 5 numbers", in_world(rod + R"( reststrain="0 0 0 1 0"/>)"), 3, "'reststrain' needs 6"},
+      // a zero rest stretch had reached MuJoCo as zero-length capsules, a negative one loaded
+      {"zero rest stretch", in_world(rod + R"( reststrain="0 0 0 0 0 0"/>)"), 3, "rest axial stretch px (its 4th number) of 0: it must be above 0.1"},
+      {"inverted rest stretch", in_world(rod + R"( reststrain="0 0 0 -1 0 0"/>)"), 3, "of -1: it must be above 0.1"},
+      {"collapsed rest stretch of a section", in_world(rod + ">\n<section length=\"1\" reststrain=\"0 1 0 0.05 0 0\"/>\n</cosserat>"), 4, "of 0.05: it must be above 0.1"},
       {"non-numeric value", in_world(R"(<cosserat name="a" length="abc"/>)"), 3, "'length' holds 'abc', which is not a number"},
       {"non-numeric in a list", in_world(rod + R"( radius="0.1 x"/>)"), 3, "'radius' holds 'x', which is not a number"},
       {"zero length", in_world(R"(<cosserat name="a" length="0"/>)"), 3, "'length' must be positive"},

@@ -235,6 +235,16 @@ TEST(Scene, MujocoCompileErrorsPointAtTheUsersFileAndLine) {
     expect_load_error(rod5 + "<body name=\"c\">\n<joint type=\"slide\"/>\n<geom " + attr + "/>\n</body>\n"
                              "</worldbody>\n</mujoco>\n",
                       dir, "schema.xml", 6, "XML Error");
+  // MuJoCo's errors on a rod's capsules point at the <cosserat>, on a rod site at its <site> (an
+  // outside probe found them at the parent body's line, seventeenth session)
+  const std::string in_body = "<mujoco>\n<worldbody>\n<body name=\"b\">\n<geom size=\"0.1\"/>\n";
+  expect_load_error(in_body + "<cosserat name=\"a\" length=\"0.3\" sections=\"2\" condim=\"2\"/>\n</body>\n"
+                              "</worldbody>\n</mujoco>\n",
+                    dir, "condim.xml", 5, "invalid condim in geom 'a/s0/g0'");
+  for (const std::string& attr : {std::string("type=\"blob\""), std::string("size=\"-1\"")})
+    expect_load_error(in_body + "<cosserat name=\"a\" length=\"0.3\" sections=\"2\">\n<site name=\"s\" at=\"0.1\" " +
+                          attr + "/>\n</cosserat>\n</body>\n</worldbody>\n</mujoco>\n",
+                      dir, "site.xml", 6, "MuJoCo");
   // a moving body whose only mass is a rod's: MuJoCo's refusal says what to do (the rod's mass is
   // its own; an outside probe had to find that out)
   expect_load_error("<mujoco>\n<worldbody>\n<body name=\"hub\">\n<freejoint/>\n"
