@@ -141,7 +141,9 @@ struct CommandLine {
 inline double parse_number(const std::string& flag, const std::string& text) {
   char* end = nullptr;
   const double v = std::strtod(text.c_str(), &end);
-  if (text.empty() || *end || !std::isfinite(v)) fail(flag + ": '" + text + "' is not a number");
+  // (strtod also reads hexadecimal, which no option means)
+  if (text.empty() || *end || !std::isfinite(v) || text.find_first_of("xX") != std::string::npos)
+    fail(flag + ": '" + text + "' is not a number");
   return v;
 }
 

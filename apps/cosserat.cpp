@@ -222,7 +222,7 @@ class Simulation {
   Simulation(const std::string& path, const SimOptions& o, const StateOptions& state) : scene_(load(path)) {
     if (o.timestep) scene_->m->opt.timestep = *o.timestep;
     integrator_ = o.integrator.value_or(scene_->integrator);
-    o.newton.apply(*scene_);
+    o.newton.apply(*scene_, integrator_);
     apply_step_tol(*scene_, integrator_, o.step_tol);
     data_ = std::make_unique<mj::SceneData>(*scene_);
     state.apply(*scene_, *data_);
@@ -489,6 +489,7 @@ int cmd_run(int argc, char** argv) {
     j["energy"] = {{"initial", energy.initial()}, {"final", energy.final()}, {"max_rel_drift", energy.max_rel_drift()}};
     add_positions(j, out, s.data());
     j["diverged"] = diverged;
+    if (diverged) j["reason"] = s.data().warning;  // also the first warning
     j["warnings"] = warnings;
     if (adaptive)
       j["adaptive"] = {{"step_tol", s.scene().step_tol}, {"substeps", as.substeps}, {"rejected", as.rejected},
@@ -869,11 +870,15 @@ int cmd_demo(int argc, char** argv) {
                  "Writes DIR/demo.csv with time,energy,tip.x,tip.y,tip.z,tension and prints a summary.\n"};
   cl.options = {positive_option("--duration", "T", "simulated time [s] (default 2)", o.duration),
                 positive_option("--timestep", "h", "time step [s] (default 0.001)", o.timestep),
-                integrator_option(o.integrator),
+                {"--integrator", "NAME", "euler | implicit | trapezoidal | rk4 (default: implicit)",
+                 [&o](const std::string& v) { o.integrator = parse_integrator("--integrator", v); }},
                 int_option("--sections", "N", "rod sections (default 6)", o.sections, 1),
                 int_option("--order", "P", "GVS strain order per section (default 0: PCS)", o.order, 0),
-                {"--tension", "T", "final cable tension [N] (default 1.5)",
-                 [&o](const std::string& v) { o.tension = parse_number("--tension", v); }},
+                {"--tension", "T", "final cable tension [N], >= 0: a cable pulls (default 1.5)",
+                 [&o](const std::string& v) {
+                   o.tension = parse_number("--tension", v);
+                   if (o.tension < 0) fail("--tension: a cable only pulls: give a tension >= 0, got " + v);
+                 }},
                 text_option("--out", "DIR", "output directory (default out/demo)", o.out)};
   if (!cl.parse(argc, argv)) return 0;
   const Integrator integrator = o.integrator.value_or(Integrator::Implicit);

@@ -6,6 +6,7 @@
 #include <string>
 
 #include "cli.hpp"
+#include "integrators.hpp"
 #include "scene.hpp"
 
 namespace cosserat::cli {
@@ -55,7 +56,15 @@ struct NewtonOptions {
                          }});
   }
 
-  void apply(mj::Scene& s) const {
+  // Into the scene for a run with `method`: --newton with a method that has no Newton iteration
+  // (euler, rk4), or --rho with any but genalpha, is refused (they had been accepted and ignored).
+  void apply(mj::Scene& s, Integrator method) const {
+    if (newton && (method == Integrator::Euler || method == Integrator::RK4))
+      fail(std::string("--newton: Newton corrections are for implicit, trapezoidal, genalpha and midpoint, not ") +
+           integrator_name(method));
+    if (rho && method != Integrator::GeneralizedAlpha)
+      fail(std::string("--rho: the spectral radius at infinite frequency is genalpha's, not ") + integrator_name(method) +
+           "'s");
     if (newton) s.newton_iterations = *newton;
     s.newton_tol = newton_tol;
     s.newton_memory = newton_memory;

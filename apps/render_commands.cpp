@@ -109,7 +109,7 @@ struct Simulation {
       if (!in) fail("--integrator: unknown integrator '" + o.integrator + "' (" + cosserat::kIntegratorNames + ")");
       integrator = *in;
     }
-    o.newton.apply(*scene);
+    o.newton.apply(*scene, integrator);
     apply_step_tol(*scene, integrator, o.step_tol);
     restart(o);
   }
@@ -223,7 +223,7 @@ int render_command(int argc, char** argv) {
     rd::Renderer renderer(*sim.scene, o.render);
     std::error_code ec;
     fs::create_directories(o.out, ec);
-    if (!fs::is_directory(o.out)) fail("cannot create directory " + o.out + (ec ? " (" + ec.message() + ")" : ""));
+    if (!fs::is_directory(o.out)) fail("--out: cannot create directory " + o.out + (ec ? " (" + ec.message() + ")" : ""));
     if (renderer.free_camera() && o.render.camera.track.empty()) {
       // the free camera frames the whole run: a first pass simulates it (up to a divergence, which
       // the second pass then reports after writing the frames before it) and merges the extents

@@ -177,7 +177,8 @@ class Reader {
     for (const std::string& tok : split_whitespace(v)) {
       char* end = nullptr;
       const double x = std::strtod(tok.c_str(), &end);
-      if (end != tok.c_str() + tok.size() || !std::isfinite(x))
+      // (strtod also reads hexadecimal: "0x10" had been taken as 16)
+      if (end != tok.c_str() + tok.size() || !std::isfinite(x) || tok.find_first_of("xX") != std::string::npos)
         fail_attr(attr, "holds '" + tok + "', which is not a number");
       out.push_back(x);
     }

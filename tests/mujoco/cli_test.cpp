@@ -103,7 +103,12 @@ TEST_F(Cli, BadCommandLinesExitOneWithOneLineReason) {
                                  "snapshot '" + kCantilever + "' --out /tmp/cosserat_cli_bad.png --time 1e300",
                                  "snapshot '" + kCantilever + "' --out /tmp/cosserat_cli_bad.png --rod-segments 1000000",
                                  "render '" + kCantilever + "' --out /tmp/cosserat_cli_bad --duration 1e300 --fps 1",
-                                 std::string("check /dev/zero")}) {
+                                 std::string("check /dev/zero"),
+                                 // seventeenth session's probe: hexadecimal read as a number,
+                                 // options the integrator ignores accepted silently
+                                 "run '" + kCantilever + "' --duration 0x10",
+                                 "run '" + kCantilever + "' --integrator rk4 --newton 3",
+                                 "run '" + kCantilever + "' --integrator trapezoidal --rho 0.5"}) {
     const Result r = cosserat(args);
     EXPECT_EQ(r.status, 1) << args;
     EXPECT_EQ(lines(r.err).size(), 1u) << args << ": " << r.err;

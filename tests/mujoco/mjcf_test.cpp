@@ -102,6 +102,7 @@ std::vector<BadCase> bad_cases() {
       {"collapsed rest stretch of a section", in_world(rod + ">\n<section length=\"1\" reststrain=\"0 1 0 0.05 0 0\"/>\n</cosserat>"), 4, "of 0.05: it must be above 0.1"},
       {"non-numeric value", in_world(R"(<cosserat name="a" length="abc"/>)"), 3, "'length' holds 'abc', which is not a number"},
       {"non-numeric in a list", in_world(rod + R"( radius="0.1 x"/>)"), 3, "'radius' holds 'x', which is not a number"},
+      {"hexadecimal number", in_world(R"(<cosserat name="a" length="0x10"/>)"), 3, "'length' holds '0x10', which is not a number"},
       {"zero length", in_world(R"(<cosserat name="a" length="0"/>)"), 3, "'length' must be positive"},
       {"negative length", in_world(R"(<cosserat name="a" length="-2"/>)"), 3, "'length' must be positive"},
       {"negative radius", in_world(rod + R"( radius="0.01 -0.002"/>)"), 3, "'radius' must be positive"},
