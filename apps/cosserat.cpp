@@ -255,12 +255,12 @@ class Simulation {
   bool observe() {
     mjData* d = data_->d;
     const mjModel* m = scene_->m;
-    kept_.assign(d->qpos, d->qpos + m->nq);
-    kept_.insert(kept_.end(), d->qacc_warmstart, d->qacc_warmstart + m->nv);
+    kept_qpos_.assign(d->qpos, d->qpos + m->nq);
+    kept_warmstart_.assign(d->qacc_warmstart, d->qacc_warmstart + m->nv);
     try {
       mj::forward(*scene_, *data_);
-      std::copy(kept_.begin(), kept_.begin() + m->nq, d->qpos);
-      std::copy(kept_.begin() + m->nq, kept_.end(), d->qacc_warmstart);
+      std::copy(kept_qpos_.begin(), kept_qpos_.end(), d->qpos);
+      std::copy(kept_warmstart_.begin(), kept_warmstart_.end(), d->qacc_warmstart);
       return true;
     } catch (const MujocoError& e) {
       data_->d->pstack = 0;  // the unwound MuJoCo frames did not release their stack allocations
@@ -277,7 +277,7 @@ class Simulation {
   std::unique_ptr<mj::Scene> scene_;
   std::unique_ptr<mj::SceneData> data_;
   Integrator integrator_ = Integrator::Implicit;
-  std::vector<mjtNum> kept_;  // observe()'s copy of d->qpos and d->qacc_warmstart
+  std::vector<mjtNum> kept_qpos_, kept_warmstart_;  // what observe() puts back
   long steps_ = 0;
   Outputs outputs_;
 };

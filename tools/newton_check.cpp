@@ -3,10 +3,10 @@
 // step; at each requested time the tool takes finite-difference Jacobians of the smooth forces
 // (d->qfrc_smooth) in q and v and prints the spectral radius of A_N^-1 (A_true - A_N), with
 //   A_N    = M + h^2/4 K                     (the matrix the corrections use: the rods' K),
-//   A_true = M + h/2 (-dF/dv) + h^2/4 (-dF/dq),
+//   A_true = M + h/2 (-dF/dv) + h^2/4 (-d(F - M(q) a)/dq),  a the acceleration at the state,
 // and the parts from q and from v. Above 1 the simplified iteration cannot contract; its failures
-// then split the steps (the "corr./step" marks of the stress tables). The configuration
-// dependence of M itself is left out.
+// then split the steps (the "corr./step" marks of the stress tables). --no-mass-term leaves the
+// change of M times a out of the q part.
 //
 // Usage: newton_check MODEL.xml [--timestep h] [--times t1,t2,...] [--key K] [--ctrl U]
 #include <algorithm>
@@ -84,17 +84,17 @@ int run(int argc, char** argv) {
     mj::forward(*s, sd, mj::Need::Acceleration);
     const std::vector<double> a(d->qacc, d->qacc + nv);
     std::vector<double> Ma(nv);
-    bool with_mass = false;
-    auto forces = [&](Eigen::VectorXd& f) {
+    // F, minus M(q) a with `mass` (M does not depend on v: the v part never takes it)
+    auto forces = [&](Eigen::VectorXd& f, bool mass) {
       mj::forward(*s, sd, mj::Need::Forces);
       f = Eigen::Map<const Eigen::VectorXd>(d->qfrc_smooth, nv);
-      if (with_mass) {
+      if (mass) {
         mj_mulM(s->m, d, Ma.data(), a.data());
         f -= Eigen::Map<const Eigen::VectorXd>(Ma.data(), nv);
       }
     };
     Eigen::VectorXd fp, fm;
-    forces(fp);
+    forces(fp, false);  // (for M at the state)
     std::vector<double> Mfull(static_cast<size_t>(nv) * nv);
     mj_fullM(s->m, Mfull.data(), d->qM);
     const Eigen::MatrixXd M = Eigen::Map<Eigen::Matrix<double, -1, -1, Eigen::RowMajor>>(Mfull.data(), nv, nv);
@@ -102,21 +102,19 @@ int run(int argc, char** argv) {
     const double e = 1e-7;
     std::vector<double> dq(nv);
     for (int j = 0; j < nv; ++j) {
-      with_mass = !no_mass_term;
       for (double sign : {1.0, -1.0}) {
         std::fill(dq.begin(), dq.end(), 0.0);
         dq[j] = sign * e;
         std::copy(q0.begin(), q0.end(), d->qpos);
         mj_integratePos(s->m, d->qpos, dq.data(), 1.0);
-        forces(sign > 0 ? fp : fm);
+        forces(sign > 0 ? fp : fm, !no_mass_term);
       }
       Kq.col(j) = -(fp - fm) / (2 * e);
       std::copy(q0.begin(), q0.end(), d->qpos);
-      with_mass = false;  // M does not depend on v
       for (double sign : {1.0, -1.0}) {
         std::copy(v0.begin(), v0.end(), d->qvel);
         d->qvel[j] += sign * e;
-        forces(sign > 0 ? fp : fm);
+        forces(sign > 0 ? fp : fm, false);
       }
       Dv.col(j) = -(fp - fm) / (2 * e);
       std::copy(v0.begin(), v0.end(), d->qvel);

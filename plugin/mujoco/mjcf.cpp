@@ -273,13 +273,6 @@ StrainMask read_strain_mask(const Reader& r, const StrainMask& fallback) {
   return fallback;
 }
 
-// x as %g prints it (for messages).
-std::string format_number(double x) {
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%g", x);
-  return buf;
-}
-
 // Upper bounds of counts that would otherwise only exhaust memory: Gauss points per section (the
 // mass quadrature of order 20 GVS needs 22) and collision capsules per section.
 constexpr int kMaxQuadrature = 64;
@@ -294,8 +287,8 @@ SectionSpec read_section_spec(const Reader& r, SectionSpec s) {
     s.rest_strain = Eigen::Map<const Vec6>(v->data());
     // (a stretch of 0 had reached MuJoCo as capsules of zero length, a negative one loaded silently)
     r.check(s.rest_strain(3) > kCollapsedStretch, "reststrain",
-            "has a rest axial stretch px (its 4th number) of " + format_number(s.rest_strain(3)) +
-                ": it must be above " + format_number(kCollapsedStretch) +
+            "has a rest axial stretch px (its 4th number) of " + fmt(s.rest_strain(3)) +
+                ": it must be above " + fmt(kCollapsedStretch) +
                 " (1 for a rod as long as its 'length'; at or below it a section has collapsed)");
   }
   s.material.density = r.number("density", s.material.density);
