@@ -81,7 +81,7 @@ void group_jacobian_dot(const Model& m, Data& d) {
   }
 }
 
-void fwd_velocity(const Model& m, Data& d) {
+void fwd_velocity(const Model& m, Data& d, bool with_Sdot) {
   const int nn = static_cast<int>(m.nodes.size());
   for (int i = 0; i < nn; ++i) {
     const Node& n = m.nodes[i];
@@ -94,23 +94,29 @@ void fwd_velocity(const Model& m, Data& d) {
       eta += psi;
       // dS/dt = ddexp(-Omega, -Omega_dot) G + dexp(-Omega) dG/dt, and dG/dt is the commutator's
       // c (ad_{xa_dot} Phi_b - ad_{xb_dot} Phi_a): so dS/dt v = ddexp Omega_dot + dexp 2c ad_{xa_dot} xb_dot
-      Mat6X& Sd = d.Sdot[i];
+      // (computed as vectors; the matrix dS/dt only when asked for)
       if (n.same_step >= 0) {  // PCS: the same step, the same dofs, the same rates
         d.Omega_dot[i] = d.Omega_dot[n.same_step];
-        Sd = d.Sdot[n.same_step];
+        d.Sdot_v[i] = d.Sdot_v[n.same_step];
+        if (with_Sdot) d.Sdot[i] = d.Sdot[n.same_step];
       } else {
         d.Omega_dot[i].noalias() = d.G[i] * vi;
-        Sd.noalias() = ddexp(-d.Omega[i], -d.Omega_dot[i]) * d.G[i];
+        const Vec6 mOm = -d.Omega[i], mOmd = -d.Omega_dot[i];
+        Vec6 sv = ddexp_apply(mOm, mOmd, d.Omega_dot[i]);
+        if (with_Sdot) d.Sdot[i].noalias() = ddexp(mOm, mOmd) * d.G[i];
+        if (n.commutator) {
+          const Vec6 xad = n.Phi_a * vi, xbd = n.Phi_b * vi;
+          const double c = kZanna * n.h * n.h;
+          sv += dexp_apply(mOm, 2.0 * c * ad_apply(xad, xbd));
+          if (with_Sdot) {
+            const Mat6 Dm = dexp(mOm);
+            for (int k = 0; k < n.ndof; ++k)
+              d.Sdot[i].col(k).noalias() += Dm * (c * (ad_apply(xad, n.Phi_b.col(k)) - ad_apply(xbd, n.Phi_a.col(k))));
+          }
+        }
+        d.Sdot_v[i] = sv;
       }
-      if (n.commutator) {
-        const Vec6 xad = n.Phi_a * vi, xbd = n.Phi_b * vi;
-        const double c = kZanna * n.h * n.h;
-        const Mat6 Dm = dexp(-d.Omega[i]);
-        for (int k = 0; k < n.ndof; ++k)
-          Sd.col(k).noalias() += Dm * (c * (ad_apply(xad, n.Phi_b.col(k)) - ad_apply(xbd, n.Phi_a.col(k))));
-      }
-      cb.noalias() = Sd * vi;
-      cb += ad_apply(eta, psi);
+      cb = d.Sdot_v[i] + ad_apply(eta, psi);
     } else {
       d.Omega_dot[i].setZero();
     }

@@ -10,8 +10,10 @@ namespace cosserat {
 // the group Jacobians Jg with the poses g_grp (Data).
 void fwd_position(const Model& m, Data& d);
 // From d.v (after fwd_position): Omega_dot, body twists eta and the velocity-product
-// accelerations cbias (so that acc_i = Ad^-1 acc_parent + cbias_i + S_i qacc_i).
-void fwd_velocity(const Model& m, Data& d);
+// accelerations cbias (so that acc_i = Ad^-1 acc_parent + cbias_i + S_i qacc_i). with_Sdot false
+// leaves the matrices d.Sdot as they were (cbias is the same): for callers that read neither Sdot,
+// group_jacobian_dot's Jgdot nor section_jacobian's Jdot.
+void fwd_velocity(const Model& m, Data& d, bool with_Sdot = true);
 // d.Jgdot, the time derivative of the group Jacobians. After fwd_velocity.
 void group_jacobian_dot(const Model& m, Data& d);
 

@@ -144,43 +144,112 @@ double horner(const double (&c)[N], double t2) {
 namespace lie_coefficients {
 const double switch_a3 = 1.5, switch_c1 = 1.5, switch_c2 = 2.5, switch_c3 = 2.3, switch_c4 = 2.2,
              switch_d3 = 3.0, switch_d4 = 3.5;
+}  // namespace lie_coefficients
 
-// sin t / t has no cancellation; only t = 0 itself needs care (series below 1e-4: error t^4/120).
-double a1(double t) { return t < 1e-4 ? 1.0 - t * t / 6.0 : std::sin(t) / t; }
+namespace {
+// sin t and cos t of one angle, evaluated once (on first use) for all the closed forms an operator
+// needs: dexp has four coefficients and ddexp six, each with sin t and cos t above its switch.
+// (One sincos gives the same values as separate sin and cos calls.)
+class Trig {
+ public:
+  explicit Trig(double t) : t(t) {}
+  const double t;
+  double sin() {
+    eval();
+    return s_;
+  }
+  double cos() {
+    eval();
+    return c_;
+  }
+
+ private:
+  void eval() {
+    if (done_) return;
+    ::sincos(t, &s_, &c_);
+    done_ = true;
+  }
+  double s_ = 0.0, c_ = 0.0;
+  bool done_ = false;
+};
+
+double a1(Trig& T) { return T.t < 1e-4 ? 1.0 - T.t * T.t / 6.0 : T.sin() / T.t; }
+double a3(Trig& T) {
+  const double t = T.t;
+  return t < lie_coefficients::switch_a3 ? horner(k_a3, t * t) : (t - T.sin()) / (t * t * t);
+}
+double c1(Trig& T) {
+  const double t = T.t;
+  return t < lie_coefficients::switch_c1 ? horner(k_c1, t * t)
+                                         : (4.0 - 4.0 * T.cos() - t * T.sin()) / (2.0 * t * t);
+}
+double c2(Trig& T) {
+  const double t = T.t;
+  return t < lie_coefficients::switch_c2 ? horner(k_c2, t * t)
+                                         : (4.0 * t - 5.0 * T.sin() + t * T.cos()) / (2.0 * t * t * t);
+}
+double c3(Trig& T) {
+  const double t = T.t, t2 = t * t;
+  return t < lie_coefficients::switch_c3 ? horner(k_c3, t2) : (2.0 - 2.0 * T.cos() - t * T.sin()) / (2.0 * t2 * t2);
+}
+double c4(Trig& T) {
+  const double t = T.t, t2 = t * t;
+  return t < lie_coefficients::switch_c4 ? horner(k_c4, t2)
+                                         : (2.0 * t - 3.0 * T.sin() + t * T.cos()) / (2.0 * t2 * t2 * t);
+}
+double d3(Trig& T) {
+  const double t = T.t, t2 = t * t;
+  return t < lie_coefficients::switch_d3
+             ? horner(k_d3, t2)
+             : (-t2 * T.cos() + 5.0 * t * T.sin() + 8.0 * T.cos() - 8.0) / (2.0 * t2 * t2 * t2);
+}
+double d4(Trig& T) {
+  const double t = T.t, t2 = t * t;
+  return t < lie_coefficients::switch_d4
+             ? horner(k_d4, t2)
+             : (-t2 * T.sin() - 7.0 * t * T.cos() - 8.0 * t + 15.0 * T.sin()) / (2.0 * t2 * t2 * t2 * t);
+}
+}  // namespace
+
+namespace lie_coefficients {
+
+double a1(double t) {
+  Trig T(t);
+  return cosserat::a1(T);
+}
 // 2 sin^2(t/2) / t^2 avoids the cancellation of 1 - cos t entirely.
 double a2(double t) {
   if (t < 1e-4) return 0.5 - t * t / 24.0;
   const double s = std::sin(0.5 * t) / t;
   return 2.0 * s * s;
 }
-double a3(double t) { return t < switch_a3 ? horner(k_a3, t * t) : (t - std::sin(t)) / (t * t * t); }
+double a3(double t) {
+  Trig T(t);
+  return cosserat::a3(T);
+}
 double c1(double t) {
-  return t < switch_c1 ? horner(k_c1, t * t) : (4.0 - 4.0 * std::cos(t) - t * std::sin(t)) / (2.0 * t * t);
+  Trig T(t);
+  return cosserat::c1(T);
 }
 double c2(double t) {
-  return t < switch_c2 ? horner(k_c2, t * t)
-                       : (4.0 * t - 5.0 * std::sin(t) + t * std::cos(t)) / (2.0 * t * t * t);
+  Trig T(t);
+  return cosserat::c2(T);
 }
 double c3(double t) {
-  const double t2 = t * t;
-  return t < switch_c3 ? horner(k_c3, t2) : (2.0 - 2.0 * std::cos(t) - t * std::sin(t)) / (2.0 * t2 * t2);
+  Trig T(t);
+  return cosserat::c3(T);
 }
 double c4(double t) {
-  const double t2 = t * t;
-  return t < switch_c4 ? horner(k_c4, t2)
-                       : (2.0 * t - 3.0 * std::sin(t) + t * std::cos(t)) / (2.0 * t2 * t2 * t);
+  Trig T(t);
+  return cosserat::c4(T);
 }
 double d3(double t) {
-  const double t2 = t * t;
-  return t < switch_d3
-             ? horner(k_d3, t2)
-             : (-t2 * std::cos(t) + 5.0 * t * std::sin(t) + 8.0 * std::cos(t) - 8.0) / (2.0 * t2 * t2 * t2);
+  Trig T(t);
+  return cosserat::d3(T);
 }
 double d4(double t) {
-  const double t2 = t * t;
-  return t < switch_d4 ? horner(k_d4, t2)
-                       : (-t2 * std::sin(t) - 7.0 * t * std::cos(t) - 8.0 * t + 15.0 * std::sin(t)) /
-                             (2.0 * t2 * t2 * t2 * t);
+  Trig T(t);
+  return cosserat::d4(T);
 }
 }  // namespace lie_coefficients
 
@@ -228,7 +297,8 @@ Mat3 exp_so3(const Vec3& k) {
 SE3 exp_se3(const Vec6& Om) {
   const Vec3 k = Om.head<3>(), p = Om.tail<3>();
   const double t = k.norm();
-  const double A1 = lc::a1(t), A2 = lc::a2(t), A3 = lc::a3(t);
+  Trig T(t);
+  const double A1 = a1(T), A2 = lc::a2(t), A3 = a3(T);
   const Vec3 kp = k.cross(p), kkp = k.cross(kp);
   SE3 g;
   const Mat3 K = skew(k);
@@ -371,7 +441,8 @@ inline Mat3 sym_outer(const Vec3& a, const Vec3& b) {
 Mat6 dexp(const Vec6& Om) {
   const Vec3 w = Om.head<3>(), v = Om.tail<3>();
   const double t = w.norm(), t2 = t * t, s = w.dot(v);
-  const double C1 = lc::c1(t), C2 = lc::c2(t), C3 = lc::c3(t), C4 = lc::c4(t);
+  Trig T(t);
+  const double C1 = c1(T), C2 = c2(T), C3 = c3(T), C4 = c4(T);
   const Mat3 W = skew(w), V = skew(v);
   Mat3 W2 = w * w.transpose();
   W2.diagonal().array() -= t2;
@@ -398,8 +469,9 @@ Mat6 ddexp(const Vec6& Om, const Vec6& de) {
   const Vec3 dw = de.head<3>(), dv = de.tail<3>();
   const double t = w.norm(), t2 = t * t;
   const double kdk = w.dot(dw), s = w.dot(v), ds = dw.dot(v) + w.dot(dv);
-  const double C1 = lc::c1(t), C2 = lc::c2(t), C3 = lc::c3(t), C4 = lc::c4(t);
-  const double D3 = lc::d3(t), D4 = lc::d4(t), D1 = t2 * D3, D2 = t2 * D4;
+  Trig T(t);
+  const double C1 = c1(T), C2 = c2(T), C3 = c3(T), C4 = c4(T);
+  const double D3 = d3(T), D4 = d4(T), D1 = t2 * D3, D2 = t2 * D4;
   const Mat3 W = skew(w), V = skew(v), Wd = skew(dw), Vd = skew(dv);
   Mat3 W2 = w * w.transpose();
   W2.diagonal().array() -= t2;
@@ -415,6 +487,30 @@ Mat6 ddexp(const Vec6& Om, const Vec6& de) {
   out.Y += C1 * Vd + C2 * dP + C3 * (-t2 * Vd - 2.0 * kdk * V - 2.0 * ds * W - 2.0 * s * Wd) +
            C4 * (-t2 * dP - 2.0 * kdk * P - 2.0 * ds * W2 - 2.0 * s * dW2);
   return to_mat6(out);
+}
+
+// dexp(Omega) x = x + c1 A x + c2 A^2 x + c3 A^3 x + c4 A^4 x (A = ad_Omega), Horner-like.
+Vec6 dexp_apply(const Vec6& Om, const Vec6& x) {
+  Trig T(Om.head<3>().norm());
+  const double C1 = c1(T), C2 = c2(T), C3 = c3(T), C4 = c4(T);
+  return x + ad_apply(Om, C1 * x + ad_apply(Om, C2 * x + ad_apply(Om, C3 * x + ad_apply(Om, C4 * x))));
+}
+
+// ddexp(Omega, delta) x without the 6 x 6 matrix: with A = ad_Omega, B = ad_delta and
+// y_m = B A^m x, sum_k c_k E_k x = sum_j A^j z_j with z_j = sum_{k > j} c_k y_{k-1-j}
+// (E_k = sum_j A^j B A^{k-1-j}, see ddexp), plus the coefficients' change kdk sum_k D_k A^k x.
+Vec6 ddexp_apply(const Vec6& Om, const Vec6& de, const Vec6& x) {
+  const Vec3 w = Om.head<3>();
+  const double t = w.norm(), t2 = t * t, kdk = w.dot(de.head<3>());
+  Trig T(t);
+  const double C1 = c1(T), C2 = c2(T), C3 = c3(T), C4 = c4(T);
+  const double D3 = d3(T), D4 = d4(T), D1 = t2 * D3, D2 = t2 * D4;
+  const Vec6 a1 = ad_apply(Om, x), a2 = ad_apply(Om, a1), a3 = ad_apply(Om, a2), a4 = ad_apply(Om, a3);
+  const Vec6 y0 = ad_apply(de, x), y1 = ad_apply(de, a1), y2 = ad_apply(de, a2), y3 = ad_apply(de, a3);
+  const Vec6 z3 = C4 * y0, z2 = C3 * y0 + C4 * y1, z1 = C2 * y0 + C3 * y1 + C4 * y2,
+             z0 = C1 * y0 + C2 * y1 + C3 * y2 + C4 * y3;
+  return z0 + ad_apply(Om, z1 + ad_apply(Om, z2 + ad_apply(Om, z3))) +
+         kdk * (D1 * a1 + D2 * a2 + D3 * a3 + D4 * a4);
 }
 
 }  // namespace cosserat

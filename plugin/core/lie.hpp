@@ -72,6 +72,10 @@ Mat6 dexp(const Vec6& Omega);
 inline Mat6 tangent(double X, const Vec6& xi) { return X * dexp(Vec6(X * xi)); }
 // Directional derivative of dexp at Omega along delta: d/de dexp(Omega + e delta) at e = 0.
 Mat6 ddexp(const Vec6& Omega, const Vec6& delta);
+// The same applied to a vector, without forming the matrices: dexp(Omega) x and
+// ddexp(Omega, delta) x (a few ad products each; the kinematics' velocity-product terms).
+Vec6 dexp_apply(const Vec6& Omega, const Vec6& x);
+Vec6 ddexp_apply(const Vec6& Omega, const Vec6& delta, const Vec6& x);
 
 // The scalar coefficients of the closed forms, each with its own small-angle switch. Exposed for
 // the continuity tests. theta >= 0 is the norm of the angular part.

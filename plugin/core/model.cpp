@@ -396,6 +396,7 @@ Data::Data(const Model& m) {
   g_rel.assign(nn, SE3());
   Omega.assign(nn, Vec6::Zero());
   Omega_dot.assign(nn, Vec6::Zero());
+  Sdot_v.assign(nn, Vec6::Zero());
   G.resize(nn);
   S.resize(nn);
   Sdot.resize(nn);

@@ -251,6 +251,7 @@ struct Data {
   std::vector<Mat6X> G;    // dOmega/dq_i (6 x ndof)
   std::vector<Mat6X> S;    // motion subspace dexp(-Omega) G (6 x ndof)
   std::vector<Mat6X> Sdot; // its time derivative (6 x ndof; fwd_velocity): cbias = ad_eta S v + Sdot v
+  std::vector<Vec6> Sdot_v; // Sdot v (fwd_velocity, also when the matrix Sdot is not computed)
   // Group Jacobians (Node::group_first): Jg_i = twist of node i per unit velocity of its own dof
   // block relative to the frame its group hangs from, in node i's frame (fwd_position: Jg_i =
   // Ad^-1_{g_rel,i} Jg_parent + S_i within a group); its time derivative Jgdot (group_jacobian_dot);

@@ -697,7 +697,7 @@ void rod_velocity(const Scene& s, SceneData& sd, int r) {
     for (int e = 0; e < 6; ++e) cacc(e) += d->cdof_dot[6 * j + e] * d->qvel[j];
   rd.base_twist = Ad_inv_apply(G, cvel);
   rd.base_accel = Ad_inv_apply(G, cacc);
-  cosserat::fwd_velocity(rb.model, rd);
+  cosserat::fwd_velocity(rb.model, rd, rb.cdof_dot_read);  // dS/dt only where cdof_dot is read
 }
 
 // Patch point 6: rod Coriolis, centrifugal and gravity forces, the reaction on the ancestors,

@@ -59,6 +59,41 @@ TEST(Kinematics, TwistEqualsJacobianTimesVelocity) {
   }
 }
 
+// fwd_velocity computes the velocity-product term Sdot v as vectors (ddexp_apply) and the matrix
+// Sdot only when asked: the matrix times v is that vector (to rounding, relative 1e-12), and
+// without the matrix every output is the same bit for bit. PCS (steps sharing one step's rates) and
+// GVS (the commutator) rods.
+TEST(Kinematics, SdotMatrixTimesVelocityIsTheVectorTerm) {
+  Model pcs;
+  pcs.add_rod(-1, SE3::Identity(), rod_spec("sr", 3, 0));
+  pcs.finalize();
+  std::vector<Model> models;
+  models.push_back(std::move(pcs));
+  models.push_back(hybrid_tree());
+  for (Model& model : models) {
+    const Model* m = &model;
+    Data d(*m), e(*m);
+    randomize(d, 7, 1.5);
+    e.q = d.q;
+    e.v = d.v;
+    fwd_position(*m, d);
+    fwd_position(*m, e);
+    fwd_velocity(*m, d, true);
+    fwd_velocity(*m, e, false);
+    double largest = 0.0;  // (a joint's Sdot is zero; the rods' are not)
+    for (size_t i = 0; i < m->nodes.size(); ++i) {
+      const Node& n = m->nodes[i];
+      EXPECT_EQ(d.cbias[i], e.cbias[i]) << "node " << i;
+      EXPECT_EQ(d.eta[i], e.eta[i]) << "node " << i;
+      if (n.ndof == 0) continue;
+      const Vec6 mv = d.Sdot[i] * d.v.segment(n.dof0, n.ndof);
+      EXPECT_LT((mv - d.Sdot_v[i]).norm(), 1e-12 * (1 + mv.norm())) << "node " << i;
+      largest = std::max(largest, mv.norm());
+    }
+    EXPECT_GT(largest, 1e-5);
+  }
+}
+
 // J-dot v = d/dt (J(q) v) at constant v: central difference along q + t v.
 TEST(Kinematics, JdotVMatchesFiniteDifferences) {
   Model m = hybrid_tree();

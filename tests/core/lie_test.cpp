@@ -419,6 +419,23 @@ TEST(LieDdexp, MatchesFiniteDifferences) {
   }
 }
 
+// The vector forms (dexp_apply, ddexp_apply) are the matrices applied to a vector, to rounding:
+// they sum the same series in another order (relative 1e-13 of the O(1) terms; a missing or wrong
+// term would be O(1)). Includes x along delta, the kinematics' own case (ad_delta x = 0).
+TEST(LieDdexp, VectorFormsAreTheMatricesApplied) {
+  Rng rng(5);
+  for (double theta : thetas_with_switches()) {
+    const Vec6 Om = random_twist(rng, theta, 1.0);
+    for (int k = 0; k < 4; ++k) {
+      const Vec6 d = rng.vec6(), x = k == 3 ? Vec6(0.7 * d) : rng.vec6();
+      SCOPED_TRACE(trace_msg(theta, Om) + ", x = " + str(x));
+      const double scale = std::max(1.0, Om.norm() * Om.norm()) * x.norm() * std::max(1.0, d.norm());
+      EXPECT_LT((dexp_apply(Om, x) - dexp(Om) * x).norm() / scale, 1e-13);
+      EXPECT_LT((ddexp_apply(Om, d, x) - ddexp(Om, d) * x).norm() / scale, 1e-13);
+    }
+  }
+}
+
 // =============================================================================================
 // 4. Scalar coefficients against independent long-double references, and their continuity at the
 // series/closed-form switches.
