@@ -481,22 +481,42 @@ void cross_section_jacobian(const Scene& s, const SceneData& sd, int r, int si, 
 
 }  // namespace
 
-Eigen::MatrixXd rod_inertia(const Scene& s, SceneData& sd, int r, int points) {
+namespace {
+// The last dof of `body` or of its nearest ancestor with dofs (-1: none).
+int first_ancestor_dof(const mjModel* m, int body) {
+  for (int b = body; b > 0; b = m->body_parentid[b])
+    if (m->body_dofnum[b] > 0) return m->body_dofadr[b] + m->body_dofnum[b] - 1;
+  return -1;
+}
+
+// Rod r's kinetic-energy metric, point by point: for each mass point (points = 0: the dynamics'
+// mass rule, else a `points`-point Gauss rule on each section), add(chain, A) with `chain` the
+// dofs that move the point, deepest first, each the parent (dof_parentid) of the one before, and
+// A = Jc^T I Jc the point's inertia on them. The point's Jacobian vanishes off that chain, so this
+// is O(nv) (mj_jac) + O(chain^2) per point, where the dense metric would be O(nv^2).
+template <class Add>
+void rod_inertia_blocks(const Scene& s, SceneData& sd, int r, int points, Add&& add) {
   const cosserat::Model& rm = s.rods[r].model;
   const cosserat::Data& rd = sd.rod[r];
-  const int nv = s.m->nv;
-  Eigen::MatrixXd M = Eigen::MatrixXd::Zero(nv, nv), Jb;
-  auto add = [&](int si, double X, const SE3& g, const Mat6& I) {
+  Eigen::MatrixXd Jb, Jc;
+  std::vector<int> chain;
+  auto point = [&](int si, double X, const SE3& g, const Mat6& I) {
+    chain.clear();
+    for (int j = first_ancestor_dof(s.m, s.rods[r].proxy_body[si]); j >= 0; j = s.m->dof_parentid[j])
+      chain.push_back(j);
     cross_section_jacobian(s, sd, r, si, X, g, Jb);
-    M.noalias() += Jb.transpose() * I * Jb;
+    Jc.resize(6, static_cast<Eigen::Index>(chain.size()));
+    for (size_t a = 0; a < chain.size(); ++a) Jc.col(static_cast<Eigen::Index>(a)) = Jb.col(chain[a]);
+    const Eigen::MatrixXd A = Jc.transpose() * I * Jc;
+    add(chain, A);
   };
   if (points <= 0) {
     for (int i = rm.rods[0].first_node; i <= rm.rods[0].tip_node; ++i) {
       const Node& n = rm.nodes[i];
       if (n.inertia.isZero()) continue;
-      add(std::max(n.section, 0), n.X, rd.g[i], n.inertia);
+      point(std::max(n.section, 0), n.X, rd.g[i], n.inertia);
     }
-    return M;
+    return;
   }
   std::vector<double> x, w;
   cosserat::gauss_legendre01(points, x, w);
@@ -506,9 +526,29 @@ Eigen::MatrixXd rod_inertia(const Scene& s, SceneData& sd, int r, int points) {
     for (int k = 0; k < points; ++k) {
       const double X = sec.X0 + x[k] * sec.length;
       const Mat6 I = (w[k] * sec.length * section_inertia_density(sec.material, rod.radius(X))).asDiagonal();
-      add(si, X, cosserat::rod_pose(rm, rd, 0, X), I);
+      point(si, X, cosserat::rod_pose(rm, rd, 0, X), I);
     }
   }
+}
+
+// qM += sign * rod r's metric (rod_inertia), in MuJoCo's sparse layout: M(i, k-th ancestor of i)
+// at qM[dof_Madr[i] + k].
+void add_rod_inertia_sparse(const Scene& s, SceneData& sd, int r, int points, double sign, mjtNum* qM) {
+  rod_inertia_blocks(s, sd, r, points, [&](const std::vector<int>& chain, const Eigen::MatrixXd& A) {
+    const int n = static_cast<int>(chain.size());
+    for (int a = 0; a < n; ++a)
+      for (int b = a; b < n; ++b) qM[s.m->dof_Madr[chain[a]] + (b - a)] += sign * A(a, b);
+  });
+}
+}  // namespace
+
+Eigen::MatrixXd rod_inertia(const Scene& s, SceneData& sd, int r, int points) {
+  const int nv = s.m->nv;
+  Eigen::MatrixXd M = Eigen::MatrixXd::Zero(nv, nv);
+  rod_inertia_blocks(s, sd, r, points, [&](const std::vector<int>& chain, const Eigen::MatrixXd& A) {
+    for (size_t a = 0; a < chain.size(); ++a)
+      for (size_t b = 0; b < chain.size(); ++b) M(chain[a], chain[b]) += A(a, b);
+  });
   return M;
 }
 
@@ -639,11 +679,6 @@ void patch_tendons(const Scene& s, SceneData& sd) {
 }
 
 // The dofs above the rod's base body, nearest first (MuJoCo's dof_parentid chain).
-int first_ancestor_dof(const mjModel* m, int body) {
-  for (int b = body; b > 0; b = m->body_parentid[b])
-    if (m->body_dofnum[b] > 0) return m->body_dofadr[b] + m->body_dofnum[b] - 1;
-  return -1;
-}
 
 // Base-frame columns of the ancestor dofs (sd.scratch[r].anc, fixed): Ad_G^-1 cdof_j.
 void base_columns(const Scene& s, SceneData& sd, int r) {
@@ -947,30 +982,37 @@ void recompute_qpos0_constants(Scene& s) {
   // neither mass point (held only by the cross-sections' rotary inertia): its end's inverse weight
   // was 70x a rod's, and MuJoCo's contact regulariser, which grows with it, let a one-section rod
   // sink 8 radii into a floor.
+  // (MuJoCo's sparse LDL of qM and solves with it, as mj_setConst: a dense inverse was O(nv^3))
   const int nv = m->nv;
-  Eigen::MatrixXd M(nv, nv);
-  mj_fullM(m, M.data(), sd.d->qM);  // symmetric: row- and column-major alike
   for (size_t r = 0; r < s.rods.size(); ++r) {
     int points = kConstantsQuadrature;
     for (const Section& sec : s.rods[r].model.sections) points = std::max(points, sec.order + 6);
-    M += rod_inertia(s, sd, static_cast<int>(r), points) - rod_inertia(s, sd, static_cast<int>(r), 0);
+    add_rod_inertia_sparse(s, sd, static_cast<int>(r), points, 1.0, sd.d->qM);
+    add_rod_inertia_sparse(s, sd, static_cast<int>(r), 0, -1.0, sd.d->qM);
   }
-  const Eigen::MatrixXd Minv = M.ldlt().solve(Eigen::MatrixXd::Identity(nv, nv));
+  mj_factorM(m, sd.d);
+  std::vector<mjtNum> e(nv, 0.0), x(nv);
+  auto Minv_diag = [&](int a) {  // (M^-1)(a, a)
+    e[a] = 1.0;
+    mj_solveM(m, sd.d, x.data(), e.data(), 1);
+    e[a] = 0.0;
+    return x[a];
+  };
   for (int j = 0; j < m->njnt; ++j) {
     const int a = m->jnt_dofadr[j];
     switch (m->jnt_type[j]) {
       case mjJNT_FREE: {
-        const double t = (Minv(a, a) + Minv(a + 1, a + 1) + Minv(a + 2, a + 2)) / 3.0;
-        const double r = (Minv(a + 3, a + 3) + Minv(a + 4, a + 4) + Minv(a + 5, a + 5)) / 3.0;
+        const double t = (Minv_diag(a) + Minv_diag(a + 1) + Minv_diag(a + 2)) / 3.0;
+        const double r = (Minv_diag(a + 3) + Minv_diag(a + 4) + Minv_diag(a + 5)) / 3.0;
         for (int k = 0; k < 3; ++k) m->dof_invweight0[a + k] = t, m->dof_invweight0[a + 3 + k] = r;
         break;
       }
       case mjJNT_BALL: {
-        const double r = (Minv(a, a) + Minv(a + 1, a + 1) + Minv(a + 2, a + 2)) / 3.0;
+        const double r = (Minv_diag(a) + Minv_diag(a + 1) + Minv_diag(a + 2)) / 3.0;
         for (int k = 0; k < 3; ++k) m->dof_invweight0[a + k] = r;
         break;
       }
-      default: m->dof_invweight0[a] = Minv(a, a);
+      default: m->dof_invweight0[a] = Minv_diag(a);
     }
   }
   // a proxy's "centre of mass" is its section's (MuJoCo uses xipos; the proxy's own is empty)
@@ -980,8 +1022,7 @@ void recompute_qpos0_constants(Scene& s) {
       proxy_rod[s.rods[r].proxy_body[i]] = static_cast<int>(r);
       proxy_sec[s.rods[r].proxy_body[i]] = static_cast<int>(i);
     }
-  Eigen::MatrixXd J(6, nv);
-  std::vector<mjtNum> jp(3 * nv), jr(3 * nv);
+  std::vector<mjtNum> jp(3 * nv), jr(3 * nv), jx(3 * nv);
   for (int b = 1; b < m->nbody; ++b) {
     if (proxy_rod[b] >= 0) {
       const cosserat::Model& rm = s.rods[proxy_rod[b]].model;
@@ -1013,27 +1054,31 @@ void recompute_qpos0_constants(Scene& s) {
     } else {
       mj_jacBodyCom(m, sd.d, jp.data(), jr.data(), b);
     }
-    for (int i = 0; i < 3; ++i)
-      for (int k = 0; k < nv; ++k) J(i, k) = jp[i * nv + k], J(3 + i, k) = jr[i * nv + k];
-    const Eigen::MatrixXd A = J * Minv * J.transpose();
-    m->body_invweight0[2 * b] = (A(0, 0) + A(1, 1) + A(2, 2)) / 3.0;
-    m->body_invweight0[2 * b + 1] = (A(3, 3) + A(4, 4) + A(5, 5)) / 3.0;
+    // the trace of J M^-1 J^T, translation rows and rotation rows (3 solves each)
+    double tr[2] = {0.0, 0.0};
+    for (int part = 0; part < 2; ++part) {
+      const mjtNum* J = part == 0 ? jp.data() : jr.data();
+      mj_solveM(m, sd.d, jx.data(), J, 3);
+      tr[part] = mju_dot(J, jx.data(), 3 * nv);
+    }
+    m->body_invweight0[2 * b] = tr[0] / 3.0;
+    m->body_invweight0[2 * b + 1] = tr[1] / 3.0;
   }
   for (int t = 0; t < m->ntendon; ++t) {
-    Eigen::Map<const Eigen::RowVectorXd> Jt(sd.d->ten_J + t * nv, nv);
-    m->tendon_invweight0[t] = Jt * Minv * Jt.transpose();
+    mj_solveM(m, sd.d, x.data(), sd.d->ten_J + t * nv, 1);
+    m->tendon_invweight0[t] = mju_dot(sd.d->ten_J + t * nv, x.data(), nv);
   }
   // actuator_acc0 = |M^-1 moment| at qpos0: a muscle without a force (force="-1") pulls with
   // F0 = scale / acc0 (mju_muscleGain, at run time)
   for (int i = 0; i < m->nu; ++i) {
-    const Eigen::Map<const Eigen::VectorXd> moment(sd.d->actuator_moment + i * nv, nv);
-    m->actuator_acc0[i] = (Minv * moment).norm();
+    mj_solveM(m, sd.d, x.data(), sd.d->actuator_moment + i * nv, 1);
+    m->actuator_acc0[i] = mju_norm(x.data(), nv);
   }
   // the mean diagonal inertia at qpos0 (setStat's): the constraint solvers scale their tolerances
   // by it, and the proxies' placeholder unit masses and armatures had made it about 1
   if (nv > 0) {
     double trace = 0.0;
-    for (int i = 0; i < nv; ++i) trace += M(i, i);
+    for (int i = 0; i < nv; ++i) trace += sd.d->qM[m->dof_Madr[i]];
     m->stat.meaninertia = trace / nv;
   }
 }

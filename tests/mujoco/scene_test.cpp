@@ -196,6 +196,75 @@ TEST(Scene, InverseWeightsTakeTheRodsContinuumInertia) {
   }
 }
 
+// recompute_qpos0_constants works on MuJoCo's sparse factor of qM (with the rods' continuum
+// inertia added on each point's dof chain), as mj_setConst does: it equals the dense computation
+// (the full matrix, each rod's metric as a dense nv x nv matrix, a dense inverse), which loads of
+// many rods could not afford (50 arms, 1600 dofs: 6.5 s). Two rods on a free hub (one of them
+// nested under a hinged body), a rod on a hinge beside them, tendons and actuators.
+TEST(Scene, Qpos0ConstantsEqualTheDenseComputation) {
+  auto s = load_scene_string(R"(<mujoco><worldbody>
+      <body name="hub" pos="0 0 1"><freejoint/><geom type="box" size="0.05 0.04 0.03" mass="0.3"/>
+        <cosserat name="a" length="0.3" sections="3" strain="kl" radius="0.01" quadrature="lobatto">
+          <site name="a1" at="0.1" pos="0 0.006 0"/><site name="a2" at="0.25" pos="0 0.006 0"/></cosserat>
+        <body name="arm" pos="0.05 0 0"><joint name="elbow" type="hinge" axis="0 1 0"/>
+          <geom type="capsule" fromto="0 0 0 0.1 0 0" size="0.01" mass="0.05"/>
+          <cosserat name="b" pos="0.1 0 0" length="0.2" sections="2" strain="sr" radius="0.008" order="1">
+            <body name="tip"><geom type="sphere" size="0.015" mass="0.02"/></body></cosserat></body></body>
+      <body name="post" pos="1 0 1"><joint name="yaw" type="hinge" axis="0 0 1"/><geom type="sphere" size="0.02"/>
+        <cosserat name="c" length="0.4" sections="4" strain="ikl" radius="0.01"/></body></worldbody>
+    <tendon><spatial name="cable"><site site="a1"/><site site="a2"/></spatial></tendon>
+    <actuator><motor joint="elbow"/><motor tendon="cable"/><motor joint="a/s1/kz"/></actuator>
+  </mujoco>)",
+                             kPath);
+  const mjModel* m = s->m;
+  SceneData sd(*s);
+  mju_copy(sd.d->qpos, m->qpos0, m->nq);
+  fwd_position(*s, sd);
+  const int nv = m->nv;
+  Eigen::MatrixXd M(nv, nv);
+  mj_fullM(m, M.data(), sd.d->qM);
+  for (int r = 0; r < static_cast<int>(s->rods.size()); ++r) {
+    int points = kConstantsQuadrature;
+    for (const Section& sec : s->rods[r].model.sections) points = std::max(points, sec.order + 6);
+    M += rod_inertia(*s, sd, r, points) - rod_inertia(*s, sd, r, 0);
+  }
+  const Eigen::MatrixXd Minv = M.inverse();
+  auto near = [](double got, double want, const std::string& what) {
+    EXPECT_NEAR(got, want, 1e-10 * std::abs(want) + 1e-300) << what;
+  };
+  for (int j = 0; j < m->njnt; ++j) {
+    const int a = m->jnt_dofadr[j];
+    const int n = m->jnt_type[j] == mjJNT_FREE ? 6 : m->jnt_type[j] == mjJNT_BALL ? 3 : 1;
+    for (int k = 0; k < n; ++k) {
+      const int blk = m->jnt_type[j] == mjJNT_FREE ? a + 3 * (k / 3) : a;  // averaged per triple
+      const int cnt = n == 1 ? 1 : 3;
+      double want = 0.0;
+      for (int i = 0; i < cnt; ++i) want += Minv(blk + i, blk + i) / cnt;
+      near(m->dof_invweight0[a + k], want, "dof " + std::to_string(a + k));
+    }
+  }
+  std::vector<mjtNum> jp(3 * nv), jr(3 * nv);
+  std::vector<bool> proxy(m->nbody, false);
+  for (const RodBinding& rb : s->rods)
+    for (int b : rb.proxy_body) proxy[b] = true;
+  int others = 0;
+  for (int b = 1; b < m->nbody; ++b) {
+    if (proxy[b]) continue;  // taken at its section's centre of mass, checked elsewhere
+    ++others;
+    mj_jacBodyCom(m, sd.d, jp.data(), jr.data(), b);
+    const Eigen::Map<const Eigen::Matrix<double, -1, -1, Eigen::RowMajor>> Jp(jp.data(), 3, nv), Jr(jr.data(), 3, nv);
+    near(m->body_invweight0[2 * b], (Jp * Minv * Jp.transpose()).trace() / 3.0, std::string("body ") + mj_id2name(m, mjOBJ_BODY, b));
+    near(m->body_invweight0[2 * b + 1], (Jr * Minv * Jr.transpose()).trace() / 3.0, std::string("body rot ") + mj_id2name(m, mjOBJ_BODY, b));
+  }
+  EXPECT_GT(others, 5);  // hub, arm, tip, post and the strain joints' helper bodies
+  const Eigen::Map<const Eigen::RowVectorXd> Jt(sd.d->ten_J, nv);
+  near(m->tendon_invweight0[0], Jt * Minv * Jt.transpose(), "tendon");
+  for (int i = 0; i < m->nu; ++i)
+    near(m->actuator_acc0[i], (Minv * Eigen::Map<const Eigen::VectorXd>(sd.d->actuator_moment + i * nv, nv)).norm(),
+         "actuator " + std::to_string(i));
+  near(m->stat.meaninertia, M.trace() / nv, "meaninertia");
+}
+
 // MuJoCo's own compiler errors name lines of the generated MJCF; the user must see their file and
 // line, also inside included files and around <cosserat> elements.
 // Loading `xml` (named dir/name) fails with a LoadError at `file` (default: the same) and `line`
