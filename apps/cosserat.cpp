@@ -32,6 +32,7 @@
 #include "kinematics.hpp"
 #include "linearize.hpp"
 #include "cli.hpp"
+#include "progress.hpp"
 #include "render_commands.hpp"
 #include "scene.hpp"
 #include "scene_statics.hpp"
@@ -89,30 +90,6 @@ void write_json(const std::string& path, const json& j) {
   f << j.dump(2) << "\n";
   if (!f) fail("cannot write " + path);
 }
-
-// A progress bar on stderr, shown only when stderr is a terminal.
-class Progress {
- public:
-  Progress(std::string label, long total) : label_(std::move(label)), total_(std::max(total, 1L)), tty_(isatty(STDERR_FILENO)) {}
-  ~Progress() {
-    if (tty_ && shown_ >= 0) std::fprintf(stderr, "\r%*s\r", 60, "");
-  }
-  void update(long k, double t) {
-    const int pct = static_cast<int>(100 * k / total_);
-    if (!tty_ || pct == shown_) return;
-    shown_ = pct;
-    const int w = 30, filled = w * pct / 100;
-    std::fprintf(stderr, "\r%s [%.*s%*s] %3d%%  t = %.3f s", label_.c_str(), filled, "##############################",
-                 w - filled, "", pct, t);
-    std::fflush(stderr);
-  }
-
- private:
-  std::string label_;
-  long total_;
-  bool tty_;
-  int shown_ = -1;
-};
 
 // ---------------------------------------------------------------------------- scene outputs --
 
@@ -354,13 +331,25 @@ std::string divergence_hint(Simulation& s) {
   const Integrator in = s.integrator();
   if (const std::string c = mj::collapse_warning(s.scene(), s.data()); !c.empty())
     return "after a rod section collapsed: " + c;
+  std::string hint;
   if (in == Integrator::Euler || in == Integrator::RK4)
-    return "try a smaller --timestep, or --integrator implicit: explicit integrators need steps below the stiffest "
+    hint = "try a smaller --timestep, or --integrator implicit: explicit integrators need steps below the stiffest "
            "mode's period";
-  if (s.scene().newton_for(in) == 0)
-    return "try --newton 10 (gravity, Coriolis and geometric stiffness are explicit in the linearised step) or a "
+  else if (s.scene().newton_for(in) == 0)
+    hint = "try --newton 10 (gravity, Coriolis and geometric stiffness are explicit in the linearised step) or a "
            "smaller --timestep";
-  return "try a smaller --timestep, or more --newton corrections";
+  else
+    hint = "try a smaller --timestep, or more --newton corrections";
+  // contacts or constraint rows dropped for want of room come first: bodies then pass through each other
+  const mjData* d = s.data().d;
+  const mjModel* m = s.scene().m;
+  const int full = d->warning[mjWARN_CONTACTFULL].number + d->warning[mjWARN_CNSTRFULL].number;
+  if (full > 0)
+    hint = "MuJoCo's contact buffers were full " + std::to_string(full) +
+           " times and contacts were dropped: raise <size nconmax=\"...\" njmax=\"...\"> (now " +
+           std::to_string(m->nconmax) + " and " + std::to_string(m->njmax) +
+           "; a capsule on a plane makes 1-2 contacts of 1-6 constraint rows each); else " + hint;
+  return hint;
 }
 
 int cmd_run(int argc, char** argv) {
@@ -420,7 +409,7 @@ int cmd_run(int argc, char** argv) {
   };
 
   EnergyTracker energy;
-  Progress progress("run", s.steps());
+  Progress progress("run", s.steps(), "step");
   const auto t0 = std::chrono::steady_clock::now();
   s.observe();
   energy.add(s.energy());

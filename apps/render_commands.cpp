@@ -20,6 +20,7 @@
 #include "newton_options.hpp"
 #include "state_options.hpp"
 #include "cli.hpp"
+#include "progress.hpp"
 #include "integrators.hpp"
 #include "png_io.hpp"
 #include "renderer.hpp"
@@ -141,32 +142,6 @@ struct Simulation {
   double time() const { return data->d->time - t0; }
 };
 
-// A progress bar on stderr when it is a terminal; nothing otherwise.
-class Progress {
- public:
-  explicit Progress(long total, const char* label = "render")
-      : total_(std::max(total, 1L)), tty_(isatty(STDERR_FILENO)), label_(label) {}
-  ~Progress() { clear(); }
-  void clear() {
-    if (tty_ && shown_ >= 0) std::fprintf(stderr, "\r%*s\r", 80, "");
-    shown_ = -1;
-  }
-  void update(long done, double t) {
-    const int pct = static_cast<int>(100 * done / total_);
-    if (!tty_ || pct == shown_) return;
-    shown_ = pct;
-    const int w = 30, filled = w * pct / 100;
-    std::fprintf(stderr, "\r%s [%.*s%*s] %3d%%  frame %ld/%ld  t = %.3f s", label_, filled,
-                 "##############################", w - filled, "", pct, done, total_, t);
-    std::fflush(stderr);
-  }
-
- private:
-  long total_;
-  bool tty_;
-  const char* label_;
-  int shown_ = -1;
-};
 
 // Runs a command body and turns every failure into a one-line message and status 1.
 int guarded(const std::function<int()>& body) {
@@ -228,7 +203,7 @@ int render_command(int argc, char** argv) {
       // the free camera frames the whole run: a first pass simulates it (up to a divergence, which
       // the second pass then reports after writing the frames before it) and merges the extents
       // of at most 2000 frames evenly spread
-      Progress progress(frames, "frame the motion");
+      Progress progress("frame the motion", frames, "frame");
       const long every = std::max(1L, (frames + 1999) / 2000);
       rd::Extent e;
       try {
@@ -246,7 +221,7 @@ int render_command(int argc, char** argv) {
     }
     rd::remove_frames(o.out);
 
-    Progress progress(frames);
+    Progress progress("render", frames, "frame");
     for (long k = 0; k < frames; ++k) {
       sim.advance_to(k / fps);
       rd::write_png(rd::frame_path(o.out, static_cast<int>(k)), renderer.render(*sim.data));

@@ -509,6 +509,26 @@ TEST_F(Cli, RunReportsACollapsedSection) {
   expect_quiet_cantilever_run("--duration 0.5");
 }
 
+// A run that diverges after MuJoCo's contact buffers overflowed says so first, with the <size>
+// attributes to raise (outside probe K: a pile of rods fell through the floor and the message only
+// suggested a smaller time step); the integrator's own advice follows.
+TEST_F(Cli, ADivergenceAfterFullContactBuffersNamesThem) {
+  const fs::path model = scratch() / "full.xml";
+  std::ofstream(model) << R"(<mujoco><size nconmax="1" njmax="10"/><worldbody>
+    <geom name="floor" type="plane" size="1 1 0.1"/>
+    <body name="a" pos="0 0 0.011"><freejoint/><geom type="sphere" size="0.01" mass="0.01"/>
+      <cosserat name="ra" length="0.3" sections="3" strain="kl" radius="0.01" young="1e9"/></body>
+    <body name="b" pos="0 0.1 0.011"><freejoint/><geom type="sphere" size="0.01" mass="0.01"/>
+      <cosserat name="rb" length="0.3" sections="3" strain="kl" radius="0.01" young="1e9"/></body>
+  </worldbody></mujoco>)";
+  const Result r = cosserat("run '" + model.string() + "' --integrator euler --timestep 0.01 --duration 1");
+  EXPECT_EQ(r.status, 1);
+  EXPECT_EQ(lines(r.err).size(), 1u) << r.err;
+  EXPECT_NE(r.err.find("contacts were dropped: raise <size nconmax=\"...\" njmax=\"...\"> (now 1 and 10"),
+            std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("else try a smaller --timestep"), std::string::npos) << r.err;
+}
+
 // A MuJoCo error inside a step (its constraint solver's rank-deficient Hessian after a mixed rod's
 // section collapsed) ends the run as a divergence: exit 1 with one line naming the error, the CSV
 // and JSON written up to the last good step; one at load names the file (outside probe,

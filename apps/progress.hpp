@@ -1,0 +1,66 @@
+// Progress of a long command on stderr, shared by the cosserat tool's commands: a bar redrawn in
+// place when stderr is a terminal; otherwise (a log file, a pipe) a line every 10 s of wall time
+// once the command has run for 10 s, so that short runs print nothing.
+#pragma once
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <string>
+
+namespace cosserat::cli {
+
+class Progress {
+ public:
+  // `count`: the name of what is counted ("frame": shows "frame k/total"; empty: only the percentage).
+  Progress(std::string label, long total, std::string count = "")
+      : label_(std::move(label)), count_(std::move(count)), total_(std::max(total, 1L)), tty_(isatty(STDERR_FILENO)),
+        start_(Clock::now()), next_line_(kLineInterval) {}
+  ~Progress() { clear(); }
+  Progress(const Progress&) = delete;
+  Progress& operator=(const Progress&) = delete;
+
+  // `done` of the total, at simulated time t [s].
+  void update(long done, double t) {
+    const int pct = static_cast<int>(100 * done / total_);
+    if (tty_) {
+      if (pct == shown_) return;
+      shown_ = pct;
+      const int w = 30, filled = w * pct / 100;
+      std::fprintf(stderr, "\r%s [%.*s%*s] %3d%%%s  t = %.3f s", label_.c_str(), filled, "##############################",
+                   w - filled, "", pct, counted(done).c_str(), t);
+      std::fflush(stderr);
+      return;
+    }
+    if ((done & 63) != 0 && done != total_) return;  // the clock read every 64 updates
+    const double wall = std::chrono::duration<double>(Clock::now() - start_).count();
+    if (wall < next_line_) return;
+    next_line_ = wall + kLineInterval;
+    const double left = done > 0 ? wall * static_cast<double>(total_ - done) / static_cast<double>(done) : 0.0;
+    std::fprintf(stderr, "%s: %d%%%s, t = %.4g s, %.0f s wall, about %.0f s left\n", label_.c_str(), pct,
+                 counted(done).c_str(), t, wall, left);
+    std::fflush(stderr);
+  }
+  // Erases the bar (before other output).
+  void clear() {
+    if (tty_ && shown_ >= 0) std::fprintf(stderr, "\r%*s\r", 80, "");
+    shown_ = -1;
+  }
+
+ private:
+  using Clock = std::chrono::steady_clock;
+  static constexpr double kLineInterval = 10.0;  // [s]
+  std::string counted(long done) const {
+    return count_.empty() ? std::string() : "  " + count_ + " " + std::to_string(done) + "/" + std::to_string(total_);
+  }
+  std::string label_, count_;
+  long total_;
+  bool tty_;
+  Clock::time_point start_;
+  double next_line_;
+  int shown_ = -1;
+};
+
+}  // namespace cosserat::cli
