@@ -490,6 +490,12 @@ int cmd_run(int argc, char** argv) {
   }
   if (diverged) warnings.insert(warnings.begin(), "diverged: " + s.data().warning);
   const std::vector<std::string> exchanges = energy_exchanges(s.scene(), touched);
+  if (csv_out)  // the CSV header's contract is <name>.x,...: a site and a body of one name repeat it
+    for (const auto& site : out.sites)
+      for (const auto& body : out.bodies)
+        if (site.name == body.name)
+          warnings.push_back("a site and a body are both named '" + site.name + "': the CSV has two sets of columns " +
+                             site.name + ".x,.y,.z, the site's first");
   if (!json_path.empty()) {
     json j;
     j["model"] = pos->front();

@@ -134,6 +134,9 @@ TEST_F(Cli, RunWritesCsvWithExactHeaderAndRows) {
             "beam/tip.x,beam/tip.y,beam/tip.z,weight.x,weight.y,weight.z,weight.x,weight.y,weight.z");
   EXPECT_EQ(rows[1].rfind("0,", 0), 0u) << rows[1];
   EXPECT_NEAR(std::stod(rows.back()), 0.05, 1e-9);
+  // the site and the body named "weight" repeat their columns: the run says so
+  EXPECT_NE(r.out.find("warning: a site and a body are both named 'weight': the CSV has two sets of columns"),
+            std::string::npos) << r.out;
   // the tip starts at (0.5, 0, 1) and drops
   std::vector<double> first, last;
   for (auto* v : {&first, &last}) {
