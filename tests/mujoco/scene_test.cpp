@@ -199,23 +199,10 @@ TEST(Scene, InverseWeightsTakeTheRodsContinuumInertia) {
 // recompute_qpos0_constants works on MuJoCo's sparse factor of qM (with the rods' continuum
 // inertia added on each point's dof chain), as mj_setConst does: it equals the dense computation
 // (the full matrix, each rod's metric as a dense nv x nv matrix, a dense inverse), which loads of
-// many rods could not afford (50 arms, 1600 dofs: 6.5 s). Two rods on a free hub (one of them
-// nested under a hinged body), a rod on a hinge beside them, tendons and actuators.
-TEST(Scene, Qpos0ConstantsEqualTheDenseComputation) {
-  auto s = load_scene_string(R"(<mujoco><worldbody>
-      <body name="hub" pos="0 0 1"><freejoint/><geom type="box" size="0.05 0.04 0.03" mass="0.3"/>
-        <cosserat name="a" length="0.3" sections="3" strain="kl" radius="0.01" quadrature="lobatto">
-          <site name="a1" at="0.1" pos="0 0.006 0"/><site name="a2" at="0.25" pos="0 0.006 0"/></cosserat>
-        <body name="arm" pos="0.05 0 0"><joint name="elbow" type="hinge" axis="0 1 0"/>
-          <geom type="capsule" fromto="0 0 0 0.1 0 0" size="0.01" mass="0.05"/>
-          <cosserat name="b" pos="0.1 0 0" length="0.2" sections="2" strain="sr" radius="0.008" order="1">
-            <body name="tip"><geom type="sphere" size="0.015" mass="0.02"/></body></cosserat></body></body>
-      <body name="post" pos="1 0 1"><joint name="yaw" type="hinge" axis="0 0 1"/><geom type="sphere" size="0.02"/>
-        <cosserat name="c" length="0.4" sections="4" strain="ikl" radius="0.01"/></body></worldbody>
-    <tendon><spatial name="cable"><site site="a1"/><site site="a2"/></spatial></tendon>
-    <actuator><motor joint="elbow"/><motor tendon="cable"/><motor joint="a/s1/kz"/></actuator>
-  </mujoco>)",
-                             kPath);
+// many rods could not afford (50 arms, 1600 dofs: 6.5 s).
+void expect_qpos0_constants_dense(const Scene& scene, const std::string& what) {
+  SCOPED_TRACE(what);
+  const Scene* s = &scene;
   const mjModel* m = s->m;
   SceneData sd(*s);
   mju_copy(sd.d->qpos, m->qpos0, m->nq);
@@ -256,13 +243,47 @@ TEST(Scene, Qpos0ConstantsEqualTheDenseComputation) {
     near(m->body_invweight0[2 * b], (Jp * Minv * Jp.transpose()).trace() / 3.0, std::string("body ") + mj_id2name(m, mjOBJ_BODY, b));
     near(m->body_invweight0[2 * b + 1], (Jr * Minv * Jr.transpose()).trace() / 3.0, std::string("body rot ") + mj_id2name(m, mjOBJ_BODY, b));
   }
-  EXPECT_GT(others, 5);  // hub, arm, tip, post and the strain joints' helper bodies
-  const Eigen::Map<const Eigen::RowVectorXd> Jt(sd.d->ten_J, nv);
-  near(m->tendon_invweight0[0], Jt * Minv * Jt.transpose(), "tendon");
+  EXPECT_GT(others, 0);  // rigid bodies and the strain joints' helper bodies
+  for (int t = 0; t < m->ntendon; ++t) {
+    const Eigen::Map<const Eigen::RowVectorXd> Jt(sd.d->ten_J + t * nv, nv);
+    near(m->tendon_invweight0[t], Jt * Minv * Jt.transpose(), "tendon " + std::to_string(t));
+  }
   for (int i = 0; i < m->nu; ++i)
     near(m->actuator_acc0[i], (Minv * Eigen::Map<const Eigen::VectorXd>(sd.d->actuator_moment + i * nv, nv)).norm(),
          "actuator " + std::to_string(i));
   near(m->stat.meaninertia, M.trace() / nv, "meaninertia");
+}
+
+// Two rods on a free hub (one of them nested under a hinged body), a rod on a hinge beside them, a
+// tendon and actuators; every shipped model; rods on a ball joint, a welded body and the world.
+TEST(Scene, Qpos0ConstantsEqualTheDenseComputation) {
+  auto s = load_scene_string(R"(<mujoco><worldbody>
+      <body name="hub" pos="0 0 1"><freejoint/><geom type="box" size="0.05 0.04 0.03" mass="0.3"/>
+        <cosserat name="a" length="0.3" sections="3" strain="kl" radius="0.01" quadrature="lobatto">
+          <site name="a1" at="0.1" pos="0 0.006 0"/><site name="a2" at="0.25" pos="0 0.006 0"/></cosserat>
+        <body name="arm" pos="0.05 0 0"><joint name="elbow" type="hinge" axis="0 1 0"/>
+          <geom type="capsule" fromto="0 0 0 0.1 0 0" size="0.01" mass="0.05"/>
+          <cosserat name="b" pos="0.1 0 0" length="0.2" sections="2" strain="sr" radius="0.008" order="1">
+            <body name="tip"><geom type="sphere" size="0.015" mass="0.02"/></body></cosserat></body></body>
+      <body name="post" pos="1 0 1"><joint name="yaw" type="hinge" axis="0 0 1"/><geom type="sphere" size="0.02"/>
+        <cosserat name="c" length="0.4" sections="4" strain="ikl" radius="0.01"/></body></worldbody>
+    <tendon><spatial name="cable"><site site="a1"/><site site="a2"/></spatial></tendon>
+    <actuator><motor joint="elbow"/><motor tendon="cable"/><motor joint="a/s1/kz"/></actuator>
+  </mujoco>)",
+                             kPath);
+  expect_qpos0_constants_dense(*s, "inline tree");
+  // every shipped model, and rods on a ball joint, on a welded body and with rigid sections
+  for (const char* f : {"cantilever", "flagellate", "flagellate_rigid", "lophotrichous", "hybrid_arm", "octopus_arm"})
+    expect_qpos0_constants_dense(*load_scene(std::string(COSSERAT_SOURCE_DIR "/models/") + f + ".xml"), f);
+  auto odd = load_scene_string(R"(<mujoco><worldbody>
+      <body name="ball" pos="0 0 1"><joint type="ball"/><geom type="sphere" size="0.03" mass="0.2"/>
+        <cosserat name="r1" length="0.3" sections="2" strain="kl" radius="0.01">
+          <section length="0.1" strain="rigid"/><section length="0.2"/></cosserat>
+        <body name="welded" pos="0.1 0 0"><geom type="sphere" size="0.01" mass="0.01"/>
+          <cosserat name="r2" length="0.2" sections="3" strain="ikl" radius="0.008"/></body></body>
+      <cosserat name="r3" pos="1 0 1" length="0.2" sections="2" strain="kl" radius="0.01"/></worldbody></mujoco>)",
+                               kPath);
+  expect_qpos0_constants_dense(*odd, "ball joint, welded body, rigid section, rod on the world");
 }
 
 // MuJoCo's own compiler errors name lines of the generated MJCF; the user must see their file and
