@@ -173,6 +173,7 @@ class Trig {
   bool done_ = false;
 };
 
+// sin t / t has no cancellation; only t = 0 itself needs care (series below 1e-4: error t^4/120).
 double a1(Trig& T) { return T.t < 1e-4 ? 1.0 - T.t * T.t / 6.0 : T.sin() / T.t; }
 double a3(Trig& T) {
   const double t = T.t;
@@ -505,12 +506,13 @@ Vec6 ddexp_apply(const Vec6& Om, const Vec6& de, const Vec6& x) {
   Trig T(t);
   const double C1 = c1(T), C2 = c2(T), C3 = c3(T), C4 = c4(T);
   const double D3 = d3(T), D4 = d4(T), D1 = t2 * D3, D2 = t2 * D4;
-  const Vec6 a1 = ad_apply(Om, x), a2 = ad_apply(Om, a1), a3 = ad_apply(Om, a2), a4 = ad_apply(Om, a3);
-  const Vec6 y0 = ad_apply(de, x), y1 = ad_apply(de, a1), y2 = ad_apply(de, a2), y3 = ad_apply(de, a3);
+  // x1..x4 = A^k x
+  const Vec6 x1 = ad_apply(Om, x), x2 = ad_apply(Om, x1), x3 = ad_apply(Om, x2), x4 = ad_apply(Om, x3);
+  const Vec6 y0 = ad_apply(de, x), y1 = ad_apply(de, x1), y2 = ad_apply(de, x2), y3 = ad_apply(de, x3);
   const Vec6 z3 = C4 * y0, z2 = C3 * y0 + C4 * y1, z1 = C2 * y0 + C3 * y1 + C4 * y2,
              z0 = C1 * y0 + C2 * y1 + C3 * y2 + C4 * y3;
   return z0 + ad_apply(Om, z1 + ad_apply(Om, z2 + ad_apply(Om, z3))) +
-         kdk * (D1 * a1 + D2 * a2 + D3 * a3 + D4 * a4);
+         kdk * (D1 * x1 + D2 * x2 + D3 * x3 + D4 * x4);
 }
 
 }  // namespace cosserat

@@ -678,8 +678,6 @@ void patch_tendons(const Scene& s, SceneData& sd) {
   }
 }
 
-// The dofs above the rod's base body, nearest first (MuJoCo's dof_parentid chain).
-
 // Base-frame columns of the ancestor dofs (sd.scratch[r].anc, fixed): Ad_G^-1 cdof_j.
 void base_columns(const Scene& s, SceneData& sd, int r) {
   const mjModel* m = s.m;
