@@ -489,6 +489,15 @@ int first_ancestor_dof(const mjModel* m, int body) {
   return -1;
 }
 
+// MuJoCo's velocity-product acceleration of `body` (com-based spatial layout, as cacc with
+// qacc = 0 and without gravity): sum of cdof_dot qvel over its dofs and its ancestors'.
+Vec6 velocity_product_acceleration(const mjModel* m, const mjData* d, int body) {
+  Vec6 a = Vec6::Zero();
+  for (int j = first_ancestor_dof(m, body); j >= 0; j = m->dof_parentid[j])
+    for (int e = 0; e < 6; ++e) a(e) += d->cdof_dot[6 * j + e] * d->qvel[j];
+  return a;
+}
+
 // Rod r's kinetic-energy metric, point by point: for each mass point (points = 0: the dynamics'
 // mass rule, else a `points`-point Gauss rule on each section), add(chain, A) with `chain` the
 // dofs that move the point, deepest first, each the parent (dof_parentid) of the one before, and
@@ -562,16 +571,23 @@ int site_correction(const Scene& s, const SceneData& sd, int site, const Vec3& p
                  : point_correction(s, sd, r, s.site_section[site], s.rods[r].decl.sites[k].X, p, dJ);
 }
 
-int capsule_correction(const Scene& s, const SceneData& sd, int geom, const Vec3& p, SectionCols& dJ) {
+namespace {
+// The material abscissa of a point p touching rod capsule `geom`: p projected on the capsule's axis.
+double capsule_abscissa(const Scene& s, const SceneData& sd, int geom, const Vec3& p) {
   const mjData* d = sd.d;
-  const int r = s.geom_rod[geom];
-  const RodGeomDecl& gd = s.rods[r].decl.geoms[s.geom_index[geom]];
-  // material abscissa: the point projected on the capsule's axis
+  const RodGeomDecl& gd = s.rods[s.geom_rod[geom]].decl.geoms[s.geom_index[geom]];
   const Vec3 gc(d->geom_xpos[3 * geom], d->geom_xpos[3 * geom + 1], d->geom_xpos[3 * geom + 2]);
   const Vec3 ax(d->geom_xmat[9 * geom + 2], d->geom_xmat[9 * geom + 5], d->geom_xmat[9 * geom + 8]);
   const double half = s.m->geom_size[3 * geom + 1];
   const double t = std::clamp(0.5 + (p - gc).dot(ax) / (2.0 * half), 0.0, 1.0);
-  return point_correction(s, sd, r, gd.section, gd.X_begin + t * (gd.X_end - gd.X_begin), p, dJ);
+  return gd.X_begin + t * (gd.X_end - gd.X_begin);
+}
+}  // namespace
+
+int capsule_correction(const Scene& s, const SceneData& sd, int geom, const Vec3& p, SectionCols& dJ) {
+  const int r = s.geom_rod[geom];
+  return point_correction(s, sd, r, s.rods[r].decl.geoms[s.geom_index[geom]].section, capsule_abscissa(s, sd, geom, p),
+                          p, dJ);
 }
 
 namespace {
@@ -626,6 +642,82 @@ void patch_contacts(const Scene& s, SceneData& sd) {
           for (int j = 0; j < con.dim; ++j) efc_add(m, d, row0 + j, col0 + k, C(j, k));
         }
       }
+    }
+  }
+}
+
+// Whether a contact of this evaluation touches a rod capsule on a section with strain dofs (the
+// contacts whose reference accelerations patch_contact_references corrects): per rod, in
+// sd.rod_contact. After mj_collision.
+bool mark_rod_contacts(const Scene& s, SceneData& sd) {
+  const mjData* d = sd.d;
+  std::fill(sd.rod_contact.begin(), sd.rod_contact.end(), 0);
+  bool any = false;
+  for (int i = 0; i < d->ncon; ++i) {
+    const mjContact& con = d->contact[i];
+    if (con.efc_address < 0) continue;
+    for (const int g : {con.geom1, con.geom2}) {
+      const int r = s.geom_rod[g];
+      if (r < 0 || s.rods[r].model.sections[s.rods[r].decl.geoms[s.geom_index[g]].section].ndof == 0) continue;
+      sd.rod_contact[r] = 1;
+      any = true;
+    }
+  }
+  return any;
+}
+
+// Patch point 5b: MuJoCo's contact rows constrain J qacc and leave the velocity product dJ/dt qvel
+// to the reference acceleration's feedback (aref = -b J qvel - k r). For a point on a rigid body
+// that term is the centripetal acceleration of its offset, which a round geom's contact does not
+// feel; on a soft section it carries the strain coordinates' own velocity products, which need
+// not be small: a bent rod rolling about its centre line keeps that line still while J qacc
+// reads hundreds of m/s^2, and its contacts, seeing the rod leave, let it sink through the floor.
+// So a contact on a section with strain dofs constrains the acceleration of its point riding
+// with the cross-section: efc_aref -= the rows' velocity product, that of the centre-line point
+// under the contact and the cross-section's angular one (the centripetal term of the offset to
+// the surface left out, as MuJoCo leaves it out for a rigid body). Contacts on rigid sections
+// stay MuJoCo's (bit for bit what welded bodies give). After mj_referenceConstraint.
+void patch_contact_references(const Scene& s, SceneData& sd) {
+  const mjModel* m = s.m;
+  mjData* d = sd.d;
+  for (int i = 0; i < d->ncon; ++i) {
+    const mjContact& con = d->contact[i];
+    if (con.efc_address < 0) continue;
+    Vec6 c = Vec6::Zero();  // relative (geom2 - geom1): angular, linear; world axes
+    bool any = false;
+    for (int side = 0; side < 2; ++side) {
+      const int g = side == 0 ? con.geom1 : con.geom2;
+      const int r = s.geom_rod[g];
+      if (r < 0) continue;
+      const RodBinding& rb = s.rods[r];
+      const int si = rb.decl.geoms[s.geom_index[g]].section;
+      if (rb.model.sections[si].ndof == 0) continue;
+      const Vec3 p(con.pos[0], con.pos[1], con.pos[2]);
+      const int start = si == 0 ? rb.base_body : rb.proxy_body[si - 1];
+      const CrossSectionMotion cs = cross_section_motion(s, sd, r, si, capsule_abscissa(s, sd, g, p),
+                                                         velocity_product_acceleration(m, d, start), nullptr);
+      const Vec3 w = cs.eta.head<3>(), v = cs.eta.tail<3>();
+      const Vec3 wd = cs.pose.R * cs.rate.head<3>();
+      const Vec3 a = cs.pose.R * (cs.rate.tail<3>() + w.cross(v)) + wd.cross(p - cs.pose.u);
+      const double sign = side == 0 ? -1.0 : 1.0;
+      c.head<3>() += sign * wd;
+      c.tail<3>() += sign * a;
+      any = true;
+    }
+    if (!any) continue;
+    // contact-frame components: normal, tangents, then rotations about normal, t1, t2
+    Eigen::Map<const Mat3r> frame(con.frame);
+    Eigen::Matrix<double, 6, 1> cf;
+    cf.head<3>() = frame * c.tail<3>();
+    cf.tail<3>() = frame * c.head<3>();
+    const int row0 = con.efc_address;
+    if (d->efc_type[row0] == mjCNSTR_CONTACT_PYRAMIDAL) {
+      for (int j = 1; j < con.dim; ++j) {
+        d->efc_aref[row0 + 2 * (j - 1)] -= cf(0) + con.friction[j - 1] * cf(j);
+        d->efc_aref[row0 + 2 * (j - 1) + 1] -= cf(0) - con.friction[j - 1] * cf(j);
+      }
+    } else {  // frictionless or elliptic: one row per contact-frame direction
+      for (int j = 0; j < con.dim; ++j) d->efc_aref[row0 + j] -= cf(j);
     }
   }
 }
@@ -715,22 +807,20 @@ void patch_qM(const Scene& s, SceneData& sd, int r) {
 // Rod velocities for this step: strain rates from qvel, and the base's twist and bias
 // acceleration (MuJoCo's cvel and sum cdof_dot qvel - gravity, to the base frame). Must run after
 // mj_comVel and after the patches of every rod above this one (rods are ordered outer first).
-void rod_velocity(const Scene& s, SceneData& sd, int r) {
+void rod_velocity(const Scene& s, SceneData& sd, int r, bool with_Sdot) {
   const mjModel* m = s.m;
   mjData* d = sd.d;
   const RodBinding& rb = s.rods[r];
   cosserat::Data& rd = sd.rod[r];
   for (int k = 0; k < rb.model.nv; ++k) rd.v(k) = d->qvel[rb.dof0 + k];
   const SE3 G = com_frame(rd.base_pose, d->subtree_com + 3 * m->body_rootid[rb.base_body]);
-  Vec6 cvel, cacc = Vec6::Zero();
+  Vec6 cvel, cacc = velocity_product_acceleration(m, d, rb.base_body);
   for (int e = 0; e < 6; ++e) cvel(e) = d->cvel[6 * rb.base_body + e];
   if (!(m->opt.disableflags & mjDSBL_GRAVITY))
-    cacc.tail<3>() = -Vec3(m->opt.gravity[0], m->opt.gravity[1], m->opt.gravity[2]);
-  for (int j = first_ancestor_dof(m, rb.base_body); j >= 0; j = m->dof_parentid[j])
-    for (int e = 0; e < 6; ++e) cacc(e) += d->cdof_dot[6 * j + e] * d->qvel[j];
+    cacc.tail<3>() -= Vec3(m->opt.gravity[0], m->opt.gravity[1], m->opt.gravity[2]);
   rd.base_twist = Ad_inv_apply(G, cvel);
   rd.base_accel = Ad_inv_apply(G, cacc);
-  cosserat::fwd_velocity(rb.model, rd, rb.cdof_dot_read);  // dS/dt only where cdof_dot is read
+  cosserat::fwd_velocity(rb.model, rd, with_Sdot);
 }
 
 // Patch point 6: rod Coriolis, centrifugal and gravity forces, the reaction on the ancestors,
@@ -789,6 +879,7 @@ SceneData::SceneData(const Scene& s) {
   fluid_f.assign(s.fluid.active ? nv : 0, 0);
   fluid_cols.setZero(6, s.fluid.max_chain);
   scratch.resize(s.rods.size());
+  rod_contact.assign(s.rods.size(), 0);
   for (size_t r = 0; r < s.rods.size(); ++r) {
     RodScratch& sc = scratch[r];
     for (int j = first_ancestor_dof(s.m, s.rods[r].base_body); j >= 0; j = s.m->dof_parentid[j]) sc.anc.push_back(j);
@@ -894,13 +985,17 @@ void fwd_velocity(const Scene& s, SceneData& sd) {
   mjData* d = sd.d;
   if (m->ntendon) mju_mulMatVec(d->ten_velocity, d->ten_J, d->qvel, m->ntendon, m->nv);
   if (m->nu) mju_mulMatVec(d->actuator_velocity, d->actuator_moment, d->qvel, m->nu, m->nv);
-  com_velocity_except(m, d, s.velocity_skip.data());
+  // contacts on soft sections read their section's dS/dt, the proxies' cdof_dot and cvel
+  const bool rod_contacts = d->ncon && !s.rods.empty() && mark_rod_contacts(s, sd);
+  com_velocity_except(m, d, rod_contacts ? nullptr : s.velocity_skip.data());
   for (size_t r = 0; r < s.rods.size(); ++r) {
-    rod_velocity(s, sd, static_cast<int>(r));
-    if (s.rods[r].cdof_dot_read) patch_cdof_dot(s, sd, static_cast<int>(r));
+    const bool rates = s.rods[r].cdof_dot_read || (rod_contacts && sd.rod_contact[r]);
+    rod_velocity(s, sd, static_cast<int>(r), rates);  // dS/dt only where something reads it
+    if (rates) patch_cdof_dot(s, sd, static_cast<int>(r));
   }
   mj_passive(m, d);
   mj_referenceConstraint(m, d);
+  if (rod_contacts) patch_contact_references(s, sd);
   rne_except(m, d, 0, d->qfrc_bias, s.velocity_skip.data());
   for (size_t r = 0; r < s.rods.size(); ++r) patch_bias(s, sd, static_cast<int>(r));
   fluid_forces(s, sd);  // fluid hook: qfrc_passive -= D qvel; no-op without the fluid
