@@ -333,6 +333,34 @@ int section_jacobian(const Model& m, const Data& d, int r, double X, Mat6X& J, M
   return section_jacobian_from(m, d, ps, G, J, Jdot, gX, nullptr);
 }
 
+PointMotion point_motion_at_rest_acceleration(const Model& m, const Data& d, int r, double X, int section) {
+  thread_local Mat6X G;  // scratch, as section_jacobian's
+  PartialStep ps;
+  partial_step(m, d, r, X, section, &G, ps, false);
+  if (ps.full) return {d.g[ps.node], d.eta[ps.node], d.acc[ps.node]};
+  const Section& sec = m.sections[m.nodes[ps.node].section];
+  const SE3 grel = ps.offset * exp_se3(ps.Om);
+  PointMotion pm;
+  pm.pose = (ps.parent < 0 ? d.base_pose : d.g[ps.parent]) * grel;
+  pm.eta = Ad_inv_apply(grel, ps.parent < 0 ? d.base_twist : d.eta[ps.parent]);
+  pm.acc = Ad_inv_apply(grel, ps.parent < 0 ? d.base_accel : d.acc[ps.parent]);
+  if (sec.ndof > 0) {  // the partial step's own motion, as fwd_velocity's for a whole step
+    const double* v = d.v.data() + sec.dof0;
+    Vec6 Omd = Vec6::Zero();
+    for (int k = 0; k < sec.ndof; ++k) Omd += G.col(k) * v[k];
+    const Vec6 mOm = -ps.Om;
+    const Vec6 psi = dexp_apply(mOm, Omd);
+    Vec6 sv = ddexp_apply(mOm, -Omd, Omd);
+    if (ps.sp.commutator) {
+      const double c = kZanna * ps.sp.h * ps.sp.h;
+      sv += dexp_apply(mOm, 2.0 * c * ad_apply(sec.basis_apply(ps.sp.Pa, v), sec.basis_apply(ps.sp.Pb, v)));
+    }
+    pm.eta += psi;
+    pm.acc += sv + ad_apply(pm.eta, psi);
+  }
+  return pm;
+}
+
 SE3 rod_pose_and_jacobian(const Model& m, const Data& d, int r, double X, int section, Mat6X& J, SE3* g_start_X) {
   thread_local Mat6X G;
   PartialStep ps;

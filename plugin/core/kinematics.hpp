@@ -43,6 +43,18 @@ int section_jacobian(const Model& m, const Data& d, int rod, double X, Mat6X& J,
 SE3 rod_pose_and_jacobian(const Model& m, const Data& d, int rod, double X, int section, Mat6X& J,
                           SE3* g_start_X);
 
+// The cross-section at X in motion at qacc = 0: its world pose, its twist eta and its
+// velocity-product acceleration acc (body frame at X): the parent node's Data::acc (or, before the
+// first node, Data::base_accel) carried along, plus dS/dt v + ad_eta psi of the partial step to X
+// (psi = S v its own twist). After fwd_velocity and an rnea with qacc = 0, whose Data::acc it reads
+// (the nodes of a section with dofs and their parents are never lumped away: rnea fills them).
+// `section` as section_jacobian's. O(one Magnus step).
+struct PointMotion {
+  SE3 pose;
+  Vec6 eta, acc;
+};
+PointMotion point_motion_at_rest_acceleration(const Model& m, const Data& d, int rod, double X, int section = -1);
+
 // Strain xi(X) = Phi(X) q + xi* of rod r.
 Vec6 rod_strain(const Model& m, const Data& d, int rod, double X);
 

@@ -646,24 +646,11 @@ void patch_contacts(const Scene& s, SceneData& sd) {
   }
 }
 
-// Whether a contact of this evaluation touches a rod capsule on a section with strain dofs (the
-// contacts whose reference accelerations patch_contact_references corrects): per rod, in
-// sd.rod_contact. After mj_collision.
-bool mark_rod_contacts(const Scene& s, SceneData& sd) {
-  const mjData* d = sd.d;
-  std::fill(sd.rod_contact.begin(), sd.rod_contact.end(), 0);
-  bool any = false;
-  for (int i = 0; i < d->ncon; ++i) {
-    const mjContact& con = d->contact[i];
-    if (con.efc_address < 0) continue;
-    for (const int g : {con.geom1, con.geom2}) {
-      const int r = s.geom_rod[g];
-      if (r < 0 || s.rods[r].model.sections[s.rods[r].decl.geoms[s.geom_index[g]].section].ndof == 0) continue;
-      sd.rod_contact[r] = 1;
-      any = true;
-    }
-  }
-  return any;
+// Whether a contact of this evaluation touches a rod capsule (patch_contact_references's work).
+bool rod_contacts(const Scene& s, const mjData* d) {
+  for (int i = 0; i < d->ncon; ++i)
+    if (s.geom_rod[d->contact[i].geom1] >= 0 || s.geom_rod[d->contact[i].geom2] >= 0) return true;
+  return false;
 }
 
 // Patch point 5b: MuJoCo's contact rows constrain J qacc and leave the velocity product dJ/dt qvel
@@ -676,10 +663,14 @@ bool mark_rod_contacts(const Scene& s, SceneData& sd) {
 // with the cross-section: efc_aref -= the rows' velocity product, that of the centre-line point
 // under the contact and the cross-section's angular one (the centripetal term of the offset to
 // the surface left out, as MuJoCo leaves it out for a rigid body). Contacts on rigid sections
-// stay MuJoCo's (bit for bit what welded bodies give). After mj_referenceConstraint.
+// stay MuJoCo's (bit for bit what welded bodies give). After patch_bias, whose rnea leaves the
+// rods' nodes' velocity-product accelerations (with gravity, which the base's carries) in Data::acc.
 void patch_contact_references(const Scene& s, SceneData& sd) {
   const mjModel* m = s.m;
   mjData* d = sd.d;
+  const Vec3 gravity = m->opt.disableflags & mjDSBL_GRAVITY
+                           ? Vec3::Zero()
+                           : Vec3(m->opt.gravity[0], m->opt.gravity[1], m->opt.gravity[2]);
   for (int i = 0; i < d->ncon; ++i) {
     const mjContact& con = d->contact[i];
     if (con.efc_address < 0) continue;
@@ -693,12 +684,13 @@ void patch_contact_references(const Scene& s, SceneData& sd) {
       const int si = rb.decl.geoms[s.geom_index[g]].section;
       if (rb.model.sections[si].ndof == 0) continue;
       const Vec3 p(con.pos[0], con.pos[1], con.pos[2]);
-      const int start = si == 0 ? rb.base_body : rb.proxy_body[si - 1];
-      const CrossSectionMotion cs = cross_section_motion(s, sd, r, si, capsule_abscissa(s, sd, g, p),
-                                                         velocity_product_acceleration(m, d, start), nullptr);
-      const Vec3 w = cs.eta.head<3>(), v = cs.eta.tail<3>();
-      const Vec3 wd = cs.pose.R * cs.rate.head<3>();
-      const Vec3 a = cs.pose.R * (cs.rate.tail<3>() + w.cross(v)) + wd.cross(p - cs.pose.u);
+      const cosserat::PointMotion pm =
+          cosserat::point_motion_at_rest_acceleration(rb.model, sd.rod[r], 0, capsule_abscissa(s, sd, g, p), si);
+      const Mat3& R = pm.pose.R;
+      const Vec3 w = pm.eta.head<3>(), v = pm.eta.tail<3>();
+      const Vec3 wd = R * pm.acc.head<3>();
+      // the centre line's classical acceleration, without the gravity its base's carried
+      const Vec3 a = R * (pm.acc.tail<3>() + w.cross(v)) + gravity + wd.cross(p - pm.pose.u);
       const double sign = side == 0 ? -1.0 : 1.0;
       c.head<3>() += sign * wd;
       c.tail<3>() += sign * a;
@@ -807,7 +799,7 @@ void patch_qM(const Scene& s, SceneData& sd, int r) {
 // Rod velocities for this step: strain rates from qvel, and the base's twist and bias
 // acceleration (MuJoCo's cvel and sum cdof_dot qvel - gravity, to the base frame). Must run after
 // mj_comVel and after the patches of every rod above this one (rods are ordered outer first).
-void rod_velocity(const Scene& s, SceneData& sd, int r, bool with_Sdot) {
+void rod_velocity(const Scene& s, SceneData& sd, int r) {
   const mjModel* m = s.m;
   mjData* d = sd.d;
   const RodBinding& rb = s.rods[r];
@@ -820,7 +812,7 @@ void rod_velocity(const Scene& s, SceneData& sd, int r, bool with_Sdot) {
     cacc.tail<3>() -= Vec3(m->opt.gravity[0], m->opt.gravity[1], m->opt.gravity[2]);
   rd.base_twist = Ad_inv_apply(G, cvel);
   rd.base_accel = Ad_inv_apply(G, cacc);
-  cosserat::fwd_velocity(rb.model, rd, with_Sdot);
+  cosserat::fwd_velocity(rb.model, rd, rb.cdof_dot_read);  // dS/dt only where cdof_dot is read
 }
 
 // Patch point 6: rod Coriolis, centrifugal and gravity forces, the reaction on the ancestors,
@@ -879,7 +871,6 @@ SceneData::SceneData(const Scene& s) {
   fluid_f.assign(s.fluid.active ? nv : 0, 0);
   fluid_cols.setZero(6, s.fluid.max_chain);
   scratch.resize(s.rods.size());
-  rod_contact.assign(s.rods.size(), 0);
   for (size_t r = 0; r < s.rods.size(); ++r) {
     RodScratch& sc = scratch[r];
     for (int j = first_ancestor_dof(s.m, s.rods[r].base_body); j >= 0; j = s.m->dof_parentid[j]) sc.anc.push_back(j);
@@ -985,19 +976,16 @@ void fwd_velocity(const Scene& s, SceneData& sd) {
   mjData* d = sd.d;
   if (m->ntendon) mju_mulMatVec(d->ten_velocity, d->ten_J, d->qvel, m->ntendon, m->nv);
   if (m->nu) mju_mulMatVec(d->actuator_velocity, d->actuator_moment, d->qvel, m->nu, m->nv);
-  // contacts on soft sections read their section's dS/dt, the proxies' cdof_dot and cvel
-  const bool rod_contacts = d->ncon && !s.rods.empty() && mark_rod_contacts(s, sd);
-  com_velocity_except(m, d, rod_contacts ? nullptr : s.velocity_skip.data());
+  com_velocity_except(m, d, s.velocity_skip.data());
   for (size_t r = 0; r < s.rods.size(); ++r) {
-    const bool rates = s.rods[r].cdof_dot_read || (rod_contacts && sd.rod_contact[r]);
-    rod_velocity(s, sd, static_cast<int>(r), rates);  // dS/dt only where something reads it
-    if (rates) patch_cdof_dot(s, sd, static_cast<int>(r));
+    rod_velocity(s, sd, static_cast<int>(r));
+    if (s.rods[r].cdof_dot_read) patch_cdof_dot(s, sd, static_cast<int>(r));
   }
   mj_passive(m, d);
   mj_referenceConstraint(m, d);
-  if (rod_contacts) patch_contact_references(s, sd);
   rne_except(m, d, 0, d->qfrc_bias, s.velocity_skip.data());
   for (size_t r = 0; r < s.rods.size(); ++r) patch_bias(s, sd, static_cast<int>(r));
+  if (d->ncon && !s.rods.empty() && rod_contacts(s, d)) patch_contact_references(s, sd);
   fluid_forces(s, sd);  // fluid hook: qfrc_passive -= D qvel; no-op without the fluid
 }
 

@@ -246,10 +246,6 @@ struct SceneData {
     mutable std::vector<Mat6X> section_J, section_Jdot;
   };
   std::vector<RodScratch> scratch;  // per rod
-  // per rod: a contact of this evaluation touches one of its sections with strain dofs (set in
-  // fwd_velocity, whose contact rows' reference accelerations then get those sections' velocity
-  // products)
-  std::vector<char> rod_contact;
   // the implicit step's factor (A = M + theta h D + theta^2 h^2 K, MuJoCo's qLD layout)
   std::vector<mjtNum> A_LD, A_LDiagInv;
   struct NewtonScratch : SavedState {  // the step's start state, and:

@@ -242,57 +242,42 @@ void patch_velocity_sensors(const Scene& s, SceneData& sd) {
   }
 }
 
-}  // namespace
-
-// The motion of the cross-section at X of rod r's section si: from the section's start frame (the
-// rod's base body or the previous section's proxy, whose cvel MuJoCo computes exactly from the
-// patched cdof) with spatial acceleration acc_start (MuJoCo's com-based layout, as cacc), and the
-// section's own motion: the twist of the cross-section at X is eta_X = Ad^-1_G eta_s + psi,
-// psi = J qvel (section_jacobian's J, G the pose of X in the start frame), and its rate
-// Ad^-1_G acc_s + J qacc + Jdot qvel - ad_psi Ad^-1_G eta_s (qacc: the section's MuJoCo dofs' own,
-// or nullptr for none). Needs fwd_velocity with the rod's dS/dt (Sdot).
-CrossSectionMotion cross_section_motion(const Scene& s, const SceneData& sd, int r, int si, double X,
-                                        const Vec6& acc_start, const mjtNum* qacc) {
+// World-frame acceleration of a rod site's material point in MuJoCo's layout (angular, linear), its
+// linear part counting gravity as MuJoCo's cacc does (the world accelerates by -g). From the
+// section's start frame (the rod's base body or the previous section's proxy, whose cvel and cacc
+// MuJoCo computes exactly: the patched cdof and cdof_dot) and the section's own motion: the twist
+// of the cross-section at X is eta_X = Ad^-1_G eta_s + psi, psi = J qvel (section_jacobian's J,
+// G the pose of X in the start frame), and its rate Ad^-1_G eta_s' + J qacc + Jdot qvel
+// - ad_psi Ad^-1_G eta_s.
+void rod_site_acceleration(const Scene& s, const SceneData& sd, int site, mjtNum out[6]) {
   const mjModel* m = s.m;
   const mjData* d = sd.d;
+  const int r = s.site_rod[site], si = s.site_section[site];
   const RodBinding& rb = s.rods[r];
   const cosserat::Data& rd = sd.rod[r];
+  const RodSiteDecl& sdl = rb.decl.sites[s.site_index[site]];
   Mat6X& J = sd.scratch[r].section_J[si];
   Mat6X& Jdot = sd.scratch[r].section_Jdot[si];
   SE3 G;
-  section_jacobian(rb.model, rd, 0, X, J, &Jdot, &G, si);
+  section_jacobian(rb.model, rd, 0, sdl.X, J, &Jdot, &G, si);
   const int start = si == 0 ? rb.base_body : rb.proxy_body[si - 1];
   const SE3 gs = anchor_pose(rd, rb.model.sections[si].start_node);
   const SE3 C = com_frame(gs, d->subtree_com + 3 * m->body_rootid[start]);
   const Vec6 eta_s = Ad_inv_apply(G, Ad_inv_apply(C, Eigen::Map<const Vec6>(d->cvel + 6 * start)));
+  const Vec6 acc_s = Ad_inv_apply(G, Ad_inv_apply(C, Eigen::Map<const Vec6>(d->cacc + 6 * start)));
   const int dof0 = rb.dof0 + rb.model.sections[si].dof0;
-  Vec6 psi = Vec6::Zero(), rate = Ad_inv_apply(G, Ad_inv_apply(C, acc_start));
+  Vec6 psi = Vec6::Zero(), acc = acc_s;
   for (int k = 0; k < J.cols(); ++k) {
     psi += J.col(k) * d->qvel[dof0 + k];
-    rate += Jdot.col(k) * d->qvel[dof0 + k];
-    if (qacc) rate += J.col(k) * qacc[dof0 + k];
+    acc += J.col(k) * d->qacc[dof0 + k] + Jdot.col(k) * d->qvel[dof0 + k];
   }
-  rate -= ad_apply(psi, eta_s);
-  return {eta_s + psi, rate, gs * G};
-}
-
-namespace {
-
-// World-frame acceleration of a rod site's material point in MuJoCo's layout (angular, linear), its
-// linear part counting gravity as MuJoCo's cacc does (the world accelerates by -g): the
-// cross-section's motion from its start body's cacc, and the site's offset riding with it.
-void rod_site_acceleration(const Scene& s, const SceneData& sd, int site, mjtNum out[6]) {
-  const mjData* d = sd.d;
-  const int r = s.site_rod[site], si = s.site_section[site];
-  const RodBinding& rb = s.rods[r];
-  const RodSiteDecl& sdl = rb.decl.sites[s.site_index[site]];
-  const int start = si == 0 ? rb.base_body : rb.proxy_body[si - 1];
-  const CrossSectionMotion cs =
-      cross_section_motion(s, sd, r, si, sdl.X, Eigen::Map<const Vec6>(d->cacc + 6 * start), d->qacc);
+  acc -= ad_apply(psi, eta_s);
+  const Vec6 eta = eta_s + psi;
   // the point at the site's offset in the cross-section frame, rotated to the world
-  const Vec3 w = cs.eta.head<3>(), v = cs.eta.tail<3>(), wd = cs.rate.head<3>();
-  const Vec3 a = cs.rate.tail<3>() + wd.cross(sdl.pos) + w.cross(v + w.cross(sdl.pos));
-  const Vec3 wd_world = cs.pose.R * wd, a_world = cs.pose.R * a;
+  const Vec3 w = eta.head<3>(), v = eta.tail<3>(), wd = acc.head<3>();
+  const Vec3 a = acc.tail<3>() + wd.cross(sdl.pos) + w.cross(v + w.cross(sdl.pos));
+  const Mat3 R = gs.R * G.R;
+  const Vec3 wd_world = R * wd, a_world = R * a;
   for (int e = 0; e < 3; ++e) {
     out[e] = wd_world(e);
     out[3 + e] = a_world(e);

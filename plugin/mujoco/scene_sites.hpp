@@ -49,18 +49,6 @@ void patch_sensors(const Scene& s, SceneData& sd, int stage);
 // The centre of mass of body b's subtree with the rods in it (after the position stage).
 Vec3 subtree_com_with_rods(const Scene& s, const SceneData& sd, int b);
 
-// The motion of the cross-section at abscissa X of rod r's section si (a global section index):
-// its twist eta and eta's rate (body frame at X), for the spatial acceleration acc_start of the
-// body the section starts from (MuJoCo's com-based layout, as cacc) and the dof accelerations
-// qacc (nullptr: zero, for the velocity-product part alone), and its world pose. Needs
-// fwd_velocity with the rod's dS/dt and the start body's cvel.
-struct CrossSectionMotion {
-  Vec6 eta, rate;
-  SE3 pose;
-};
-CrossSectionMotion cross_section_motion(const Scene& s, const SceneData& sd, int r, int si, double X,
-                                        const Vec6& acc_start, const mjtNum* qacc);
-
 // ---- shared with scene.cpp, which defines them ----
 
 // 6 x (a section's dofs) with fixed capacity: scratch that points on sections of different sizes

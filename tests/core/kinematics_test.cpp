@@ -2,6 +2,7 @@
 // differences: they become the cdof / cdof_dot of MuJoCo proxies and the rod columns of contacts.
 #include <gtest/gtest.h>
 
+#include "dynamics.hpp"
 #include "kinematics.hpp"
 #include "support/test_models.hpp"
 
@@ -84,6 +85,51 @@ TEST(SectionJacobian, TimeDerivativeMatchesFiniteDifferences) {
       EXPECT_LT((fd - Jd).norm(), 1e-7 * (1 + Jd.norm())) << "rod " << r << " X " << X;
     }
   }
+}
+
+// point_motion_at_rest_acceleration: the cross-section's pose, its twist (the body Jacobian times
+// v) and its velocity-product acceleration (d/dt (J v) along q + t v, v fixed, by central
+// differences), inside sections with dofs, at their nodes and ends, PCS and GVS (the hybrid tree's
+// nested rods: the twist and acceleration carried from the parent rod), after an rnea at qacc = 0.
+TEST(PointMotion, IsTheCrossSectionsTwistAndVelocityProductAcceleration) {
+  Model m = hybrid_tree(false);
+  Data d(m);
+  d.q = 0.4 * VecX::Random(m.nv);
+  d.v = 0.7 * VecX::Random(m.nv);
+  fwd_position(m, d);
+  fwd_velocity(m, d);
+  VecX tau(m.nv);
+  rnea(m, d, VecX::Zero(m.nv), false, false, tau);
+  const double e = 1e-6;
+  int checked = 0;
+  for (int r = 0; r < static_cast<int>(m.rods.size()); ++r) {
+    std::vector<double> Xs = {m.rods[r].length};
+    for (double f : {0.02, 0.2, 0.5, 0.83}) Xs.push_back(f * m.rods[r].length);
+    for (const Node& n : m.nodes)
+      if (n.rod == r) Xs.push_back(n.X);
+    for (double X : Xs) {
+      MatX J, Jp, Jm;
+      SE3 g;
+      Mat6X Js;
+      const int si = section_jacobian(m, d, r, X, Js, nullptr, &g);
+      if (m.sections[si].ndof == 0) continue;
+      const PointMotion pm = point_motion_at_rest_acceleration(m, d, r, X, si);
+      rod_jacobian(m, d, r, X, J);
+      Data dp = d, dm = d;
+      dp.q += e * d.v;
+      dm.q -= e * d.v;
+      fwd_position(m, dp);
+      fwd_position(m, dm);
+      rod_jacobian(m, dp, r, X, Jp);
+      rod_jacobian(m, dm, r, X, Jm);
+      const Vec6 eta = J * d.v, acc = (Jp - Jm) * d.v / (2 * e);
+      EXPECT_LT((pm.pose.matrix() - rod_pose(m, d, r, X).matrix()).norm(), 1e-12) << "rod " << r << " X " << X;
+      EXPECT_LT((pm.eta - eta).norm(), 1e-12 * (1 + eta.norm())) << "rod " << r << " X " << X;
+      EXPECT_LT((pm.acc - acc).norm(), 1e-7 * (1 + acc.norm())) << "rod " << r << " X " << X;
+      ++checked;
+    }
+  }
+  EXPECT_GT(checked, 20);
 }
 
 }  // namespace
