@@ -396,8 +396,6 @@ std::vector<Problem> flagellates(const Options& o) {
     } else {
       p.families.push_back({"PCS / implicit", false, false, Method::Implicit, {1, 2, 3, 4}, 0, hs});
       p.families.push_back({"PCS / rk4", false, false, Method::RK4, {1, 2, 3, 4}, 0, hs});
-      p.families.push_back({"PCS / trapezoidal-lin", false, false, Method::TrapezoidalLinear, {1, 2, 3, 4}, 0, hs});
-      p.families.push_back({"PCS / trapezoidal", false, false, Method::Trapezoidal, {1, 2, 3, 4}, 0, hs});
       p.families.push_back({"native / euler", true, false, Method::Euler, kNativeChains, 0, hs});
       p.families.push_back({"native / rk4", true, false, Method::RK4, kNativeChains, 0, hs});
       // the native chain with our implicit step too (motor servo and fluid damping implicit), so
