@@ -2,6 +2,8 @@
 // differences: they become the cdof / cdof_dot of MuJoCo proxies and the rod columns of contacts.
 #include <gtest/gtest.h>
 
+#include <utility>
+
 #include "dynamics.hpp"
 #include "kinematics.hpp"
 #include "support/test_models.hpp"
@@ -20,6 +22,27 @@ Model kl_rod(int sections, bool lobatto) {
   m.add_rod(-1, SE3::Identity(), spec);
   m.finalize();
   return m;
+}
+
+// The hybrid tree (PCS and GVS sections, nested rods) at a random configuration, moving: after
+// fwd_position and fwd_velocity.
+Data moving_hybrid_tree(const Model& m) {
+  Data d(m);
+  d.q = 0.4 * VecX::Random(m.nv);
+  d.v = 0.7 * VecX::Random(m.nv);
+  fwd_position(m, d);
+  fwd_velocity(m, d);
+  return d;
+}
+
+// d moved by +-e along its velocity (q +- e v), after fwd_position: central differences in time.
+std::pair<Data, Data> moved_along_v(const Model& m, const Data& d, double e) {
+  Data dp = d, dm = d;
+  dp.q += e * d.v;
+  dm.q -= e * d.v;
+  fwd_position(m, dp);
+  fwd_position(m, dm);
+  return {dp, dm};
 }
 
 // pose of the frame at X relative to the start of its section, for a given q
@@ -61,23 +84,15 @@ TEST(SectionJacobian, MatchesFiniteDifferencesOfRelativePose) {
 }
 
 TEST(SectionJacobian, TimeDerivativeMatchesFiniteDifferences) {
-  Model m = hybrid_tree(false);
-  Data d(m);
-  d.q = 0.4 * VecX::Random(m.nv);
-  d.v = 0.7 * VecX::Random(m.nv);
-  fwd_position(m, d);
-  fwd_velocity(m, d);
+  const Model m = hybrid_tree(false);
+  Data d = moving_hybrid_tree(m);
   const double e = 1e-6;
   for (int r = 0; r < static_cast<int>(m.rods.size()); ++r) {
     for (double f : {0.2, 0.5, 0.83, 1.0}) {
       const double X = f * m.rods[r].length;
       Mat6X J, Jd, Jp, Jm;
       section_jacobian(m, d, r, X, J, &Jd);
-      Data dp = d, dm = d;
-      dp.q += e * d.v;
-      dm.q -= e * d.v;
-      fwd_position(m, dp);
-      fwd_position(m, dm);
+      const auto [dp, dm] = moved_along_v(m, d, e);
       section_jacobian(m, dp, r, X, Jp);
       section_jacobian(m, dm, r, X, Jm);
       const Mat6X fd = (Jp - Jm) / (2 * e);
@@ -92,12 +107,8 @@ TEST(SectionJacobian, TimeDerivativeMatchesFiniteDifferences) {
 // differences), inside sections with dofs, at their nodes and ends, PCS and GVS (the hybrid tree's
 // nested rods: the twist and acceleration carried from the parent rod), after an rnea at qacc = 0.
 TEST(PointMotion, IsTheCrossSectionsTwistAndVelocityProductAcceleration) {
-  Model m = hybrid_tree(false);
-  Data d(m);
-  d.q = 0.4 * VecX::Random(m.nv);
-  d.v = 0.7 * VecX::Random(m.nv);
-  fwd_position(m, d);
-  fwd_velocity(m, d);
+  const Model m = hybrid_tree(false);
+  Data d = moving_hybrid_tree(m);
   VecX tau(m.nv);
   rnea(m, d, VecX::Zero(m.nv), false, false, tau);
   const double e = 1e-6;
@@ -115,11 +126,7 @@ TEST(PointMotion, IsTheCrossSectionsTwistAndVelocityProductAcceleration) {
       if (m.sections[si].ndof == 0) continue;
       const PointMotion pm = point_motion_at_rest_acceleration(m, d, r, X, si);
       rod_jacobian(m, d, r, X, J);
-      Data dp = d, dm = d;
-      dp.q += e * d.v;
-      dm.q -= e * d.v;
-      fwd_position(m, dp);
-      fwd_position(m, dm);
+      const auto [dp, dm] = moved_along_v(m, d, e);
       rod_jacobian(m, dp, r, X, Jp);
       rod_jacobian(m, dm, r, X, Jm);
       const Vec6 eta = J * d.v, acc = (Jp - Jm) * d.v / (2 * e);

@@ -51,6 +51,14 @@ std::string scene(const char* cone, const char* jac, int condim, double height, 
   return replace_all(x, "MU", std::to_string(mu));
 }
 
+// A bent, tilted rod pressed into the floor (the scene at height 0.005), moving with speed scale
+// `speed`, after forward: the state of the row checks below.
+void bend_and_move(const Scene& s, SceneData& sd, double speed) {
+  for (int k = 0; k < s.rods[0].model.nv; ++k) sd.d->qpos[s.rods[0].qpos0 + k] = 0.15 * std::sin(1.0 + 2.3 * k);
+  for (int k = 0; k < s.m->nv; ++k) sd.d->qvel[k] = speed * std::cos(0.7 + 1.9 * k);
+  forward(s, sd);
+}
+
 // efc_vel = efc_J qvel (MuJoCo's own product, dense or sparse) against the relative velocity of
 // the touching material point, by central differences along qvel.
 void check_contact_rows(const char* cone, const char* jac, int condim) {
@@ -58,10 +66,7 @@ void check_contact_rows(const char* cone, const char* jac, int condim) {
   auto s = load_scene_string(scene(cone, jac, condim, 0.005), kPath);
   SceneData sd(*s);
   const mjModel* m = s->m;
-  // a bent, tilted rod pressed into the floor, moving
-  for (int k = 0; k < s->rods[0].model.nv; ++k) sd.d->qpos[s->rods[0].qpos0 + k] = 0.15 * std::sin(1.0 + 2.3 * k);
-  for (int k = 0; k < m->nv; ++k) sd.d->qvel[k] = 0.3 * std::cos(0.7 + 1.9 * k);
-  forward(*s, sd);
+  bend_and_move(*s, sd, 0.3);
   ASSERT_GT(sd.d->ncon, 0);
   const double e = 1e-6;
   std::vector<mjtNum> qp(sd.d->qpos, sd.d->qpos + m->nq), qm = qp;
@@ -114,9 +119,7 @@ void check_contact_references(const char* cone) {
   auto s = load_scene_string(scene(cone, "dense", 3, 0.005), kPath);
   SceneData sd(*s);
   const mjModel* m = s->m;
-  for (int k = 0; k < s->rods[0].model.nv; ++k) sd.d->qpos[s->rods[0].qpos0 + k] = 0.15 * std::sin(1.0 + 2.3 * k);
-  for (int k = 0; k < m->nv; ++k) sd.d->qvel[k] = 3.0 * std::cos(0.7 + 1.9 * k);
-  forward(*s, sd);
+  bend_and_move(*s, sd, 3.0);
   ASSERT_GT(sd.d->ncon, 0);
   const std::vector<mjtNum> aref(sd.d->efc_aref, sd.d->efc_aref + sd.d->nefc);
   mj_referenceConstraint(m, sd.d);  // MuJoCo's own reference accelerations, from the same rows
