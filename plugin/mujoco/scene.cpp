@@ -665,12 +665,25 @@ bool rod_contacts(const Scene& s, const mjData* d) {
 // the surface left out, as MuJoCo leaves it out for a rigid body). Contacts on rigid sections
 // stay MuJoCo's (bit for bit what welded bodies give). After patch_bias, whose rnea leaves the
 // rods' nodes' velocity-product accelerations (with gravity, which the base's carries) in Data::acc.
-void patch_contact_references(const Scene& s, SceneData& sd) {
+// The velocity product of a point p (world) riding with the cross-section at X of rod r's section
+// si: the centre line's classical acceleration at qacc = 0 plus the cross-section's angular one
+// crossed with the offset to p (the offset's own centripetal term left out). World axes: angular,
+// then linear. After patch_bias.
+Vec6 riding_point_velocity_product(const Scene& s, const SceneData& sd, int r, int si, double X, const Vec3& p) {
   const mjModel* m = s.m;
+  const cosserat::PointMotion pm = cosserat::point_motion_at_rest_acceleration(s.rods[r].model, sd.rod[r], 0, X, si);
+  const Mat3& R = pm.pose.R;
+  const Vec3 w = pm.eta.head<3>(), v = pm.eta.tail<3>();
+  Vec6 c;
+  c.head<3>() = R * pm.acc.head<3>();
+  // the base's acceleration carried gravity as an upward acceleration (rod_velocity): take it out
+  c.tail<3>() = R * (pm.acc.tail<3>() + w.cross(v)) + c.head<3>().cross(p - pm.pose.u);
+  if (!(m->opt.disableflags & mjDSBL_GRAVITY)) c.tail<3>() += Vec3(m->opt.gravity[0], m->opt.gravity[1], m->opt.gravity[2]);
+  return c;
+}
+
+void patch_contact_references(const Scene& s, SceneData& sd) {
   mjData* d = sd.d;
-  const Vec3 gravity = m->opt.disableflags & mjDSBL_GRAVITY
-                           ? Vec3::Zero()
-                           : Vec3(m->opt.gravity[0], m->opt.gravity[1], m->opt.gravity[2]);
   for (int i = 0; i < d->ncon; ++i) {
     const mjContact& con = d->contact[i];
     if (con.efc_address < 0) continue;
@@ -680,20 +693,10 @@ void patch_contact_references(const Scene& s, SceneData& sd) {
       const int g = side == 0 ? con.geom1 : con.geom2;
       const int r = s.geom_rod[g];
       if (r < 0) continue;
-      const RodBinding& rb = s.rods[r];
-      const int si = rb.decl.geoms[s.geom_index[g]].section;
-      if (rb.model.sections[si].ndof == 0) continue;
+      const int si = s.rods[r].decl.geoms[s.geom_index[g]].section;
+      if (s.rods[r].model.sections[si].ndof == 0) continue;
       const Vec3 p(con.pos[0], con.pos[1], con.pos[2]);
-      const cosserat::PointMotion pm =
-          cosserat::point_motion_at_rest_acceleration(rb.model, sd.rod[r], 0, capsule_abscissa(s, sd, g, p), si);
-      const Mat3& R = pm.pose.R;
-      const Vec3 w = pm.eta.head<3>(), v = pm.eta.tail<3>();
-      const Vec3 wd = R * pm.acc.head<3>();
-      // the centre line's classical acceleration, without the gravity its base's carried
-      const Vec3 a = R * (pm.acc.tail<3>() + w.cross(v)) + gravity + wd.cross(p - pm.pose.u);
-      const double sign = side == 0 ? -1.0 : 1.0;
-      c.head<3>() += sign * wd;
-      c.tail<3>() += sign * a;
+      c += (side == 0 ? -1.0 : 1.0) * riding_point_velocity_product(s, sd, r, si, capsule_abscissa(s, sd, g, p), p);
       any = true;
     }
     if (!any) continue;
@@ -711,6 +714,70 @@ void patch_contact_references(const Scene& s, SceneData& sd) {
     } else {  // frictionless or elliptic: one row per contact-frame direction
       for (int j = 0; j < con.dim; ++j) d->efc_aref[row0 + j] -= cf(j);
     }
+  }
+}
+
+// The rod and section whose proxy is body b, if b is the proxy of a section with strain dofs.
+bool soft_proxy(const Scene& s, int b, int& rod, int& section) {
+  if (b <= 0 || !s.body_by_rod[b]) return false;
+  for (size_t r = 0; r < s.rods.size(); ++r)
+    for (size_t si = 0; si < s.rods[r].proxy_body.size(); ++si)
+      if (s.rods[r].proxy_body[si] == b) {
+        rod = static_cast<int>(r);
+        section = static_cast<int>(si);
+        return s.rods[r].model.sections[si].ndof > 0;
+      }
+  return false;
+}
+
+// Patch point 5c: the same for equality constraints on a proxy of a section with strain dofs (the
+// proxy is the section's end frame): connect rows (anchor points) and weld rows (anchor points, and
+// the rotation rows torquescale * 0.5 vec(neg(q1) (w0 - w1) q0 relpose), MuJoCo 2.2.2's, applied to
+// the angular velocity products) constrain the acceleration of the anchor points riding with the
+// cross-sections. A bent shaft turning about its centre line, its tip held by a connect, drifted
+// 3.4 mm off at 2 Hz (about 4x per doubling of the speed). After patch_bias.
+void patch_equality_references(const Scene& s, SceneData& sd) {
+  const mjModel* m = s.m;
+  mjData* d = sd.d;
+  for (int row = 0; row < d->nefc;) {
+    if (d->efc_type[row] != mjCNSTR_EQUALITY) {
+      ++row;
+      continue;
+    }
+    const int e = d->efc_id[row], type = m->eq_type[e];
+    const int size = type == mjEQ_CONNECT ? 3 : type == mjEQ_WELD ? 6 : 1;
+    if (type == mjEQ_CONNECT || type == mjEQ_WELD) {
+      const mjtNum* data = m->eq_data + mjNEQDATA * e;
+      const int body[2] = {m->eq_obj1id[e], m->eq_obj2id[e]};
+      Vec6 c = Vec6::Zero();  // body 0 minus body 1 (MuJoCo's sign for equality rows): angular, linear
+      bool any = false;
+      for (int j = 0; j < 2; ++j) {
+        int r = -1, si = -1;
+        if (!soft_proxy(s, body[j], r, si)) continue;
+        // the anchor point, as mj_instantiateEquality places it
+        const mjtNum* anchor = type == mjEQ_CONNECT ? data + 3 * j : data + 3 * (1 - j);
+        mjtNum pw[3];
+        mju_rotVecMat(pw, anchor, d->xmat + 9 * body[j]);
+        mju_addTo3(pw, d->xpos + 3 * body[j]);
+        const Section& sec = s.rods[r].model.sections[si];
+        c += (j == 0 ? 1.0 : -1.0) *
+             riding_point_velocity_product(s, sd, r, si, sec.X0 + sec.length, Vec3(pw[0], pw[1], pw[2]));
+        any = true;
+      }
+      if (any) {
+        for (int k = 0; k < 3; ++k) d->efc_aref[row + k] -= c(3 + k);
+        if (type == mjEQ_WELD) {
+          mjtNum quat[4], quat1[4], quat2[4], quat3[4];
+          mju_mulQuat(quat, d->xquat + 4 * body[0], data + 6);  // q0 relpose
+          mju_negQuat(quat1, d->xquat + 4 * body[1]);           // neg(q1)
+          const mjtNum axis[3] = {c(0), c(1), c(2)};
+          mju_mulQuatAxis(quat2, quat1, axis);
+          mju_mulQuat(quat3, quat2, quat);
+          for (int k = 0; k < 3; ++k) d->efc_aref[row + 3 + k] -= data[10] * 0.5 * quat3[1 + k];
+        }
+      }
+    }
+    row += size;
   }
 }
 
@@ -986,6 +1053,7 @@ void fwd_velocity(const Scene& s, SceneData& sd) {
   rne_except(m, d, 0, d->qfrc_bias, s.velocity_skip.data());
   for (size_t r = 0; r < s.rods.size(); ++r) patch_bias(s, sd, static_cast<int>(r));
   if (d->ncon && !s.rods.empty() && rod_contacts(s, d)) patch_contact_references(s, sd);
+  if (d->ne && !s.rods.empty()) patch_equality_references(s, sd);
   fluid_forces(s, sd);  // fluid hook: qfrc_passive -= D qvel; no-op without the fluid
 }
 

@@ -223,6 +223,80 @@ TEST(Transmission, EqualityConstraintsOnRodBodiesHaveTheirResidualsDerivative) {
   }
 }
 
+// The reference accelerations of equality rows on the proxies of sections with strain dofs
+// (patch_equality_references): MuJoCo's aref minus the rows' velocity product, the acceleration
+// at qacc = 0 of the anchor point riding with the cross-section (its offset's centripetal term
+// left out) and, for a weld's rotation rows, torquescale 0.5 vec(neg(q1) alpha q0 relpose) of the
+// cross-section's angular acceleration. Against second differences of the proxies' frames along
+// q0 + t v; MuJoCo's anchor layout and rotation rows checked first against efc_pos and efc_vel.
+TEST(Transmission, EqualityRowsOnSoftSectionsReferenceTheAnchorsAcceleration) {
+  Motion mo(R"(<mujoco><option gravity="0 0 -9.81"/><worldbody>
+    <body name="hub" pos="0 0 1"><joint name="yaw" type="hinge" axis="0 0.3 1"/><geom type="sphere" size="0.02"/>
+      <cosserat name="arm" length="0.3" sections="3" strain="kl" radius="0.01" contype="0" conaffinity="0"/>
+    </body></worldbody>
+    <equality><connect body1="arm/s1" body2="world" anchor="0.01 0.02 0"/>
+      <weld body1="arm/s2" body2="world" anchor="0.005 -0.01 0.003" torquescale="2"/></equality>
+  </mujoco>)");
+  const mjModel* m = mo.s->m;
+  const int b1 = mj_name2id(m, mjOBJ_BODY, "arm/s1"), b2 = mj_name2id(m, mjOBJ_BODY, "arm/s2");
+  const double e = 1e-4;
+  struct Frame {
+    Vec3 x;
+    Mat3 R;
+  };
+  auto frame = [&](int b, double t) {
+    const mjData* d = mo.at(t);
+    return Frame{Vec3(d->xpos[3 * b], d->xpos[3 * b + 1], d->xpos[3 * b + 2]), Eigen::Map<const Mat3>(d->xmat + 9 * b)};
+  };
+  // a body's spin at t and the acceleration (qacc = 0) of the point at `offset` in its frame,
+  // without the offset's centripetal term; and its angular acceleration
+  auto motion_of = [&](int b, const Vec3& offset, Vec3& a, Vec3& alpha, Vec3& w) {
+    auto spin = [&](double t) {
+      const Frame fp = frame(b, t + e), fm = frame(b, t - e), f0 = frame(b, t);
+      return cosserat::testing::spin_of(Mat3((fp.R - fm.R) / (2 * e) * f0.R.transpose()));
+    };
+    const Frame fp = frame(b, e), f0 = frame(b, 0.0), fm = frame(b, -e);
+    w = spin(0.0);
+    alpha = (spin(e) - spin(-e)) / (2 * e);
+    const Vec3 r = f0.R * offset;
+    a = (fp.x + fp.R * offset - 2.0 * (f0.x + r) + fm.x + fm.R * offset) / (e * e) - w.cross(w.cross(r));
+  };
+  const mjtNum* cdata = m->eq_data;              // connect: anchor on body1 at data[0:3]
+  const mjtNum* wdata = m->eq_data + mjNEQDATA;  // weld: body1's anchor at data[3:6], relpose quat at data[6:10]
+  Vec3 a1, al1, w1, a2, al2, w2;
+  motion_of(b1, Vec3(cdata[0], cdata[1], cdata[2]), a1, al1, w1);
+  motion_of(b2, Vec3(wdata[3], wdata[4], wdata[5]), a2, al2, w2);
+  const Frame f2 = frame(b2, 0.0);
+  const mjData* d = mo.at(0.0);
+  ASSERT_EQ(d->nefc, 9);  // connect: 3 rows, weld: 6
+  const std::vector<mjtNum> aref(d->efc_aref, d->efc_aref + d->nefc);
+  mj_referenceConstraint(m, mo.sd->d);  // MuJoCo's own reference accelerations
+  // MuJoCo's weld: the anchor in efc_pos, the rotation rows in efc_vel (the layout the patch reads)
+  const Vec3 p2 = f2.x + f2.R * Vec3(wdata[3], wdata[4], wdata[5]), p_world(wdata[0], wdata[1], wdata[2]);
+  for (int k = 0; k < 3; ++k) EXPECT_NEAR(d->efc_pos[3 + k], p2(k) - p_world(k), 1e-12);
+  auto rotation_rows = [&](const Vec3& w) {
+    mjtNum q[4], q1[4], q2[4], q3[4];
+    mju_mulQuat(q, d->xquat + 4 * b2, wdata + 6);
+    mju_negQuat(q1, d->xquat);  // body 2: the world
+    const mjtNum axis[3] = {w(0), w(1), w(2)};
+    mju_mulQuatAxis(q2, q1, axis);
+    mju_mulQuat(q3, q2, q);
+    return Vec3(wdata[10] * 0.5 * q3[1], wdata[10] * 0.5 * q3[2], wdata[10] * 0.5 * q3[3]);
+  };
+  const Vec3 vel_rows = rotation_rows(w2);
+  for (int k = 0; k < 3; ++k) EXPECT_NEAR(d->efc_vel[6 + k], vel_rows(k), 1e-7 * (1 + vel_rows.norm()));
+  // the patch: aref - MuJoCo's = minus the velocity product (the world has none)
+  const Vec3 rot = rotation_rows(al2);
+  double largest = 0.0;
+  for (int k = 0; k < 3; ++k) {
+    largest = std::max({largest, std::abs(a1(k)), std::abs(a2(k))});
+    EXPECT_NEAR(aref[k] - d->efc_aref[k], -a1(k), 1e-6 * (1 + a1.norm())) << "connect row " << k;
+    EXPECT_NEAR(aref[3 + k] - d->efc_aref[3 + k], -a2(k), 1e-6 * (1 + a2.norm())) << "weld row " << k;
+    EXPECT_NEAR(aref[6 + k] - d->efc_aref[6 + k], -rot(k), 1e-6 * (1 + rot.norm())) << "weld rotation row " << k;
+  }
+  EXPECT_GT(largest, 0.1);  // m/s^2: not a vacuous check
+}
+
 // An adhesion actuator (MuJoCo's body transmission) on a ball near rod capsules, inside their
 // margin and, for some, beyond their gap: MuJoCo counts a gap contact without a constraint row and
 // takes its normal Jacobian n . (J2 - J1) directly; with the rod's touching material point (as the
