@@ -646,36 +646,6 @@ void patch_contacts(const Scene& s, SceneData& sd) {
   }
 }
 
-// Patch point 4b (after mj_collision, before mj_makeConstraint, which turns contact distances into
-// the rows' positions and impedances): a contact on a capsule of a section with strain dofs gets
-// the distance of the rod's centre line there. MuJoCo measures it on the capsule, a chord between
-// two centre-line points, while the rows act on the material point at the contact's abscissa: where
-// a section bends fast the two move apart, and a stiff contact measured on one and pushing the other
-// is not conservative (a GVS rod dropped on a sphere with 2 capsules per section, solref 0.004,
-// gained 5.6% of its energy). The capsule's axis point where MuJoCo measured is the contact point
-// moved back by the radius and half the distance along the normal n (from geom1 to geom2); the
-// distance moves by n . (centre line at the contact's abscissa - that point): on a plane, exactly
-// the centre line's height there minus the radius.
-void patch_contact_distances(const Scene& s, SceneData& sd) {
-  mjData* d = sd.d;
-  for (int i = 0; i < d->ncon; ++i) {
-    mjContact& con = d->contact[i];
-    const Vec3 n(con.frame[0], con.frame[1], con.frame[2]), p(con.pos[0], con.pos[1], con.pos[2]);
-    const double dist = con.dist;  // MuJoCo's, for both sides
-    for (int side = 0; side < 2; ++side) {
-      const int g = side == 0 ? con.geom1 : con.geom2;
-      const int r = s.geom_rod[g];
-      if (r < 0) continue;
-      const RodBinding& rb = s.rods[r];
-      if (rb.model.sections[rb.decl.geoms[s.geom_index[g]].section].ndof == 0) continue;
-      const double sign = side == 0 ? -1.0 : 1.0;  // geom2 lies along +n
-      const Vec3 measured = p + sign * (s.m->geom_size[3 * g] + 0.5 * dist) * n;
-      const Vec3 centre = cosserat::rod_pose(rb.model, sd.rod[r], 0, capsule_abscissa(s, sd, g, p)).u;
-      con.dist += sign * n.dot(centre - measured);
-    }
-  }
-}
-
 // Whether a contact of this evaluation touches a rod capsule (patch_contact_references's work).
 bool rod_contacts(const Scene& s, const mjData* d) {
   for (int i = 0; i < d->ncon; ++i)
@@ -1057,7 +1027,6 @@ void fwd_position(const Scene& s, SceneData& sd, Need need) {
     mj_collision(m, d);
   else
     d->ncon = 0;  // what mj_collision finds when no geom pair passes its filters
-  if (d->ncon && !s.rods.empty()) patch_contact_distances(s, sd);
   mj_makeConstraint(m, d);
   if (d->ncon && !s.rods.empty()) patch_contacts(s, sd);
   mj_transmission(m, d);
