@@ -646,25 +646,15 @@ void patch_contacts(const Scene& s, SceneData& sd) {
   }
 }
 
-// Whether a contact of this evaluation touches a rod capsule (patch_contact_references's work).
+// Whether a contact of this evaluation touches a rod capsule or a geom of a body moving with a rod
+// (patch_contact_references's work).
 bool rod_contacts(const Scene& s, const mjData* d) {
   for (int i = 0; i < d->ncon; ++i)
-    if (s.geom_rod[d->contact[i].geom1] >= 0 || s.geom_rod[d->contact[i].geom2] >= 0) return true;
+    for (const int g : {d->contact[i].geom1, d->contact[i].geom2})
+      if (s.geom_rod[g] >= 0 || s.body_by_rod[s.m->geom_bodyid[g]]) return true;
   return false;
 }
 
-// Patch point 5b: MuJoCo's contact rows constrain J qacc and leave the velocity product dJ/dt qvel
-// to the reference acceleration's feedback (aref = -b J qvel - k r). For a point on a rigid body
-// that term is the centripetal acceleration of its offset, which a round geom's contact does not
-// feel; on a soft section it carries the strain coordinates' own velocity products, which need
-// not be small: a bent rod rolling about its centre line keeps that line still while J qacc
-// reads hundreds of m/s^2, and its contacts, seeing the rod leave, let it sink through the floor.
-// So a contact on a section with strain dofs constrains the acceleration of its point riding
-// with the cross-section: efc_aref -= the rows' velocity product, that of the centre-line point
-// under the contact and the cross-section's angular one (the centripetal term of the offset to
-// the surface left out, as MuJoCo leaves it out for a rigid body). Contacts on rigid sections
-// stay MuJoCo's (bit for bit what welded bodies give). After patch_bias, whose rnea leaves the
-// rods' nodes' velocity-product accelerations (with gravity, which the base's carries) in Data::acc.
 // The velocity product of a point p (world) riding with the cross-section at X of rod r's section
 // si: the centre line's classical acceleration at qacc = 0 plus the cross-section's angular one
 // crossed with the offset to p (the offset's own centripetal term left out). World axes: angular,
@@ -682,6 +672,46 @@ Vec6 riding_point_velocity_product(const Scene& s, const SceneData& sd, int r, i
   return c;
 }
 
+// The cross-section a point fixed to body b rides with, when that is one of a section with strain
+// dofs: b is that section's proxy (its end, X), or b hangs below the rod's last proxy (the rod's tip;
+// the innermost rod for nested ones) and the last section has dofs. Points on rigid sections, and
+// below them, keep MuJoCo's rows.
+bool riding_frame(const Scene& s, int b, int& rod, int& section, double& X) {
+  if (b <= 0 || !s.body_by_rod[b]) return false;
+  rod = -1;
+  for (size_t r = 0; r < s.rods.size(); ++r) {
+    const RodBinding& rb = s.rods[r];
+    for (size_t si = 0; si < rb.proxy_body.size(); ++si)
+      if (rb.proxy_body[si] == b) {
+        rod = static_cast<int>(r);
+        section = static_cast<int>(si);
+        break;
+      }
+    if (rod >= 0) break;
+    if (b >= rb.below_begin && b < rb.below_end) {  // keep the innermost (the latest below_begin)
+      rod = static_cast<int>(r);
+      section = static_cast<int>(rb.proxy_body.size()) - 1;
+    }
+  }
+  if (rod < 0) return false;
+  const Section& sec = s.rods[rod].model.sections[section];
+  X = sec.X0 + sec.length;
+  return sec.ndof > 0;
+}
+
+// Patch point 5b: MuJoCo's contact rows constrain J qacc and leave the velocity product dJ/dt qvel
+// to the reference acceleration's feedback (aref = -b J qvel - k r). For a point on a rigid body
+// that term is the centripetal acceleration of its offset, which a round geom's contact does not
+// feel; on a soft section it carries the strain coordinates' own velocity products, which need
+// not be small: a bent rod rolling about its centre line keeps that line still while J qacc
+// reads hundreds of m/s^2, and its contacts, seeing the rod leave, let it sink through the floor.
+// So a contact on a section with strain dofs constrains the acceleration of its point riding
+// with the cross-section: efc_aref -= the rows' velocity product, that of the centre-line point
+// under the contact and the cross-section's angular one (the centripetal term of the offset to
+// the surface left out, as MuJoCo leaves it out for a rigid body); so does a contact on a geom of
+// a body hanging below a rod whose last section has dofs, riding with the rod's tip. Contacts on
+// rigid sections stay MuJoCo's (bit for bit what welded bodies give). After patch_bias, whose rnea leaves the
+// rods' nodes' velocity-product accelerations (with gravity, which the base's carries) in Data::acc.
 void patch_contact_references(const Scene& s, SceneData& sd) {
   mjData* d = sd.d;
   for (int i = 0; i < d->ncon; ++i) {
@@ -691,12 +721,17 @@ void patch_contact_references(const Scene& s, SceneData& sd) {
     bool any = false;
     for (int side = 0; side < 2; ++side) {
       const int g = side == 0 ? con.geom1 : con.geom2;
-      const int r = s.geom_rod[g];
-      if (r < 0) continue;
-      const int si = s.rods[r].decl.geoms[s.geom_index[g]].section;
-      if (s.rods[r].model.sections[si].ndof == 0) continue;
       const Vec3 p(con.pos[0], con.pos[1], con.pos[2]);
-      c += (side == 0 ? -1.0 : 1.0) * riding_point_velocity_product(s, sd, r, si, capsule_abscissa(s, sd, g, p), p);
+      int r = s.geom_rod[g], si = -1;
+      double X = 0.0;
+      if (r >= 0) {  // a rod capsule: the cross-section under the contact
+        si = s.rods[r].decl.geoms[s.geom_index[g]].section;
+        if (s.rods[r].model.sections[si].ndof == 0) continue;
+        X = capsule_abscissa(s, sd, g, p);
+      } else if (!riding_frame(s, s.m->geom_bodyid[g], r, si, X)) {  // a geom riding with a soft rod
+        continue;
+      }
+      c += (side == 0 ? -1.0 : 1.0) * riding_point_velocity_product(s, sd, r, si, X, p);
       any = true;
     }
     if (!any) continue;
@@ -717,21 +752,9 @@ void patch_contact_references(const Scene& s, SceneData& sd) {
   }
 }
 
-// The rod and section whose proxy is body b, if b is the proxy of a section with strain dofs.
-bool soft_proxy(const Scene& s, int b, int& rod, int& section) {
-  if (b <= 0 || !s.body_by_rod[b]) return false;
-  for (size_t r = 0; r < s.rods.size(); ++r)
-    for (size_t si = 0; si < s.rods[r].proxy_body.size(); ++si)
-      if (s.rods[r].proxy_body[si] == b) {
-        rod = static_cast<int>(r);
-        section = static_cast<int>(si);
-        return s.rods[r].model.sections[si].ndof > 0;
-      }
-  return false;
-}
-
-// Patch point 5c: the same for equality constraints on a proxy of a section with strain dofs (the
-// proxy is the section's end frame): connect rows (anchor points) and weld rows (anchor points, and
+// Patch point 5c: the same for equality constraints on a body riding with a soft rod (a proxy of a
+// section with strain dofs, the section's end frame, or a body below a rod whose last section has
+// dofs, riding with its tip; riding_frame): connect rows (anchor points) and weld rows (anchor points, and
 // the rotation rows torquescale * 0.5 vec(neg(q1) (w0 - w1) q0 relpose), MuJoCo 2.2.2's, applied to
 // the angular velocity products) constrain the acceleration of the anchor points riding with the
 // cross-sections. A bent shaft turning about its centre line, its tip held by a connect, drifted
@@ -753,15 +776,14 @@ void patch_equality_references(const Scene& s, SceneData& sd) {
       bool any = false;
       for (int j = 0; j < 2; ++j) {
         int r = -1, si = -1;
-        if (!soft_proxy(s, body[j], r, si)) continue;
+        double X = 0.0;
+        if (!riding_frame(s, body[j], r, si, X)) continue;
         // the anchor point, as mj_instantiateEquality places it
         const mjtNum* anchor = type == mjEQ_CONNECT ? data + 3 * j : data + 3 * (1 - j);
         mjtNum pw[3];
         mju_rotVecMat(pw, anchor, d->xmat + 9 * body[j]);
         mju_addTo3(pw, d->xpos + 3 * body[j]);
-        const Section& sec = s.rods[r].model.sections[si];
-        c += (j == 0 ? 1.0 : -1.0) *
-             riding_point_velocity_product(s, sd, r, si, sec.X0 + sec.length, Vec3(pw[0], pw[1], pw[2]));
+        c += (j == 0 ? 1.0 : -1.0) * riding_point_velocity_product(s, sd, r, si, X, Vec3(pw[0], pw[1], pw[2]));
         any = true;
       }
       if (any) {

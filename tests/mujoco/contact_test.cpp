@@ -176,6 +176,63 @@ TEST(Contact, SoftSectionRowsReferenceTheCrossSectionsAcceleration) {
   check_contact_references("elliptic");
 }
 
+// A geom on a body below a soft rod (a ball at the tip) rides with the rod's tip cross-section: its
+// contacts' reference accelerations get the velocity product of the contact point riding with the
+// tip (centre line's acceleration and angular acceleration crossed with the offset, the offset's
+// centripetal term left out), against second differences of the tip body's frame along q + t qvel
+// (the point's acceleration there, less the centripetal term of its offset from the tip's centre).
+TEST(Contact, GeomsBelowASoftRodReferenceTheTipsAcceleration) {
+  auto s = load_scene_string(R"(<mujoco><option gravity="0 0 -9.81"/><worldbody>
+    <geom name="floor" type="plane" size="1 1 0.1"/>
+    <body name="hub" pos="0 0 0.1" euler="0 30 0"><freejoint/>
+      <inertial pos="0 0 0" mass="0.01" diaginertia="1e-6 1e-6 1e-6"/>
+      <cosserat name="rod" length="0.2" sections="3" strain="kl" radius="0.01" contype="0" conaffinity="0">
+        <body name="tipb" pos="0.01 0.005 0"><geom name="ball" type="sphere" size="0.02"/></body>
+      </cosserat></body></worldbody></mujoco>)", kPath);
+  SceneData sd(*s);
+  const mjModel* m = s->m;
+  const int b = mj_name2id(m, mjOBJ_BODY, "tipb");
+  for (int k = 0; k < s->rods[0].model.nv; ++k) sd.d->qpos[s->rods[0].qpos0 + k] = 0.3 * std::sin(1.0 + 2.3 * k);
+  for (int k = 0; k < m->nv; ++k) sd.d->qvel[k] = 3.0 * std::cos(0.7 + 1.9 * k);
+  forward(*s, sd);
+  ASSERT_GT(sd.d->ncon, 0);
+  const mjContact con = sd.d->contact[0];
+  ASSERT_EQ(m->geom_bodyid[con.geom2], b);
+  const std::vector<mjtNum> aref(sd.d->efc_aref, sd.d->efc_aref + sd.d->nefc);
+  mj_referenceConstraint(m, sd.d);
+  const std::vector<mjtNum> q0(sd.d->qpos, sd.d->qpos + m->nq);
+  const std::vector<mjtNum> v(sd.d->qvel, sd.d->qvel + m->nv);
+  const Vec3 p(con.pos[0], con.pos[1], con.pos[2]);
+  // the tip body's frame at q0 (+) t v, and the rod's tip centre at q0
+  const double e = 1e-4;
+  auto frame_at = [&](double t, Vec3& x, Mat3& R) {
+    SceneData sdt(*s);
+    std::vector<mjtNum> q = q0;
+    mj_integratePos(m, q.data(), v.data(), t);
+    mju_copy(sdt.d->qpos, q.data(), m->nq);
+    fwd_position(*s, sdt);
+    x = Vec3(sdt.d->xpos[3 * b], sdt.d->xpos[3 * b + 1], sdt.d->xpos[3 * b + 2]);
+    R = Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(sdt.d->xmat + 9 * b);
+  };
+  Vec3 x[5];
+  Mat3 R[5];
+  for (int k = 0; k < 5; ++k) frame_at((k - 2) * e, x[k], R[k]);
+  auto spin = [&](int k) { return unskew(R[k + 1] * R[k - 1].transpose()) / (2 * e); };
+  const Vec3 w = spin(2);
+  const Vec3 offset = R[2].transpose() * (p - x[2]);  // the contact point in the body's frame
+  const Vec3 tip = rod_pose(s->rods[0].model, sd.rod[0], 0, 0.2).u;
+  const Vec3 a_point = (x[3] + R[3] * offset - 2.0 * p + x[1] + R[1] * offset) / (e * e);
+  const Vec3 c = a_point - w.cross(w.cross(p - tip));  // the offset from the tip's centre line
+  Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> frame(con.frame);
+  const Vec3 cf = frame * c;
+  const int a = con.efc_address;
+  for (int j = 1; j < 3; ++j) {
+    EXPECT_NEAR(sd.d->efc_aref[a + 2 * (j - 1)] - aref[a + 2 * (j - 1)], cf(0) + con.friction[j - 1] * cf(j), 1e-6 * (1 + c.norm()));
+    EXPECT_NEAR(sd.d->efc_aref[a + 2 * (j - 1) + 1] - aref[a + 2 * (j - 1) + 1], cf(0) - con.friction[j - 1] * cf(j), 1e-6 * (1 + c.norm()));
+  }
+  EXPECT_GT(std::abs(cf(0)), 0.05);  // m/s^2: five orders above the tolerance
+}
+
 // docs/bench/repro/rod_off_cylinder.xml: a soft rod draped across an upright cylinder's top rolls
 // sideways off it (a rod across a disc's rim lowers its weight by moving sideways), turning about
 // its bent centre line. Without the rows' velocity product its contacts read J qacc of hundreds of
