@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <vector>
 
 #include <Eigen/Eigenvalues>
@@ -415,9 +416,12 @@ bool relax(const Scene& s, SceneData& sd, const std::vector<mjtNum>& q_start, co
   }
   d->time = t0;
   mju_zero(d->qvel, s.m->nv);
-  if (!converged && res.message.empty())
-    res.message = "dynamic relaxation did not settle within " + std::to_string(opt.relaxation_time) +
-                  " s of simulated time (residual " + std::to_string(res.residual) + ")";
+  if (!converged && res.message.empty()) {
+    char buf[160];
+    std::snprintf(buf, sizeof buf, "dynamic relaxation did not settle within %g s of simulated time (residual %.3g, target %g)",
+                  opt.relaxation_time, res.residual, opt.relaxation_tolerance);
+    res.message = buf;
+  }
   return converged;
 }
 
