@@ -41,6 +41,9 @@ namespace cosserat::mj {
 
 namespace {
 constexpr int kMaxNewtonMemory = 4;  // Scene::newton_memory is clamped to this
+// A capsule's margin and gap grow by this times its chord's sag at the midpoint (the largest
+// deviation for a constant curvature; the factor covers curvature varying along the capsule).
+constexpr double kSagFactor = 1.5;
 
 using Vec3m = Eigen::Map<Vec3>;
 using Mat3r = Eigen::Matrix<double, 3, 3, Eigen::RowMajor>;  // MuJoCo's xmat layout
@@ -352,6 +355,11 @@ void patch_rod_kinematics(const Scene& s, SceneData& sd, int r) {
     // geom_size and geom_rbound are state-dependent for rod capsules)
     s.m->geom_size[3 * id + 1] = half;
     s.m->geom_rbound[id] = half + s.m->geom_size[3 * id];
+    if (rb.geom_sagging[k]) {  // margin and gap widened by the chord's sag (RodBinding::geom_sagging)
+      const double sag = kSagFactor * (rod_pose(rb.model, rd, 0, 0.5 * (gd.X_begin + gd.X_end)).u - g.u).norm();
+      s.m->geom_margin[id] = rb.geom_margin0[k] + sag;
+      s.m->geom_gap[id] = rb.geom_gap0[k] + sag;
+    }
   }
   for (size_t k = 0; k < rb.site_id.size(); ++k) {
     const RodBinding::Fixed& f = rb.site_fixed[k];
@@ -643,6 +651,62 @@ void patch_contacts(const Scene& s, SceneData& sd) {
         }
       }
     }
+  }
+}
+
+// Patch point 4b (after mj_collision, before mj_makeConstraint, which turns contact distances into
+// the rows' positions and impedances): a contact on a capsule of a section with strain dofs is
+// measured on the rod's centre line. MuJoCo measures it on the capsule, a chord between two
+// centre-line points, while the rows act on the material point at the contact's abscissa: where a
+// section bends fast the two move apart, and a stiff contact measured on one and pushing the
+// other is not conservative (a GVS rod dropped on a sphere with 2 capsules per section, solref
+// 0.004, gained 5.6% of its energy). The capsule's axis point where MuJoCo measured is the contact
+// point moved back by the radius and half the distance along the normal n (from geom1 to geom2);
+// the distance moves by n . (centre line at the contact's abscissa - that point): on a plane,
+// exactly the centre line's height there minus the radius. MuJoCo found the contact within the
+// capsule's margin widened by the chord's sag (RodBinding::geom_sagging); its inclusion margin goes
+// back to the user's margins and gaps (MuJoCo's rule: max margin - max gap, or the pair's), and the
+// contact is excluded, as MuJoCo excludes one in the gap, while the centre line's distance is not
+// below it.
+void patch_contact_distances(const Scene& s, SceneData& sd) {
+  const mjModel* m = s.m;
+  mjData* d = sd.d;
+  for (int i = 0; i < d->ncon; ++i) {
+    mjContact& con = d->contact[i];
+    const Vec3 n(con.frame[0], con.frame[1], con.frame[2]), p(con.pos[0], con.pos[1], con.pos[2]);
+    const double dist = con.dist;  // MuJoCo's, for both sides
+    double margin[2], gap[2];
+    bool sagging = false;
+    for (int side = 0; side < 2; ++side) {
+      const int g = side == 0 ? con.geom1 : con.geom2;
+      margin[side] = m->geom_margin[g];
+      gap[side] = m->geom_gap[g];
+      const int r = s.geom_rod[g];
+      if (r < 0) continue;
+      const RodBinding& rb = s.rods[r];
+      const int k = s.geom_index[g];
+      if (!rb.geom_sagging[k]) continue;
+      sagging = true;
+      margin[side] = rb.geom_margin0[k];
+      gap[side] = rb.geom_gap0[k];
+      const double sign = side == 0 ? -1.0 : 1.0;  // geom2 lies along +n
+      // the axis point: back along n (exact where the contact point is the surfaces' midpoint, as
+      // for planes), then onto the chord (where a convex pair's contact point lies elsewhere on n)
+      const Vec3 gc(d->geom_xpos[3 * g], d->geom_xpos[3 * g + 1], d->geom_xpos[3 * g + 2]);
+      const Vec3 ax(d->geom_xmat[9 * g + 2], d->geom_xmat[9 * g + 5], d->geom_xmat[9 * g + 8]);
+      const double half = m->geom_size[3 * g + 1];
+      const Vec3 back = p + sign * (m->geom_size[3 * g] + 0.5 * dist) * n;
+      const Vec3 measured = gc + std::clamp((back - gc).dot(ax), -half, half) * ax;
+      const Vec3 centre = cosserat::rod_pose(rb.model, sd.rod[r], 0, capsule_abscissa(s, sd, g, p)).u;
+      con.dist += sign * n.dot(centre - measured);
+    }
+    if (!sagging || con.exclude > 1) continue;
+    bool pair = false;  // an explicit <pair> sets its own margin and gap
+    for (int k = 0; k < m->npair && !pair; ++k)
+      pair = (m->pair_geom1[k] == con.geom1 && m->pair_geom2[k] == con.geom2) ||
+             (m->pair_geom1[k] == con.geom2 && m->pair_geom2[k] == con.geom1);
+    if (!pair) con.includemargin = std::max(margin[0], margin[1]) - std::max(gap[0], gap[1]);
+    con.exclude = con.dist < con.includemargin ? 0 : 1;
   }
 }
 
@@ -1049,6 +1113,7 @@ void fwd_position(const Scene& s, SceneData& sd, Need need) {
     mj_collision(m, d);
   else
     d->ncon = 0;  // what mj_collision finds when no geom pair passes its filters
+  if (d->ncon && !s.rods.empty()) patch_contact_distances(s, sd);
   mj_makeConstraint(m, d);
   if (d->ncon && !s.rods.empty()) patch_contacts(s, sd);
   mj_transmission(m, d);
@@ -1399,6 +1464,19 @@ std::unique_ptr<Scene> compile(const Preprocessed& pre) {
       s->geom_index[s->rods[r].geom_id[k]] = static_cast<int>(k);
     }
   s->may_collide = scene_may_collide(s->m);
+  for (RodBinding& rb : s->rods) {
+    const size_t n = rb.geom_id.size();
+    rb.geom_sagging.assign(n, 0);
+    rb.geom_margin0.assign(n, 0.0);
+    rb.geom_gap0.assign(n, 0.0);
+    for (size_t k = 0; k < n; ++k) {
+      const int id = rb.geom_id[k];
+      rb.geom_margin0[k] = s->m->geom_margin[id];
+      rb.geom_gap0[k] = s->m->geom_gap[id];
+      rb.geom_sagging[k] = s->may_collide && !rb.geom_fixed[k].fixed &&
+                           (s->m->geom_contype[id] != 0 || s->m->geom_conaffinity[id] != 0);
+    }
+  }
   s->body_by_rod.assign(s->m->nbody, 0);
   for (const RodBinding& rb : s->rods)
     for (int b = rb.base_body + 1; b < rb.below_end; ++b) s->body_by_rod[b] = 1;

@@ -48,6 +48,13 @@ struct RodBinding {
     double half = 0.0;  // capsules: half-length of the chord
   };
   std::vector<Fixed> geom_fixed;  // per capsule
+  // per capsule on a section with strain dofs that can collide (set at load): the user's margin and
+  // gap. MuJoCo detects contacts on the capsule, a chord of the centre line; each step widens its
+  // margin and gap by the chord's sag, so that contacts are found around the centre line, and the
+  // coupling then measures their distance on the centre line and applies the user's margin and gap
+  // to it (patch_contact_distances, scene.cpp).
+  std::vector<char> geom_sagging;
+  std::vector<double> geom_margin0, geom_gap0;
   std::vector<Fixed> site_fixed;  // per site
   // per site (set at load): -1 unless the site is a spatial tendon's path point off a rigid
   // section. Its centre-line pose and section Jacobian come from one partial step per evaluation

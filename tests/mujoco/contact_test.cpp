@@ -7,6 +7,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <string>
 
@@ -269,6 +270,116 @@ TEST(Contact, BentRodRollingOffACylinderComesToRestOnTheFloor) {
   EXPECT_LE(E_max, E0);
   EXPECT_GT(deepest_at_rest, -0.002);
   EXPECT_GT(std::abs(y_end), 0.05);  // it did roll off (the cylinder's radius is 0.05 m)
+}
+
+// Contact distances on soft sections are the centre line's (patch_contact_distances), not the
+// chords': on a floor, the centre line's height at the contact's abscissa minus the radius (MuJoCo's
+// capsule-plane contacts sit at the capsules' ends, on the centre line up to the projection); on a
+// sphere under a bent section spanned by one capsule, the centre line's distance from the sphere
+// (to second order in the normal's tilt), where the chord's is a centimetre off.
+TEST(Contact, DistancesAreTheCentreLinesNotTheChords) {
+  {
+    auto s = load_scene_string(replace_all(scene("pyramidal", "dense", 3, 0.005), "capsules=\"3\"", "capsules=\"1\""), kPath);
+    SceneData sd(*s);
+    for (int k = 0; k < s->rods[0].model.nv; ++k) sd.d->qpos[s->rods[0].qpos0 + k] = 2.0 * std::sin(1.0 + 2.3 * k);
+    forward(*s, sd);
+    ASSERT_GT(sd.d->ncon, 0);
+    for (int i = 0; i < sd.d->ncon; ++i) {
+      const mjContact& con = sd.d->contact[i];
+      ASSERT_EQ(con.geom1, 0);  // the floor, normal +z
+      const Vec3 centre = rod_pose(s->rods[0].model, sd.rod[0], 0, contact_point(*s, sd, con, con.geom2).X).u;
+      EXPECT_NEAR(con.dist, centre.z() - 0.01, 1e-12) << "contact " << i;
+    }
+  }
+  auto s = load_scene_string(R"(<mujoco><worldbody>
+    <geom name="ball" type="sphere" pos="0 0 0" size="0.05"/>
+    <cosserat name="rod" pos="-0.1 0 0.058" length="0.2" sections="1" strain="kl" radius="0.01" capsules="1"/>
+  </worldbody></mujoco>)", kPath);
+  SceneData sd(*s);
+  sd.d->qpos[s->rods[0].qpos0 + 1] = 2.0;  // curvature 2/m, bending down over the ball
+  forward(*s, sd);
+  ASSERT_EQ(sd.d->ncon, 1);
+  const mjContact& con = sd.d->contact[0];
+  const int g = con.geom2;
+  ASSERT_GE(s->geom_rod[g], 0);
+  const Vec3 centre = rod_pose(s->rods[0].model, sd.rod[0], 0, contact_point(*s, sd, con, g).X).u;
+  const double along_centre = centre.norm() - 0.05 - 0.01;
+  // the chord's distance: from the ball's centre to the capsule's segment
+  const Vec3 gc(sd.d->geom_xpos[3 * g], sd.d->geom_xpos[3 * g + 1], sd.d->geom_xpos[3 * g + 2]);
+  const Vec3 ax(sd.d->geom_xmat[9 * g + 2], sd.d->geom_xmat[9 * g + 5], sd.d->geom_xmat[9 * g + 8]);
+  const double half = s->m->geom_size[3 * g + 1];
+  const Vec3 nearest = gc + std::clamp(-gc.dot(ax), -half, half) * ax;
+  const double along_chord = nearest.norm() - 0.05 - 0.01;
+  EXPECT_NEAR(con.dist, along_centre, 1e-5);
+  EXPECT_GT(std::abs(along_chord - along_centre), 5e-3);
+}
+
+// Contacts are found and switched on around the centre line, not the chord (the capsules' margin
+// and gap widened by the chord's sag, RodBinding::geom_sagging): a bent one-capsule section over a
+// ball, its chord clear of the ball by 9 mm while its centre line dips 9 mm into it, gets an active
+// contact; bent the other way, its chord 9 mm into the ball while its centre line stays 10 mm
+// clear, it gets none.
+TEST(Contact, ContactsAreFoundAroundTheCentreLine) {
+  for (const double curvature : {-5.0, 5.0}) {
+    SCOPED_TRACE(curvature);
+    const std::string pose = curvature < 0 ? "pos=\"-0.05 0 0.06\" euler=\"0 17 0\"" : "pos=\"-0.05 0 0.062\" euler=\"0 -17 0\"";
+    auto s = load_scene_string("<mujoco><worldbody><geom name=\"ball\" type=\"sphere\" pos=\"0 0 0\" size=\"0.05\"/>"
+                               "<cosserat name=\"rod\" " + pose + " length=\"0.2\" sections=\"1\" strain=\"kl\" "
+                               "radius=\"0.01\" capsules=\"1\"/></worldbody></mujoco>", kPath);
+    SceneData sd(*s);
+    sd.d->qpos[s->rods[0].qpos0 + 1] = curvature;  // bending in the x-z plane
+    forward(*s, sd);
+    double centre = 1e9;  // the centre line's least distance from the ball, less the radius
+    for (int k = 0; k <= 400; ++k) centre = std::min(centre, rod_pose(s->rods[0].model, sd.rod[0], 0, 0.2 * k / 400).u.norm() - 0.06);
+    const int g = s->rods[0].geom_id[0];
+    const Vec3 gc(sd.d->geom_xpos[3 * g], sd.d->geom_xpos[3 * g + 1], sd.d->geom_xpos[3 * g + 2]);
+    const Vec3 ax(sd.d->geom_xmat[9 * g + 2], sd.d->geom_xmat[9 * g + 5], sd.d->geom_xmat[9 * g + 8]);
+    const double half = s->m->geom_size[3 * g + 1];
+    const double chord = (gc + std::clamp(-gc.dot(ax), -half, half) * ax).norm() - 0.06;
+    if (curvature < 0) {
+      EXPECT_GT(chord, 0.008);
+      EXPECT_LT(centre, -0.008);
+      ASSERT_EQ(sd.d->ncon, 1);
+      EXPECT_EQ(sd.d->contact[0].exclude, 0);
+      EXPECT_LT(sd.d->contact[0].dist, -0.005);  // first order at the chord's nearest point
+      EXPECT_GT(sd.d->nefc, 0);
+    } else {
+      EXPECT_LT(chord, -0.008);
+      EXPECT_GT(centre, 0.009);
+      EXPECT_EQ(sd.d->nefc, 0);
+    }
+  }
+}
+
+// Probe L's F1: a soft GVS rod (3 sections of order 2, 2 capsules each) dropped onto a sphere
+// through a stiff frictionless contact (solref 0.004, solimp 0.99 0.999). With distances measured
+// on the chords and rows acting on the material points, the contact did positive work while the
+// sections bent fast: +4.5% of the energy at 0.5 ms (+5.6% at 0.1 ms, +32% with one capsule per
+// section). With the centre line's distance the energy only falls.
+TEST(Contact, StiffContactOnACoarselyCapsuledBendingRodAddsNoEnergy) {
+  auto s = load_scene_string(R"(<mujoco>
+  <option timestep="0.0005" gravity="0 0 -9.81"/>
+  <worldbody>
+    <geom name="ball" type="sphere" pos="0.35 0.02 0.05" size="0.05" condim="1" solref="0.004 1" solimp="0.99 0.999 0.001"/>
+    <body name="hub" pos="0 0 0.15"><freejoint/><inertial pos="0 0 0" mass="0.01" diaginertia="1e-6 1e-6 1e-6"/>
+      <cosserat name="a" length="0.5" sections="3" order="2" strain="kl" radius="0.01" density="1000" young="1e5"
+                poisson="0.5" viscosity="5" condim="1" solref="0.004 1" solimp="0.99 0.999 0.001"/>
+    </body>
+  </worldbody>
+</mujoco>)", kPath);
+  SceneData sd(*s);
+  forward(*s, sd);
+  const double E0 = energy(*s, sd).total();
+  double E_max = E0;
+  int contacts = 0;
+  for (int k = 1; k <= 800; ++k) {
+    ASSERT_EQ(step(*s, sd, Integrator::Implicit), Status::Ok);
+    contacts = std::max(contacts, sd.d->ncon);
+    forward(*s, sd);
+    E_max = std::max(E_max, energy(*s, sd).total());
+  }
+  EXPECT_GT(contacts, 0);
+  EXPECT_LE(E_max, E0 * (1 + 1e-12));
 }
 
 // Capsules follow the solver's centre line: a stretched rod's capsules lengthen, a bent one's
