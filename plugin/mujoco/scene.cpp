@@ -41,9 +41,7 @@ namespace cosserat::mj {
 
 namespace {
 constexpr int kMaxNewtonMemory = 4;  // Scene::newton_memory is clamped to this
-// A capsule's margin and gap grow by this times its chord's sag at the midpoint (the largest
-// deviation for a constant curvature; the factor covers curvature varying along the capsule).
-constexpr double kSagFactor = 1.5;
+
 
 using Vec3m = Eigen::Map<Vec3>;
 using Mat3r = Eigen::Matrix<double, 3, 3, Eigen::RowMajor>;  // MuJoCo's xmat layout
@@ -315,6 +313,24 @@ void attached_kinematics(const mjModel* m, mjData* d, int b0, int b1) {
 }
 
 // Patch point 1: proxy poses, rod capsules and sites from the rod solution; then everything below.
+// An upper bound on how far the centre line between a capsule's ends strays from its chord: an arc
+// of length l and curvature kappa rises kappa l^2 / 8 above its chord (less for large angles), with
+// kappa at most the strain's angular magnitude |xi_ang| (twist included) and l the stretched length,
+// both taken at the ends and the middle (PCS: constant; GVS: a margin of 25% for what lies between).
+// From the strains alone (no pose evaluation): the per-step cost of RodBinding::geom_sagging.
+double chord_sag_bound(const cosserat::Model& m, const cosserat::Data& d, const RodGeomDecl& gd) {
+  double kappa = 0.0, stretch = 0.0;
+  const bool pcs = m.sections[gd.section].order == 0;
+  for (const double f : {0.5, 0.0, 1.0}) {
+    const Vec6 xi = cosserat::rod_strain(m, d, 0, gd.X_begin + f * (gd.X_end - gd.X_begin));
+    kappa = std::max(kappa, xi.head<3>().norm());
+    stretch = std::max(stretch, xi.tail<3>().norm());
+    if (pcs) break;
+  }
+  const double l = (gd.X_end - gd.X_begin) * stretch;
+  return (pcs ? 1.0 : 1.25) * kappa * l * l / 8.0;
+}
+
 void patch_rod_kinematics(const Scene& s, SceneData& sd, int r) {
   const mjModel* m = s.m;
   mjData* d = sd.d;
@@ -356,7 +372,7 @@ void patch_rod_kinematics(const Scene& s, SceneData& sd, int r) {
     s.m->geom_size[3 * id + 1] = half;
     s.m->geom_rbound[id] = half + s.m->geom_size[3 * id];
     if (rb.geom_sagging[k]) {  // margin and gap widened by the chord's sag (RodBinding::geom_sagging)
-      const double sag = kSagFactor * (rod_pose(rb.model, rd, 0, 0.5 * (gd.X_begin + gd.X_end)).u - g.u).norm();
+      const double sag = chord_sag_bound(rb.model, rd, gd);
       s.m->geom_margin[id] = rb.geom_margin0[k] + sag;
       s.m->geom_gap[id] = rb.geom_gap0[k] + sag;
     }
