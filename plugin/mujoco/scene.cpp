@@ -680,15 +680,16 @@ void patch_contacts(const Scene& s, SceneData& sd) {
 // point moved back by the radius and half the distance along the normal n (from geom1 to geom2);
 // the distance moves by n . (centre line at the contact's abscissa - that point): on a plane,
 // exactly the centre line's height there minus the radius. MuJoCo found the contact within the
-// capsule's margin widened by the chord's sag (RodBinding::geom_sagging); its inclusion margin goes
-// back to the user's margins and gaps (MuJoCo's rule: max margin - max gap, or the pair's), and the
-// contact is excluded, as MuJoCo excludes one in the gap, while the centre line's distance is not
-// below it.
+// capsule's margin widened by the chord's sag (RodBinding::geom_sagging); it is dropped when the
+// centre line's distance is not below the user's margin (MuJoCo's rule: the larger of the geoms',
+// or the pair's), its inclusion margin goes back to the user's (margin - the larger gap), and it is
+// excluded, as MuJoCo excludes a contact in the gap, while the distance is not below that.
 void patch_contact_distances(const Scene& s, SceneData& sd) {
   const mjModel* m = s.m;
   mjData* d = sd.d;
+  int kept = 0;  // contacts kept, compacted in place
   for (int i = 0; i < d->ncon; ++i) {
-    mjContact& con = d->contact[i];
+    mjContact con = d->contact[i];
     const Vec3 n(con.frame[0], con.frame[1], con.frame[2]), p(con.pos[0], con.pos[1], con.pos[2]);
     const double dist = con.dist;  // MuJoCo's, for both sides
     double margin[2], gap[2];
@@ -716,14 +717,24 @@ void patch_contact_distances(const Scene& s, SceneData& sd) {
       const Vec3 centre = cosserat::rod_pose(rb.model, sd.rod[r], 0, capsule_abscissa(s, sd, g, p)).u;
       con.dist += sign * n.dot(centre - measured);
     }
-    if (!sagging || con.exclude > 1) continue;
-    bool pair = false;  // an explicit <pair> sets its own margin and gap
-    for (int k = 0; k < m->npair && !pair; ++k)
-      pair = (m->pair_geom1[k] == con.geom1 && m->pair_geom2[k] == con.geom2) ||
-             (m->pair_geom1[k] == con.geom2 && m->pair_geom2[k] == con.geom1);
-    if (!pair) con.includemargin = std::max(margin[0], margin[1]) - std::max(gap[0], gap[1]);
+    if (!sagging || con.exclude > 1) {
+      d->contact[kept++] = con;
+      continue;
+    }
+    int pair = -1;  // an explicit <pair> sets its own margin and gap
+    for (int k = 0; k < m->npair && pair < 0; ++k)
+      if ((m->pair_geom1[k] == con.geom1 && m->pair_geom2[k] == con.geom2) ||
+          (m->pair_geom1[k] == con.geom2 && m->pair_geom2[k] == con.geom1))
+        pair = k;
+    const double user_margin = pair >= 0 ? m->pair_margin[pair] : std::max(margin[0], margin[1]);
+    // found only through the widened margin, beyond the user's: no contact (an adhesion actuator
+    // counts the contacts in a gap, MuJoCo's excluded ones)
+    if (con.dist >= user_margin) continue;
+    if (pair < 0) con.includemargin = user_margin - std::max(gap[0], gap[1]);
     con.exclude = con.dist < con.includemargin ? 0 : 1;
+    d->contact[kept++] = con;
   }
+  d->ncon = kept;
 }
 
 // Whether a contact of this evaluation touches a rod capsule or a geom of a body moving with a rod
