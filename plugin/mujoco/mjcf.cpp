@@ -350,6 +350,7 @@ class Preprocessor {
   void map_lines(const XMLElement* root, Preprocessed& out) const;
   void emit_excludes(XMLDocument& doc, XMLElement* root);
   void check_depth(const XMLElement* root) const;
+  void check_helper_references(const XMLElement* e) const;
   void check_custom_fields(const XMLElement* root) const;
   void check_options(const XMLElement* root) const;
   void check_finite(const XMLElement* e) const;
@@ -365,6 +366,8 @@ class Preprocessor {
   std::map<std::string, Origin> rod_names_;
   std::set<std::string> declared_rods_;  // names of the <cosserat> elements (collect_names)
   std::vector<RodDecl> rods_;
+  // the generated helper bodies (sections with more than 6 dofs), each with its section's proxy
+  std::map<std::string, std::string> helper_proxy_;
   std::vector<std::pair<std::string, std::string>> excludes_;
 };
 
@@ -856,7 +859,10 @@ XMLElement* Preprocessor::replace_rod(XMLElement* parent, XMLElement* cosserat) 
   XMLElement* base = build_rod(doc, rod);
   claim("body", name + "/base", r, false);
   for (const auto& p : rod.decl.proxies) claim("body", p, r, false);
-  for (const auto& h : rod.helpers) claim("body", h, r, false);
+  for (const auto& h : rod.helpers) {
+    claim("body", h, r, false);
+    helper_proxy_[h] = h.substr(0, h.rfind('/'));  // "<rod>/s<i>/h<k>" -> "<rod>/s<i>"
+  }
   for (const auto& j : rod.decl.joints) claim("joint", j, r, false);
   for (const auto& g : rod.decl.geoms) claim("geom", g.name, r, false);
   claim("site", name + "/base", r, false);
@@ -937,6 +943,34 @@ void Preprocessor::check_depth(const XMLElement* root) const {
   throw LoadError(origin(e).file, origin(e).line, "elements nested too deep for MuJoCo's XML parser");
 }
 
+// References to the helper bodies "<rod>/s<i>/h<k>" (equality constraints, sensors, actuators,
+// cameras and lights): a helper sits at its section's end frame but carries only the section's
+// first dofs, so MuJoCo's Jacobian there misses the rest (probe M: a connect's velocity rows off by
+// 2-40%, a framelinvel reading another velocity than the proxy's at the same frame). Refused at the
+// element, naming the proxy (the same frame, the whole motion).
+void Preprocessor::check_helper_references(const XMLElement* e) const {
+  if (helper_proxy_.empty()) return;
+  for (const XMLElement* c = e->FirstChildElement(); c; c = c->NextSiblingElement()) {
+    if (!is(c, "exclude")) {  // an exclusion naming a helper changes nothing
+      for (const char* attr : {"body", "body1", "body2", "target", "objname", "refname"}) {
+        const char* v = c->Attribute(attr);
+        if (!v) continue;
+        const std::string a(attr);
+        if (a == "objname" || a == "refname") {  // a body only when the matching type says so
+          const char* type = c->Attribute(a == "objname" ? "objtype" : "reftype");
+          if (!type || (std::string_view(type) != "body" && std::string_view(type) != "xbody")) continue;
+        }
+        const auto h = helper_proxy_.find(v);
+        if (h == helper_proxy_.end()) continue;
+        reader(c).fail("'" + h->first + "' is a body generated to hold the first 6 dofs of a section with more; it "
+                       "sits at the section's end but moves with only those dofs: name the section's proxy '" +
+                       h->second + "' (the same frame, the whole motion)");
+      }
+    }
+    check_helper_references(c);
+  }
+}
+
 Preprocessed Preprocessor::run(const std::string& text, const std::string& path) {
   const std::string file = path.empty() ? "<string>" : path;
   XMLDocument& doc = parse(text, file);
@@ -951,6 +985,7 @@ Preprocessed Preprocessor::run(const std::string& text, const std::string& path)
   check_custom_fields(root);
   check_options(root);
   rewrite(root);
+  check_helper_references(root);
   check_finite(root);  // after the checks with messages of their own (options, rods)
   check_compiler(root);
   emit_excludes(doc, root);

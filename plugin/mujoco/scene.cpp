@@ -748,9 +748,11 @@ bool rod_contacts(const Scene& s, const mjData* d) {
 
 // The velocity product of a point p (world) riding with the cross-section at X of rod r's section
 // si: the centre line's classical acceleration at qacc = 0 plus the cross-section's angular one
-// crossed with the offset to p (the offset's own centripetal term left out). World axes: angular,
-// then linear. After patch_bias.
-Vec6 riding_point_velocity_product(const Scene& s, const SceneData& sd, int r, int si, double X, const Vec3& p) {
+// crossed with the offset to p, and with `centripetal` the offset's own centripetal term (a
+// material anchor's; a contact on a round capsule leaves it out, as MuJoCo leaves it out for any
+// rigid body). World axes: angular, then linear. After patch_bias.
+Vec6 riding_point_velocity_product(const Scene& s, const SceneData& sd, int r, int si, double X, const Vec3& p,
+                                   bool centripetal) {
   const mjModel* m = s.m;
   const cosserat::PointMotion pm = cosserat::point_motion_at_rest_acceleration(s.rods[r].model, sd.rod[r], 0, X, si);
   const Mat3& R = pm.pose.R;
@@ -758,7 +760,12 @@ Vec6 riding_point_velocity_product(const Scene& s, const SceneData& sd, int r, i
   Vec6 c;
   c.head<3>() = R * pm.acc.head<3>();
   // the base's acceleration carried gravity as an upward acceleration (rod_velocity): take it out
-  c.tail<3>() = R * (pm.acc.tail<3>() + w.cross(v)) + c.head<3>().cross(p - pm.pose.u);
+  const Vec3 offset = p - pm.pose.u;
+  c.tail<3>() = R * (pm.acc.tail<3>() + w.cross(v)) + c.head<3>().cross(offset);
+  if (centripetal) {
+    const Vec3 ww = R * w;
+    c.tail<3>() += ww.cross(ww.cross(offset));
+  }
   if (!(m->opt.disableflags & mjDSBL_GRAVITY)) c.tail<3>() += Vec3(m->opt.gravity[0], m->opt.gravity[1], m->opt.gravity[2]);
   return c;
 }
@@ -770,16 +777,15 @@ Vec6 riding_point_velocity_product(const Scene& s, const SceneData& sd, int r, i
 bool riding_frame(const Scene& s, int b, int& rod, int& section, double& X) {
   if (b <= 0 || !s.body_by_rod[b]) return false;
   rod = -1;
-  for (size_t r = 0; r < s.rods.size(); ++r) {
+  for (size_t r = 0; r < s.rods.size(); ++r) {  // outer rods first: a later match is an inner rod
     const RodBinding& rb = s.rods[r];
-    for (size_t si = 0; si < rb.proxy_body.size(); ++si)
-      if (rb.proxy_body[si] == b) {
-        rod = static_cast<int>(r);
-        section = static_cast<int>(si);
-        break;
-      }
-    if (rod >= 0) break;
-    if (b >= rb.below_begin && b < rb.below_end) {  // keep the innermost (the latest below_begin)
+    const auto proxy = std::find(rb.proxy_body.begin(), rb.proxy_body.end(), b);
+    if (proxy != rb.proxy_body.end()) {
+      rod = static_cast<int>(r);
+      section = static_cast<int>(proxy - rb.proxy_body.begin());
+      break;
+    }
+    if (b >= rb.below_begin && b < rb.below_end) {
       rod = static_cast<int>(r);
       section = static_cast<int>(rb.proxy_body.size()) - 1;
     }
@@ -822,7 +828,7 @@ void patch_contact_references(const Scene& s, SceneData& sd) {
       } else if (!riding_frame(s, s.m->geom_bodyid[g], r, si, X)) {  // a geom riding with a soft rod
         continue;
       }
-      c += (side == 0 ? -1.0 : 1.0) * riding_point_velocity_product(s, sd, r, si, X, p);
+      c += (side == 0 ? -1.0 : 1.0) * riding_point_velocity_product(s, sd, r, si, X, p, false);
       any = true;
     }
     if (!any) continue;
@@ -845,10 +851,12 @@ void patch_contact_references(const Scene& s, SceneData& sd) {
 
 // Patch point 5c: the same for equality constraints on a body riding with a soft rod (a proxy of a
 // section with strain dofs, the section's end frame, or a body below a rod whose last section has
-// dofs, riding with its tip; riding_frame): connect rows (anchor points) and weld rows (anchor points, and
-// the rotation rows torquescale * 0.5 vec(neg(q1) (w0 - w1) q0 relpose), MuJoCo 2.2.2's, applied to
-// the angular velocity products) constrain the acceleration of the anchor points riding with the
-// cross-sections. A bent shaft turning about its centre line, its tip held by a connect, drifted
+// dofs, riding with its tip; riding_frame): connect rows (anchor points) and weld rows (anchor
+// points, and the rotation rows torquescale * 0.5 vec(neg(q1) (w0 - w1) q0 relpose), MuJoCo
+// 2.2.2's, applied to the angular velocity products) constrain the acceleration of the anchor
+// points riding with the cross-sections, their centripetal terms included (a material anchor's
+// second derivative; probe M: left out, 54 m/s^2 of a shaft spun at 60 rad/s with its anchor 2 cm
+// off the centre line doubled the violation). A bent shaft turning about its centre line, its tip held by a connect, drifted
 // 3.4 mm off at 2 Hz (about 4x per doubling of the speed). After patch_bias.
 void patch_equality_references(const Scene& s, SceneData& sd) {
   const mjModel* m = s.m;
@@ -874,7 +882,7 @@ void patch_equality_references(const Scene& s, SceneData& sd) {
         mjtNum pw[3];
         mju_rotVecMat(pw, anchor, d->xmat + 9 * body[j]);
         mju_addTo3(pw, d->xpos + 3 * body[j]);
-        c += (j == 0 ? 1.0 : -1.0) * riding_point_velocity_product(s, sd, r, si, X, Vec3(pw[0], pw[1], pw[2]));
+        c += (j == 0 ? 1.0 : -1.0) * riding_point_velocity_product(s, sd, r, si, X, Vec3(pw[0], pw[1], pw[2]), true);
         any = true;
       }
       if (any) {

@@ -208,6 +208,14 @@ std::vector<BadCase> bad_cases() {
       {"a size beyond the double range", in_world("<geom size=\"1e309\"/>"), 3, "'size' has a number that is not finite"},
       {"settotalmass with a rod", "<mujoco>\n<compiler settotalmass=\"1\"/>\n<worldbody>\n" + rod + "/>\n</worldbody>\n</mujoco>\n",
        2, "'settotalmass' is not supported in models with <cosserat> rods"},
+      // (outside probe M, nineteenth session: constraints and sensors on a helper body loaded and
+      // moved with part of the section only)
+      {"a connect on a helper body", "<mujoco>\n<worldbody>\n" + rod + R"( strain="sr" order="1"/>)" +
+                                         "\n</worldbody>\n<equality>\n<connect body1=\"a/s0/h0\" anchor=\"0 0 0\"/>\n</equality>\n</mujoco>\n",
+       6, "name the section's proxy 'a/s0'"},
+      {"a framelinvel of a helper body", "<mujoco>\n<worldbody>\n" + rod + R"( strain="sr" order="1"/>)" +
+                                              "\n</worldbody>\n<sensor>\n<framelinvel objtype=\"xbody\" objname=\"a/s0/h0\"/>\n</sensor>\n</mujoco>\n",
+       6, "'a/s0/h0' is a body generated to hold the first 6 dofs"},
   };
 }
 

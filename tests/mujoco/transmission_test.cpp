@@ -226,7 +226,7 @@ TEST(Transmission, EqualityConstraintsOnRodBodiesHaveTheirResidualsDerivative) {
 // The reference accelerations of equality rows on the proxies of sections with strain dofs
 // (patch_equality_references): MuJoCo's aref minus the rows' velocity product, the acceleration
 // at qacc = 0 of the anchor point riding with the cross-section (its offset's centripetal term
-// left out) and, for a weld's rotation rows, torquescale 0.5 vec(neg(q1) alpha q0 relpose) of the
+// included) and, for a weld's rotation rows, torquescale 0.5 vec(neg(q1) alpha q0 relpose) of the
 // cross-section's angular acceleration. Against second differences of the proxies' frames along
 // q0 + t v; MuJoCo's anchor layout and rotation rows checked first against efc_pos and efc_vel.
 TEST(Transmission, EqualityRowsOnSoftSectionsReferenceTheAnchorsAcceleration) {
@@ -248,8 +248,8 @@ TEST(Transmission, EqualityRowsOnSoftSectionsReferenceTheAnchorsAcceleration) {
     const mjData* d = mo.at(t);
     return Frame{Vec3(d->xpos[3 * b], d->xpos[3 * b + 1], d->xpos[3 * b + 2]), Eigen::Map<const Mat3>(d->xmat + 9 * b)};
   };
-  // a body's spin at t and the acceleration (qacc = 0) of the point at `offset` in its frame,
-  // without the offset's centripetal term; and its angular acceleration
+  // a body's spin at t and the acceleration (qacc = 0) of the point at `offset` in its frame (the
+  // offset's centripetal term included: a material anchor's); and its angular acceleration
   auto motion_of = [&](int b, const Vec3& offset, Vec3& a, Vec3& alpha, Vec3& w) {
     auto spin = [&](double t) {
       const Frame fp = frame(b, t + e), fm = frame(b, t - e), f0 = frame(b, t);
@@ -259,7 +259,7 @@ TEST(Transmission, EqualityRowsOnSoftSectionsReferenceTheAnchorsAcceleration) {
     w = spin(0.0);
     alpha = (spin(e) - spin(-e)) / (2 * e);
     const Vec3 r = f0.R * offset;
-    a = (fp.x + fp.R * offset - 2.0 * (f0.x + r) + fm.x + fm.R * offset) / (e * e) - w.cross(w.cross(r));
+    a = (fp.x + fp.R * offset - 2.0 * (f0.x + r) + fm.x + fm.R * offset) / (e * e);
   };
   const mjtNum* cdata = m->eq_data;              // connect: anchor on body1 at data[0:3]
   const mjtNum* wdata = m->eq_data + mjNEQDATA;  // weld: body1's anchor at data[3:6], relpose quat at data[6:10]
@@ -295,6 +295,48 @@ TEST(Transmission, EqualityRowsOnSoftSectionsReferenceTheAnchorsAcceleration) {
     EXPECT_NEAR(aref[6 + k] - d->efc_aref[6 + k], -rot(k), 1e-6 * (1 + rot.norm())) << "weld rotation row " << k;
   }
   EXPECT_GT(largest, 0.1);  // m/s^2: not a vacuous check
+}
+
+// Nested rods (probe M): a body below a rigid rod B that hangs below a soft rod A rides with B's
+// rigid tip, so its equality rows keep MuJoCo's reference (as the rows on B's proxy do); with B
+// soft, it rides with B's tip, not A's: its correction is the anchor's velocity product from B.
+TEST(Transmission, BodiesBelowNestedRodsRideWithTheInnermostRod) {
+  for (const char* strain : {"rigid", "kl"}) {
+    SCOPED_TRACE(strain);
+    Motion mo(std::string(R"(<mujoco><option gravity="0 0 -9.81"/><worldbody>
+      <body name="hub" pos="0 0 0.5"><joint name="sh" type="hinge" axis="0 1 0"/>
+        <inertial pos="0 0 0" mass="0.1" diaginertia="1e-4 1e-4 1e-4"/>
+        <cosserat name="A" length="0.3" sections="1" strain="kl" radius="0.01" contype="0" conaffinity="0">
+          <body name="Atip"><geom type="sphere" size="0.003" mass="0.001" contype="0" conaffinity="0"/>
+            <cosserat name="B" length="0.1" sections="1" strain=")") + strain + R"(" radius="0.005" contype="0" conaffinity="0">
+              <body name="Btip"><geom type="sphere" size="0.01" mass="0.01" contype="0" conaffinity="0"/></body>
+            </cosserat></body>
+        </cosserat></body></worldbody>
+      <equality><connect body1="B/s0" anchor="0 0 0"/><connect body1="Btip" anchor="0 0.01 0"/></equality>
+    </mujoco>)");
+    const mjModel* m = mo.s->m;
+    const int b = mj_name2id(m, mjOBJ_BODY, "Btip");
+    const double e = 1e-4;
+    auto anchor_at = [&](double t) {
+      const mjData* d = mo.at(t);
+      return Vec3(Eigen::Map<const Vec3>(d->xpos + 3 * b) + Eigen::Map<const Mat3>(d->xmat + 9 * b) * Vec3(0, 0.01, 0));
+    };
+    const Vec3 a = (anchor_at(e) - 2.0 * anchor_at(0.0) + anchor_at(-e)) / (e * e);  // the anchor's, at qacc = 0
+    const mjData* d = mo.at(0.0);
+    ASSERT_EQ(d->nefc, 6);
+    const std::vector<mjtNum> aref(d->efc_aref, d->efc_aref + d->nefc);
+    mj_referenceConstraint(m, mo.sd->d);
+    for (int k = 0; k < 3; ++k) {
+      const double tip = aref[3 + k] - d->efc_aref[3 + k];  // the Btip row's correction
+      if (std::string(strain) == "rigid") {
+        EXPECT_EQ(aref[k], d->efc_aref[k]) << "B/s0 row " << k;
+        EXPECT_EQ(tip, 0.0) << "Btip row " << k;
+      } else {
+        EXPECT_NEAR(tip, -a(k), 1e-6 * (1 + a.norm())) << "Btip row " << k;
+      }
+    }
+    if (std::string(strain) != "rigid") EXPECT_GT(a.norm(), 0.1);
+  }
 }
 
 // An adhesion actuator (MuJoCo's body transmission) on a ball near rod capsules, inside their
