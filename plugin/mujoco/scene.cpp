@@ -42,7 +42,6 @@ namespace cosserat::mj {
 namespace {
 constexpr int kMaxNewtonMemory = 4;  // Scene::newton_memory is clamped to this
 
-
 using Vec3m = Eigen::Map<Vec3>;
 using Mat3r = Eigen::Matrix<double, 3, 3, Eigen::RowMajor>;  // MuJoCo's xmat layout
 
@@ -312,7 +311,6 @@ void attached_kinematics(const mjModel* m, mjData* d, int b0, int b1) {
     if (m->site_bodyid[s] >= b0 && m->site_bodyid[s] < b1) site_kinematics(m, d, s);
 }
 
-// Patch point 1: proxy poses, rod capsules and sites from the rod solution; then everything below.
 // An upper bound on how far the centre line between a capsule's ends strays from its chord: an arc
 // of length l and curvature kappa rises kappa l^2 / 8 above its chord (less for large angles), with
 // kappa at most the strain's angular magnitude |xi_ang| (twist included) and l the stretched length,
@@ -331,6 +329,7 @@ double chord_sag_bound(const cosserat::Model& m, const cosserat::Data& d, const 
   return (pcs ? 1.0 : 1.25) * kappa * l * l / 8.0;
 }
 
+// Patch point 1: proxy poses, rod capsules and sites from the rod solution; then everything below.
 void patch_rod_kinematics(const Scene& s, SceneData& sd, int r) {
   const mjModel* m = s.m;
   mjData* d = sd.d;
@@ -596,14 +595,23 @@ int site_correction(const Scene& s, const SceneData& sd, int site, const Vec3& p
 }
 
 namespace {
+// A capsule's axis: its centre, unit axis and half-length (the chord's, this evaluation's).
+struct CapsuleAxis {
+  Vec3 centre, axis;
+  double half;
+  explicit CapsuleAxis(const mjModel* m, const mjData* d, int geom)
+      : centre(d->geom_xpos[3 * geom], d->geom_xpos[3 * geom + 1], d->geom_xpos[3 * geom + 2]),
+        axis(d->geom_xmat[9 * geom + 2], d->geom_xmat[9 * geom + 5], d->geom_xmat[9 * geom + 8]),
+        half(m->geom_size[3 * geom + 1]) {}
+  // the signed distance along the axis from the centre of p's projection, clamped to the capsule
+  double along(const Vec3& p) const { return std::clamp((p - centre).dot(axis), -half, half); }
+};
+
 // The material abscissa of a point p touching rod capsule `geom`: p projected on the capsule's axis.
 double capsule_abscissa(const Scene& s, const SceneData& sd, int geom, const Vec3& p) {
-  const mjData* d = sd.d;
   const RodGeomDecl& gd = s.rods[s.geom_rod[geom]].decl.geoms[s.geom_index[geom]];
-  const Vec3 gc(d->geom_xpos[3 * geom], d->geom_xpos[3 * geom + 1], d->geom_xpos[3 * geom + 2]);
-  const Vec3 ax(d->geom_xmat[9 * geom + 2], d->geom_xmat[9 * geom + 5], d->geom_xmat[9 * geom + 8]);
-  const double half = s.m->geom_size[3 * geom + 1];
-  const double t = std::clamp(0.5 + (p - gc).dot(ax) / (2.0 * half), 0.0, 1.0);
+  const CapsuleAxis c(s.m, sd.d, geom);
+  const double t = std::clamp(0.5 + (p - c.centre).dot(c.axis) / (2.0 * c.half), 0.0, 1.0);
   return gd.X_begin + t * (gd.X_end - gd.X_begin);
 }
 }  // namespace
@@ -709,11 +717,9 @@ void patch_contact_distances(const Scene& s, SceneData& sd) {
       const double sign = side == 0 ? -1.0 : 1.0;  // geom2 lies along +n
       // the axis point: back along n (exact where the contact point is the surfaces' midpoint, as
       // for planes), then onto the chord (where a convex pair's contact point lies elsewhere on n)
-      const Vec3 gc(d->geom_xpos[3 * g], d->geom_xpos[3 * g + 1], d->geom_xpos[3 * g + 2]);
-      const Vec3 ax(d->geom_xmat[9 * g + 2], d->geom_xmat[9 * g + 5], d->geom_xmat[9 * g + 8]);
-      const double half = m->geom_size[3 * g + 1];
+      const CapsuleAxis c(m, d, g);
       const Vec3 back = p + sign * (m->geom_size[3 * g] + 0.5 * dist) * n;
-      const Vec3 measured = gc + std::clamp((back - gc).dot(ax), -half, half) * ax;
+      const Vec3 measured = c.centre + c.along(back) * c.axis;
       const Vec3 centre = cosserat::rod_pose(rb.model, sd.rod[r], 0, capsule_abscissa(s, sd, g, p)).u;
       con.dist += sign * n.dot(centre - measured);
     }
