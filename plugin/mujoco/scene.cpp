@@ -908,6 +908,43 @@ void patch_equality_references(const Scene& s, SceneData& sd) {
   }
 }
 
+// The site path points of tendon t as mj_tendon wrote them: visit(site, p, grad) with p the point
+// and grad = dL/dp. mj_tendon writes one path point per site (-1) and per pulley (-2) of the
+// tendon, in the order of its wrap objects (a wrapped geom's tangent points carry the geom's id):
+// walk both along.
+template <class Visit>
+void tendon_site_points(const mjModel* m, const mjData* d, int t, Visit&& visit) {
+  const int adr = d->ten_wrapadr[t], num = d->ten_wrapnum[t];
+  double divisor = 1.0;
+  int w = m->tendon_adr[t];
+  const int wrap_end = m->tendon_adr[t] + m->tendon_num[t];
+  for (int k = 0; k < num; ++k) {
+    const int obj = d->wrap_obj[adr + k];
+    if (obj != -1 && obj != -2) continue;
+    while (w < wrap_end && m->wrap_type[w] != mjWRAP_SITE && m->wrap_type[w] != mjWRAP_PULLEY) ++w;
+    if (w == wrap_end) break;
+    const int wrap = w++;
+    if (obj == -2) {
+      divisor = m->wrap_prm[wrap];
+      continue;
+    }
+    const mjtNum* pk = d->wrap_xpos + 3 * (adr + k);
+    Vec3 grad = Vec3::Zero();
+    const Vec3 p(pk[0], pk[1], pk[2]);
+    if (k > 0 && d->wrap_obj[adr + k - 1] != -2) {
+      const mjtNum* q = d->wrap_xpos + 3 * (adr + k - 1);
+      const Vec3 u = p - Vec3(q[0], q[1], q[2]);
+      if (u.norm() > 0) grad += u.normalized();
+    }
+    if (k + 1 < num && d->wrap_obj[adr + k + 1] != -2) {
+      const mjtNum* q = d->wrap_xpos + 3 * (adr + k + 1);
+      const Vec3 u = Vec3(q[0], q[1], q[2]) - p;
+      if (u.norm() > 0) grad -= u.normalized();
+    }
+    visit(m->wrap_objid[wrap], p, Vec3(grad / divisor));
+  }
+}
+
 // Spatial tendons through rod sites: dL/dq gets the true site Jacobians. For a site at path point
 // k, dL/dp_k = (u_in - u_out) / divisor (unit vectors of the segments into and out of it, which
 // start or end at a wrapping geom's tangent point where the cable wraps one: the wrapped length is
@@ -917,41 +954,63 @@ void patch_tendons(const Scene& s, SceneData& sd) {
   const mjModel* m = s.m;
   mjData* d = sd.d;
   thread_local SectionCols dJ;  // scratch: no heap memory
-  for (int t = 0; t < m->ntendon; ++t) {
-    const int adr = d->ten_wrapadr[t], num = d->ten_wrapnum[t];
-    double divisor = 1.0;
-    // mj_tendon writes one path point per site (-1) and per pulley (-2) of the tendon, in the order
-    // of its wrap objects (a wrapped geom's tangent points carry the geom's id): walk both along
-    int w = m->tendon_adr[t];
-    const int wrap_end = m->tendon_adr[t] + m->tendon_num[t];
-    for (int k = 0; k < num; ++k) {
-      const int obj = d->wrap_obj[adr + k];
-      if (obj != -1 && obj != -2) continue;
-      while (w < wrap_end && m->wrap_type[w] != mjWRAP_SITE && m->wrap_type[w] != mjWRAP_PULLEY) ++w;
-      if (w == wrap_end) break;
-      const int wrap = w++;
-      if (obj == -2) {
-        divisor = m->wrap_prm[wrap];
-        continue;
-      }
-      const int site = m->wrap_objid[wrap];
-      if (s.site_rod[site] < 0) continue;
-      const mjtNum* pk = d->wrap_xpos + 3 * (adr + k);
-      Vec3 grad = Vec3::Zero();
-      const Vec3 p(pk[0], pk[1], pk[2]);
-      if (k > 0 && d->wrap_obj[adr + k - 1] != -2) {
-        const mjtNum* q = d->wrap_xpos + 3 * (adr + k - 1);
-        const Vec3 u = p - Vec3(q[0], q[1], q[2]);
-        if (u.norm() > 0) grad += u.normalized();
-      }
-      if (k + 1 < num && d->wrap_obj[adr + k + 1] != -2) {
-        const mjtNum* q = d->wrap_xpos + 3 * (adr + k + 1);
-        const Vec3 u = Vec3(q[0], q[1], q[2]) - p;
-        if (u.norm() > 0) grad -= u.normalized();
-      }
+  for (int t = 0; t < m->ntendon; ++t)
+    tendon_site_points(m, d, t, [&](int site, const Vec3& p, const Vec3& grad) {
+      if (s.site_rod[site] < 0) return;
       const int col0 = site_correction(s, sd, site, p, dJ);
-      grad /= divisor;
       for (int c = 0; c < dJ.cols(); ++c) d->ten_J[t * m->nv + col0 + c] += grad.dot(dJ.col(c).head<3>());
+    });
+}
+
+// The velocity product of tendon t's length from its site path points riding with soft rods: sum of
+// dL/dp . (the point's acceleration at qacc = 0, riding with its cross-section, centripetal term
+// included). The points on rigid bodies and rigid sections, and the turning of the segments'
+// directions, are left to the reference's feedback, as MuJoCo leaves them. After patch_bias.
+double tendon_velocity_product(const Scene& s, const SceneData& sd, int t) {
+  const mjModel* m = s.m;
+  double c = 0.0;
+  tendon_site_points(m, sd.d, t, [&](int site, const Vec3& p, const Vec3& grad) {
+    int r = s.site_rod[site], si = -1;
+    double X = 0.0;
+    if (r >= 0) {  // a rod site: its cross-section
+      si = s.site_section[site];
+      if (s.rods[r].model.sections[si].ndof == 0) return;
+      X = s.rods[r].decl.sites[s.site_index[site]].X;
+    } else if (!riding_frame(s, m->site_bodyid[site], r, si, X)) {  // a site riding with a soft rod
+      return;
+    }
+    c += grad.dot(riding_point_velocity_product(s, sd, r, si, X, p, true).tail<3>());
+  });
+  return c;
+}
+
+// Patch point 5d: tendon limits and tendon equalities through sites on soft rods get their
+// tendons' velocity products (tendon_velocity_product) in their reference accelerations, as the
+// contact and equality rows do. A limit row is -side dL/dq (mj_instantiateLimit): the side from
+// the row's distance; an equality row couples tendon 1 to a polynomial of tendon 2 (dL1 - deriv
+// dL2). After patch_bias.
+void patch_tendon_references(const Scene& s, SceneData& sd) {
+  const mjModel* m = s.m;
+  mjData* d = sd.d;
+  for (int row = 0; row < d->nefc; ++row) {
+    const int type = d->efc_type[row], id = d->efc_id[row];
+    if (type == mjCNSTR_LIMIT_TENDON) {
+      const double c = tendon_velocity_product(s, sd, id);
+      if (c == 0.0) continue;
+      const double L = d->ten_length[id];
+      const double lower = L - m->tendon_range[2 * id], upper = m->tendon_range[2 * id + 1] - L;
+      const double side = std::abs(d->efc_pos[row] - lower) <= std::abs(d->efc_pos[row] - upper) ? -1.0 : 1.0;
+      d->efc_aref[row] -= -side * c;
+    } else if (type == mjCNSTR_EQUALITY && m->eq_type[id] == mjEQ_TENDON) {
+      const int t1 = m->eq_obj1id[id], t2 = m->eq_obj2id[id];
+      double c = tendon_velocity_product(s, sd, t1);
+      if (t2 >= 0) {
+        const mjtNum* poly = m->eq_data + mjNEQDATA * id;
+        const double dif = d->ten_length[t2] - m->tendon_length0[t2];
+        const double deriv = poly[1] + 2 * poly[2] * dif + 3 * poly[3] * dif * dif + 4 * poly[4] * dif * dif * dif;
+        c -= deriv * tendon_velocity_product(s, sd, t2);
+      }
+      d->efc_aref[row] -= c;
     }
   }
 }
@@ -1182,6 +1241,7 @@ void fwd_velocity(const Scene& s, SceneData& sd) {
   for (size_t r = 0; r < s.rods.size(); ++r) patch_bias(s, sd, static_cast<int>(r));
   if (d->ncon && !s.rods.empty() && rod_contacts(s, d)) patch_contact_references(s, sd);
   if (d->ne && !s.rods.empty()) patch_equality_references(s, sd);
+  if (m->ntendon && d->nefc && !s.rods.empty()) patch_tendon_references(s, sd);
   fluid_forces(s, sd);  // fluid hook: qfrc_passive -= D qvel; no-op without the fluid
 }
 

@@ -339,6 +339,48 @@ TEST(Transmission, BodiesBelowNestedRodsRideWithTheInnermostRod) {
   }
 }
 
+// Tendon limits and tendon equalities through rod sites (patch_tendon_references): MuJoCo's aref
+// minus the rows' share of the tendon's velocity product, sum over the path's rod sites of dL/dp .
+// (the site's acceleration at qacc = 0), against second differences of the sites' positions along
+// q0 + t v (the hub's site, on a rigid body, and the segments' turning stay MuJoCo's).
+TEST(Transmission, TendonRowsThroughRodSitesReferenceTheSitesAcceleration) {
+  Motion mo(R"(<mujoco><option gravity="0 0 -9.81"/><worldbody>
+    <body name="hub" pos="0 0 1"><joint name="yaw" type="hinge" axis="0 0.3 1"/><geom type="sphere" size="0.02"/>
+      <site name="h" pos="0.01 0.02 0"/>
+      <cosserat name="arm" length="0.3" sections="3" strain="kl" radius="0.01" contype="0" conaffinity="0">
+        <site name="m" at="0.15" pos="0 0.006 0.002"/><site name="s" at="0.25" pos="0.001 -0.004 0.003"/>
+      </cosserat></body></worldbody>
+    <tendon><spatial name="lim" limited="true" range="0 0.01"><site site="h"/><site site="m"/><site site="s"/></spatial>
+      <spatial name="eq"><site site="m"/><site site="s"/></spatial></tendon>
+    <equality><tendon tendon1="eq"/></equality>
+  </mujoco>)");
+  const mjModel* m = mo.s->m;
+  const int sm = mj_name2id(m, mjOBJ_SITE, "m"), ss = mj_name2id(m, mjOBJ_SITE, "s"), sh = mj_name2id(m, mjOBJ_SITE, "h");
+  const double e = 1e-4;
+  auto site_at = [&](int site, double t) { return Vec3(Eigen::Map<const Vec3>(mo.at(t)->site_xpos + 3 * site)); };
+  auto accel = [&](int site) { return Vec3((site_at(site, e) - 2.0 * site_at(site, 0.0) + site_at(site, -e)) / (e * e)); };
+  const Vec3 am = accel(sm), as = accel(ss);
+  const mjData* d = mo.at(0.0);
+  const Vec3 pm(Eigen::Map<const Vec3>(d->site_xpos + 3 * sm)), ps(Eigen::Map<const Vec3>(d->site_xpos + 3 * ss)),
+      ph(Eigen::Map<const Vec3>(d->site_xpos + 3 * sh));
+  // dL/dp at the rod sites: lim = |m - h| + |s - m|, eq = |s - m|
+  const Vec3 u1 = (pm - ph).normalized(), u2 = (ps - pm).normalized();
+  const double c_lim = (u1 - u2).dot(am) + u2.dot(as), c_eq = -u2.dot(am) + u2.dot(as);
+  int lim_row = -1, eq_row = -1;
+  for (int r = 0; r < d->nefc; ++r) {
+    if (d->efc_type[r] == mjCNSTR_LIMIT_TENDON) lim_row = r;
+    if (d->efc_type[r] == mjCNSTR_EQUALITY) eq_row = r;
+  }
+  ASSERT_GE(lim_row, 0);  // the upper limit: the row is -dL/dq
+  ASSERT_GE(eq_row, 0);
+  const std::vector<mjtNum> aref(d->efc_aref, d->efc_aref + d->nefc);
+  mj_referenceConstraint(m, mo.sd->d);
+  EXPECT_NEAR(d->efc_aref[lim_row] - aref[lim_row], -c_lim, 1e-6 * (1 + std::abs(c_lim)));
+  EXPECT_NEAR(d->efc_aref[eq_row] - aref[eq_row], c_eq, 1e-6 * (1 + std::abs(c_eq)));
+  EXPECT_GT(std::abs(c_lim), 0.1);
+  EXPECT_GT(std::abs(c_eq), 0.1);
+}
+
 // An adhesion actuator (MuJoCo's body transmission) on a ball near rod capsules, inside their
 // margin and, for some, beyond their gap: MuJoCo counts a gap contact without a constraint row and
 // takes its normal Jacobian n . (J2 - J1) directly; with the rod's touching material point (as the
