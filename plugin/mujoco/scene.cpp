@@ -1,12 +1,14 @@
 // Rods inside MuJoCo 2.2.2: loading and the staged, strongly coupled step (DESIGN.md section 6).
 //
 // The step is MuJoCo's own pipeline, stage by stage, with the rod patches in between:
-//   position: kinematics | patch poses | comPos | patch cdof | camlight (| com tracking) |
-//             tendon | patch ten_J | crb | patch qM | fluid damping | collision |
+//   position: kinematics | patch poses (capsules' margins: their chords' sag) | comPos |
+//             patch cdof | camlight (| com tracking) | tendon | patch ten_J | crb | patch qM |
+//             fluid damping | collision | patch contact distances (the centre line's) |
 //             makeConstraint | patch contact rows | transmission (| site transmissions) |
 //             factorM | projectConstraint; then sensorPos (| sensors)
 //   velocity: ten/actuator velocity | comVel | patch cdof_dot | passive | referenceConstraint |
-//             rne | patch bias (+ rod elastic and damping forces) | fluid forces; sensorVel
+//             rne | patch bias (+ rod elastic and damping forces) | patch the contact, equality
+//             and tendon rows' reference accelerations (velocity products) | fluid forces; sensorVel
 //   then actuation, acceleration, constraint, sensorAcc (| sensors), and an integrator of ours
 //   (the fluid's damping implicit in euler and implicit: scene_fluid.hpp). The stages in
 //   parentheses are MuJoCo's features that read rod sites or mass, made to read the rod's material
