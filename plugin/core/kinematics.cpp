@@ -10,6 +10,17 @@
 namespace cosserat {
 
 namespace {
+
+// dS/dt v of a Magnus step (S = dexp(-Om) G): ddexp(-Om, -Om_dot) Om_dot, and for a step with the
+// commutator (c = kZanna h^2, c = 0 without) dexp(-Om) 2c ad_{xa_dot} xb_dot, xa_dot and xb_dot
+// the strain rates at its Gauss points (vectors: the matrix dS/dt is not needed for this).
+Vec6 step_Sdot_v(const Vec6& Om, const Vec6& Om_dot, double c, const Vec6& xa_dot, const Vec6& xb_dot) {
+  const Vec6 mOm = -Om;
+  Vec6 sv = ddexp_apply(mOm, -Om_dot, Om_dot);
+  if (c != 0.0) sv += dexp_apply(mOm, 2.0 * c * ad_apply(xa_dot, xb_dot));
+  return sv;
+}
+
 constexpr double kZanna = 0.14433756729740643;  // sqrt(3) / 12
 }
 
@@ -101,20 +112,19 @@ void fwd_velocity(const Model& m, Data& d, bool with_Sdot) {
         if (with_Sdot) d.Sdot[i] = d.Sdot[n.same_step];
       } else {
         d.Omega_dot[i].noalias() = d.G[i] * vi;
-        const Vec6 mOm = -d.Omega[i], mOmd = -d.Omega_dot[i];
-        Vec6 sv = ddexp_apply(mOm, mOmd, d.Omega_dot[i]);
-        if (with_Sdot) d.Sdot[i].noalias() = ddexp(mOm, mOmd) * d.G[i];
-        if (n.commutator) {
-          const Vec6 xad = n.Phi_a * vi, xbd = n.Phi_b * vi;
-          const double c = kZanna * n.h * n.h;
-          sv += dexp_apply(mOm, 2.0 * c * ad_apply(xad, xbd));
-          if (with_Sdot) {
+        const Vec6 mOm = -d.Omega[i];
+        const Vec6 xad = n.commutator ? Vec6(n.Phi_a * vi) : Vec6::Zero(),
+                   xbd = n.commutator ? Vec6(n.Phi_b * vi) : Vec6::Zero();
+        const double c = n.commutator ? kZanna * n.h * n.h : 0.0;
+        d.Sdot_v[i] = step_Sdot_v(d.Omega[i], d.Omega_dot[i], c, xad, xbd);
+        if (with_Sdot) {
+          d.Sdot[i].noalias() = ddexp(mOm, -d.Omega_dot[i]) * d.G[i];
+          if (n.commutator) {
             const Mat6 Dm = dexp(mOm);
             for (int k = 0; k < n.ndof; ++k)
               d.Sdot[i].col(k).noalias() += Dm * (c * (ad_apply(xad, n.Phi_b.col(k)) - ad_apply(xbd, n.Phi_a.col(k))));
           }
         }
-        d.Sdot_v[i] = sv;
       }
       cb = d.Sdot_v[i] + ad_apply(eta, psi);
     } else {
@@ -348,13 +358,11 @@ PointMotion point_motion_at_rest_acceleration(const Model& m, const Data& d, int
     const double* v = d.v.data() + sec.dof0;
     Vec6 Omd = Vec6::Zero();
     for (int k = 0; k < sec.ndof; ++k) Omd += G.col(k) * v[k];
-    const Vec6 mOm = -ps.Om;
-    const Vec6 psi = dexp_apply(mOm, Omd);
-    Vec6 sv = ddexp_apply(mOm, -Omd, Omd);
-    if (ps.sp.commutator) {
-      const double c = kZanna * ps.sp.h * ps.sp.h;
-      sv += dexp_apply(mOm, 2.0 * c * ad_apply(sec.basis_apply(ps.sp.Pa, v), sec.basis_apply(ps.sp.Pb, v)));
-    }
+    const Vec6 psi = dexp_apply(-ps.Om, Omd);
+    const bool comm = ps.sp.commutator;
+    const Vec6 sv = step_Sdot_v(ps.Om, Omd, comm ? kZanna * ps.sp.h * ps.sp.h : 0.0,
+                                comm ? sec.basis_apply(ps.sp.Pa, v) : Vec6::Zero(),
+                                comm ? sec.basis_apply(ps.sp.Pb, v) : Vec6::Zero());
     pm.eta += psi;
     pm.acc += sv + ad_apply(pm.eta, psi);
   }
