@@ -607,14 +607,15 @@ struct CapsuleAxis {
         half(m->geom_size[3 * geom + 1]) {}
   // the signed distance along the axis from the centre of p's projection, clamped to the capsule
   double along(const Vec3& p) const { return std::clamp((p - centre).dot(axis), -half, half); }
+  // the material abscissa of p projected on the axis, for the capsule declared as gd
+  double abscissa(const RodGeomDecl& gd, const Vec3& p) const {
+    return gd.X_begin + (0.5 + along(p) / (2.0 * half)) * (gd.X_end - gd.X_begin);
+  }
 };
 
 // The material abscissa of a point p touching rod capsule `geom`: p projected on the capsule's axis.
 double capsule_abscissa(const Scene& s, const SceneData& sd, int geom, const Vec3& p) {
-  const RodGeomDecl& gd = s.rods[s.geom_rod[geom]].decl.geoms[s.geom_index[geom]];
-  const CapsuleAxis c(s.m, sd.d, geom);
-  const double t = std::clamp(0.5 + (p - c.centre).dot(c.axis) / (2.0 * c.half), 0.0, 1.0);
-  return gd.X_begin + t * (gd.X_end - gd.X_begin);
+  return CapsuleAxis(s.m, sd.d, geom).abscissa(s.rods[s.geom_rod[geom]].decl.geoms[s.geom_index[geom]], p);
 }
 }  // namespace
 
@@ -722,7 +723,7 @@ void patch_contact_distances(const Scene& s, SceneData& sd) {
       const CapsuleAxis c(m, d, g);
       const Vec3 back = p + sign * (m->geom_size[3 * g] + 0.5 * dist) * n;
       const Vec3 measured = c.centre + c.along(back) * c.axis;
-      const Vec3 centre = cosserat::rod_pose(rb.model, sd.rod[r], 0, capsule_abscissa(s, sd, g, p)).u;
+      const Vec3 centre = cosserat::rod_pose(rb.model, sd.rod[r], 0, c.abscissa(rb.decl.geoms[k], p)).u;
       con.dist += sign * n.dot(centre - measured);
     }
     if (!sagging || con.exclude > 1) {
