@@ -234,6 +234,30 @@ TEST(Contact, GeomsBelowASoftRodReferenceTheTipsAcceleration) {
   EXPECT_GT(std::abs(cf(0)), 0.05);  // m/s^2: five orders above the tolerance
 }
 
+// `steps` implicit steps from sd's state (each must stay finite: a failure otherwise), after_step(k)
+// after step k; the start's energy and the largest one sampled every `every` steps.
+struct EnergyRange {
+  double start, largest;
+};
+template <class AfterStep>
+EnergyRange run_implicit(const Scene& s, SceneData& sd, int steps, int every, AfterStep&& after_step) {
+  forward(s, sd);
+  EnergyRange E{energy(s, sd).total(), 0.0};
+  E.largest = E.start;
+  for (int k = 1; k <= steps; ++k) {
+    if (step(s, sd, Integrator::Implicit) != Status::Ok) {
+      ADD_FAILURE() << "diverged at t = " << sd.d->time;
+      break;
+    }
+    after_step(k);
+    if (k % every == 0) {
+      forward(s, sd);
+      E.largest = std::max(E.largest, energy(s, sd).total());
+    }
+  }
+  return E;
+}
+
 // docs/bench/repro/rod_off_cylinder.xml: a soft rod draped across an upright cylinder's top rolls
 // sideways off it (a rod across a disc's rim lowers its weight by moving sideways), turning about
 // its bent centre line. Without the rows' velocity product its contacts read J qacc of hundreds of
@@ -253,21 +277,14 @@ TEST(Contact, BentRodRollingOffACylinderComesToRestOnTheFloor) {
   </worldbody>
 </mujoco>)", kPath);
   SceneData sd(*s);
-  forward(*s, sd);
-  const double E0 = energy(*s, sd).total();
-  double E_max = E0, deepest_at_rest = 0.0, y_end = 0.0;
-  for (int k = 1; k <= 4000; ++k) {
-    ASSERT_EQ(step(*s, sd, Integrator::Implicit), Status::Ok) << "t = " << sd.d->time;
-    if (k % 10 == 0) {
-      forward(*s, sd);
-      E_max = std::max(E_max, energy(*s, sd).total());
-    }
+  double deepest_at_rest = 0.0;
+  const EnergyRange E = run_implicit(*s, sd, 4000, 10, [&](int k) {
     if (k > 3500)
       for (int c = 0; c < sd.d->ncon; ++c) deepest_at_rest = std::min(deepest_at_rest, sd.d->contact[c].dist);
-  }
+  });
   const int tip = mj_name2id(s->m, mjOBJ_SITE, "rod/tip");
-  y_end = sd.d->site_xpos[3 * tip + 1];
-  EXPECT_LE(E_max, E0);
+  const double y_end = sd.d->site_xpos[3 * tip + 1];
+  EXPECT_LE(E.largest, E.start);
   EXPECT_GT(deepest_at_rest, -0.002);
   EXPECT_GT(std::abs(y_end), 0.05);  // it did roll off (the cylinder's radius is 0.05 m)
 }
@@ -368,18 +385,10 @@ TEST(Contact, StiffContactOnACoarselyCapsuledBendingRodAddsNoEnergy) {
   </worldbody>
 </mujoco>)", kPath);
   SceneData sd(*s);
-  forward(*s, sd);
-  const double E0 = energy(*s, sd).total();
-  double E_max = E0;
   int contacts = 0;
-  for (int k = 1; k <= 800; ++k) {
-    ASSERT_EQ(step(*s, sd, Integrator::Implicit), Status::Ok);
-    contacts = std::max(contacts, sd.d->ncon);
-    forward(*s, sd);
-    E_max = std::max(E_max, energy(*s, sd).total());
-  }
+  const EnergyRange E = run_implicit(*s, sd, 800, 1, [&](int) { contacts = std::max(contacts, sd.d->ncon); });
   EXPECT_GT(contacts, 0);
-  EXPECT_LE(E_max, E0 * (1 + 1e-12));
+  EXPECT_LE(E.largest, E.start * (1 + 1e-12));
 }
 
 // Capsules follow the solver's centre line: a stretched rod's capsules lengthen, a bent one's
