@@ -681,6 +681,13 @@ void patch_contacts(const Scene& s, SceneData& sd) {
   }
 }
 
+// The explicit <pair> of geoms g1 and g2 (either order), or -1.
+int geom_pair(const Scene& s, int g1, int g2) {
+  const long long key = static_cast<long long>(g1) * s.m->ngeom + g2;
+  const auto it = std::lower_bound(s.pair_by_geoms.begin(), s.pair_by_geoms.end(), std::make_pair(key, -1));
+  return it != s.pair_by_geoms.end() && it->first == key ? it->second : -1;
+}
+
 // Patch point 4b (after mj_collision, before mj_makeConstraint, which turns contact distances into
 // the rows' positions and impedances): a contact on a capsule of a section with strain dofs is
 // measured on the rod's centre line. MuJoCo measures it on the capsule, a chord between two
@@ -730,11 +737,7 @@ void patch_contact_distances(const Scene& s, SceneData& sd) {
       d->contact[kept++] = con;
       continue;
     }
-    int pair = -1;  // an explicit <pair> sets its own margin and gap
-    for (int k = 0; k < m->npair && pair < 0; ++k)
-      if ((m->pair_geom1[k] == con.geom1 && m->pair_geom2[k] == con.geom2) ||
-          (m->pair_geom1[k] == con.geom2 && m->pair_geom2[k] == con.geom1))
-        pair = k;
+    const int pair = geom_pair(s, con.geom1, con.geom2);  // an explicit <pair> sets its own margin and gap
     const double user_margin = pair >= 0 ? m->pair_margin[pair] : std::max(margin[0], margin[1]);
     // found only through the widened margin, beyond the user's: no contact (an adhesion actuator
     // counts the contacts in a gap, MuJoCo's excluded ones)
@@ -784,26 +787,31 @@ Vec6 riding_point_velocity_product(const Scene& s, const SceneData& sd, int r, i
 // the innermost rod for nested ones) and the last section has dofs. Points on rigid sections, and
 // below them, keep MuJoCo's rows.
 bool riding_frame(const Scene& s, int b, int& rod, int& section, double& X) {
-  if (b <= 0 || !s.body_by_rod[b]) return false;
-  rod = -1;
-  for (size_t r = 0; r < s.rods.size(); ++r) {  // outer rods first: a later match is an inner rod
-    const RodBinding& rb = s.rods[r];
-    const auto proxy = std::find(rb.proxy_body.begin(), rb.proxy_body.end(), b);
-    if (proxy != rb.proxy_body.end()) {
-      rod = static_cast<int>(r);
-      section = static_cast<int>(proxy - rb.proxy_body.begin());
-      break;
-    }
-    if (b >= rb.below_begin && b < rb.below_end) {
-      rod = static_cast<int>(r);
-      section = static_cast<int>(rb.proxy_body.size()) - 1;
-    }
-  }
-  if (rod < 0) return false;
+  if (b <= 0 || s.riding_rod[b] < 0) return false;
+  rod = s.riding_rod[b];
+  section = s.riding_section[b];
   const Section& sec = s.rods[rod].model.sections[section];
   X = sec.X0 + sec.length;
   return sec.ndof > 0;
 }
+
+// Load-time table of riding_frame: the rod and section each body rides with.
+void setup_riding_frames(Scene& s) {
+  s.riding_rod.assign(s.m->nbody, -1);
+  s.riding_section.assign(s.m->nbody, -1);
+  for (size_t r = 0; r < s.rods.size(); ++r) {  // outer rods first: a later match is an inner rod
+    const RodBinding& rb = s.rods[r];
+    for (size_t k = 0; k < rb.proxy_body.size(); ++k) {
+      s.riding_rod[rb.proxy_body[k]] = static_cast<int>(r);
+      s.riding_section[rb.proxy_body[k]] = static_cast<int>(k);
+    }
+    for (int b = rb.below_begin; b < rb.below_end; ++b) {
+      s.riding_rod[b] = static_cast<int>(r);
+      s.riding_section[b] = static_cast<int>(rb.proxy_body.size()) - 1;
+    }
+  }
+}
+
 
 // Patch point 5b: MuJoCo's contact rows constrain J qacc and leave the velocity product dJ/dt qvel
 // to the reference acceleration's feedback (aref = -b J qvel - k r). For a point on a rigid body
@@ -1584,6 +1592,13 @@ std::unique_ptr<Scene> compile(const Preprocessed& pre) {
   s->body_by_rod.assign(s->m->nbody, 0);
   for (const RodBinding& rb : s->rods)
     for (int b = rb.base_body + 1; b < rb.below_end; ++b) s->body_by_rod[b] = 1;
+  setup_riding_frames(*s);
+  for (int k = 0; k < s->m->npair; ++k) {
+    const long long g1 = s->m->pair_geom1[k], g2 = s->m->pair_geom2[k], n = s->m->ngeom;
+    s->pair_by_geoms.emplace_back(g1 * n + g2, k);
+    if (g1 != g2) s->pair_by_geoms.emplace_back(g2 * n + g1, k);
+  }
+  std::sort(s->pair_by_geoms.begin(), s->pair_by_geoms.end());  // a geom pair's first <pair> first, as the search found it
   // acceleration sensors read every cdof_dot (mj_rnePostConstraint; whatever the sensor flags say now)
   const bool acceleration_sensors = has_sensor_from(s->m, mjSTAGE_ACC);
   for (RodBinding& rb : s->rods) rb.cdof_dot_read = acceleration_sensors || mass_or_rod_below(*s, rb);

@@ -92,6 +92,13 @@ struct Scene {
   // per MuJoCo body: 1 for the bodies a rod places (its proxies and helpers, and the bodies below
   // it), which the step's kinematics leaves to the rod's patch instead of computing them twice
   std::vector<char> body_by_rod;
+  // per MuJoCo body: the rod and section whose cross-section it rides with (riding_frame): a
+  // section's proxy, or a body below a rod's last proxy (the innermost rod for nested rods); -1 for
+  // the rest. Set at load.
+  std::vector<int> riding_rod, riding_section;
+  // explicit <pair> of each geom pair that has one (key geom1 * ngeom + geom2, both orders; sorted
+  // by key for a binary search): patch_contact_distances reads the pair's margin
+  std::vector<std::pair<long long, int>> pair_by_geoms;
   // per MuJoCo body: 1 for the bodies of rods whose cdof_dot nothing reads (RodBinding::
   // cdof_dot_read: massless, with a massless subtree), when no sensor reads velocities or
   // accelerations: the step's com-velocity and bias passes (com_velocity_except, rne_except) skip

@@ -44,7 +44,7 @@ bool rod_placed_frame(const Scene& s, int type, int id) {
 
 // The world orientation of a frame sensor's object (MuJoCo's object types of frame sensors) as a
 // quaternion of its frame matrix, which the rod sets for its sites and capsules.
-void frame_quat(const mjModel* m, const mjData* d, int type, int id, mjtNum q[4]) {
+void frame_quat(const mjData* d, int type, int id, mjtNum q[4]) {
   const mjtNum* mat = type == mjOBJ_XBODY    ? d->xmat + 9 * id
                       : type == mjOBJ_BODY   ? d->ximat + 9 * id
                       : type == mjOBJ_GEOM   ? d->geom_xmat + 9 * id
@@ -62,13 +62,13 @@ void patch_quat_sensors(const Scene& s, SceneData& sd) {
   mjData* d = sd.d;
   for (int i : s.rod_quat_sensors) {
     mjtNum obj[4], ref[4];
-    frame_quat(m, d, m->sensor_objtype[i], m->sensor_objid[i], obj);
+    frame_quat(d, m->sensor_objtype[i], m->sensor_objid[i], obj);
     mjtNum* out = d->sensordata + m->sensor_adr[i];
     if (m->sensor_refid[i] < 0) {
       mju_copy4(out, obj);
       continue;
     }
-    frame_quat(m, d, m->sensor_reftype[i], m->sensor_refid[i], ref);
+    frame_quat(d, m->sensor_reftype[i], m->sensor_refid[i], ref);
     mju_negQuat(ref, ref);
     mju_mulQuat(out, ref, obj);
   }
