@@ -372,11 +372,7 @@ void patch_rod_kinematics(const Scene& s, SceneData& sd, int r) {
     // geom_size and geom_rbound are state-dependent for rod capsules)
     s.m->geom_size[3 * id + 1] = half;
     s.m->geom_rbound[id] = half + s.m->geom_size[3 * id];
-    if (rb.geom_sagging[k]) {  // margin and gap widened by the chord's sag (RodBinding::geom_sagging)
-      const double sag = chord_sag_bound(rb.model, rd, gd);
-      s.m->geom_margin[id] = rb.geom_margin0[k] + sag;
-      s.m->geom_gap[id] = rb.geom_gap0[k] + sag;
-    }
+    if (rb.geom_sagging[k]) sd.geom_sag[id] = chord_sag_bound(rb.model, rd, gd);  // widen_contact_margins
   }
   for (size_t k = 0; k < rb.site_id.size(); ++k) {
     const RodBinding::Fixed& f = rb.site_fixed[k];
@@ -738,7 +734,7 @@ void patch_contact_distances(const Scene& s, SceneData& sd) {
       continue;
     }
     const int pair = geom_pair(s, con.geom1, con.geom2);  // an explicit <pair> sets its own margin and gap
-    const double user_margin = pair >= 0 ? m->pair_margin[pair] : std::max(margin[0], margin[1]);
+    const double user_margin = pair >= 0 ? s.pair_margin0[pair] : std::max(margin[0], margin[1]);
     // found only through the widened margin, beyond the user's: no contact (an adhesion actuator
     // counts the contacts in a gap, MuJoCo's excluded ones)
     if (con.dist >= user_margin) continue;
@@ -793,6 +789,27 @@ bool riding_frame(const Scene& s, int b, int& rod, int& section, double& X) {
   const Section& sec = s.rods[rod].model.sections[section];
   X = sec.X0 + sec.length;
   return sec.ndof > 0;
+}
+
+// Load-time tables of widen_contact_margins: the explicit pairs with a sagging capsule and their own
+// margins and gaps, and whether two sagging capsules of different bodies can meet.
+void setup_sagging_contacts(Scene& s) {
+  const mjModel* m = s.m;
+  std::vector<char> sagging(m->ngeom, 0);
+  for (const int g : s.sagging_geoms) sagging[g] = 1;
+  s.pair_margin0.assign(m->pair_margin, m->pair_margin + m->npair);
+  s.pair_gap0.assign(m->pair_gap, m->pair_gap + m->npair);
+  for (int p = 0; p < m->npair; ++p) {
+    const int g1 = m->pair_geom1[p], g2 = m->pair_geom2[p];
+    if (sagging[g1] || sagging[g2]) s.sagging_pairs.push_back(p);
+    if (sagging[g1] && sagging[g2]) s.sagging_capsules_meet = true;
+  }
+  const std::vector<int>& g = s.sagging_geoms;
+  for (size_t i = 0; i < g.size() && !s.sagging_capsules_meet; ++i)
+    for (size_t j = i + 1; j < g.size() && !s.sagging_capsules_meet; ++j)
+      s.sagging_capsules_meet = m->geom_bodyid[g[i]] != m->geom_bodyid[g[j]] &&
+                                ((m->geom_contype[g[i]] & m->geom_conaffinity[g[j]]) ||
+                                 (m->geom_contype[g[j]] & m->geom_conaffinity[g[i]]));
 }
 
 // Load-time table of riding_frame: the rod and section each body rides with.
@@ -1110,6 +1127,7 @@ SceneData::SceneData(const Scene& s) {
   const int nv = s.m->nv, nq = s.m->nq, na = s.m->na;
   tmp_nv.assign(nv, 0);
   qacc_tmp.assign(nv, 0);
+  geom_sag.assign(s.m->ngeom, 0.0);
   step_start.size(s.m);
   rk_q0.assign(nq, 0);
   rk_v0.assign(nv, 0);
@@ -1194,6 +1212,29 @@ void smooth_forces(const mjModel* m, mjData* d) {
       mj_applyFT(m, d, d->xfrc_applied + 6 * b, d->xfrc_applied + 6 * b + 3, d->xipos + 3 * b, b, d->qfrc_smooth);
 }
 
+// Before the collisions: the margins and gaps of sagging capsules (RodBinding::geom_sagging) widened
+// by their chords' sags (SceneData::geom_sag), so that MuJoCo finds the contacts their centre lines
+// make. MuJoCo takes the larger of two geoms' margins: where two sagging capsules can meet, each
+// also carries the step's largest sag (the larger of the two margins then covers both sags); an
+// explicit pair's margin, which MuJoCo reads instead, gets its two geoms' sags.
+void widen_contact_margins(const Scene& s, const SceneData& sd) {
+  mjModel* m = s.m;
+  double largest = 0.0;
+  if (s.sagging_capsules_meet)
+    for (const int g : s.sagging_geoms) largest = std::max(largest, sd.geom_sag[g]);
+  for (const int g : s.sagging_geoms) {
+    const RodBinding& rb = s.rods[s.geom_rod[g]];
+    const int k = s.geom_index[g];
+    m->geom_margin[g] = rb.geom_margin0[k] + sd.geom_sag[g] + largest;
+    m->geom_gap[g] = rb.geom_gap0[k] + sd.geom_sag[g] + largest;
+  }
+  for (const int p : s.sagging_pairs) {
+    const double sag = sd.geom_sag[m->pair_geom1[p]] + sd.geom_sag[m->pair_geom2[p]];
+    m->pair_margin[p] = s.pair_margin0[p] + sag;
+    m->pair_gap[p] = s.pair_gap0[p] + sag;
+  }
+}
+
 void fwd_inertia(const Scene& s, SceneData& sd, bool mass) {
   const mjModel* m = s.m;
   mjData* d = sd.d;
@@ -1220,8 +1261,10 @@ void fwd_position(const Scene& s, SceneData& sd, Need need) {
   fluid_damping(s, sd);  // fluid hook: damping matrix (scene_fluid.hpp); no-op without the fluid
   // (MuJoCo factorises M before the collisions; nothing up to the constraint projection reads
   // the factor, so it waits until the constraint rows tell whether it is needed)
-  if (s.may_collide)
+  if (s.may_collide) {
+    if (!s.sagging_geoms.empty()) widen_contact_margins(s, sd);
     mj_collision(m, d);
+  }
   else
     d->ncon = 0;  // what mj_collision finds when no geom pair passes its filters
   if (d->ncon && !s.rods.empty()) patch_contact_distances(s, sd);
@@ -1585,10 +1628,14 @@ std::unique_ptr<Scene> compile(const Preprocessed& pre) {
       const int id = rb.geom_id[k];
       rb.geom_margin0[k] = s->m->geom_margin[id];
       rb.geom_gap0[k] = s->m->geom_gap[id];
+      bool paired = false;
+      for (int p = 0; p < s->m->npair && !paired; ++p) paired = s->m->pair_geom1[p] == id || s->m->pair_geom2[p] == id;
       rb.geom_sagging[k] = s->may_collide && !rb.geom_fixed[k].fixed &&
-                           (s->m->geom_contype[id] != 0 || s->m->geom_conaffinity[id] != 0);
+                           (s->m->geom_contype[id] != 0 || s->m->geom_conaffinity[id] != 0 || paired);
+      if (rb.geom_sagging[k]) s->sagging_geoms.push_back(id);
     }
   }
+  setup_sagging_contacts(*s);
   s->body_by_rod.assign(s->m->nbody, 0);
   for (const RodBinding& rb : s->rods)
     for (int b = rb.base_body + 1; b < rb.below_end; ++b) s->body_by_rod[b] = 1;

@@ -48,11 +48,12 @@ struct RodBinding {
     double half = 0.0;  // capsules: half-length of the chord
   };
   std::vector<Fixed> geom_fixed;  // per capsule
-  // per capsule on a section with strain dofs that can collide (set at load): the user's margin and
-  // gap. MuJoCo detects contacts on the capsule, a chord of the centre line; each step widens its
-  // margin and gap by the chord's sag, so that contacts are found around the centre line, and the
+  // per capsule on a section with strain dofs that can collide (its contype or conaffinity, or an
+  // explicit <pair>; set at load): the user's margin and gap. MuJoCo detects contacts on the
+  // capsule, a chord of the centre line; each step widens its margin and gap by the chord's sag
+  // (widen_contact_margins, scene.cpp), so that contacts are found around the centre line, and the
   // coupling then measures their distance on the centre line and applies the user's margin and gap
-  // to it (patch_contact_distances, scene.cpp).
+  // to it (patch_contact_distances).
   std::vector<char> geom_sagging;
   std::vector<double> geom_margin0, geom_gap0;
   std::vector<Fixed> site_fixed;  // per site
@@ -99,6 +100,14 @@ struct Scene {
   // explicit <pair> of each geom pair that has one (key geom1 * ngeom + geom2, both orders; sorted
   // by key for a binary search): patch_contact_distances reads the pair's margin
   std::vector<std::pair<long long, int>> pair_by_geoms;
+  // the capsules of RodBinding::geom_sagging (MuJoCo geom ids), the explicit pairs with one of them
+  // and those pairs' own margins and gaps (set at load)
+  std::vector<int> sagging_geoms, sagging_pairs;
+  std::vector<double> pair_margin0, pair_gap0;
+  // whether two sagging capsules of different bodies can meet (their filters, or a pair): MuJoCo
+  // takes the larger of two geoms' margins, so each capsule's then carries the largest sag of the
+  // step besides its own (widen_contact_margins)
+  bool sagging_capsules_meet = false;
   // per MuJoCo body: 1 for the bodies of rods whose cdof_dot nothing reads (RodBinding::
   // cdof_dot_read: massless, with a massless subtree), when no sensor reads velocities or
   // accelerations: the step's com-velocity and bias passes (com_velocity_except, rne_except) skip
@@ -228,6 +237,8 @@ struct SceneData {
   // constraints, Need::StaticForces): d->qfrc_smooth holds the forces, d->qacc, d->qacc_smooth
   // and d->qLD are stale (and after Need::StaticForces d->qM too)
   bool forces_only = false;
+  // per MuJoCo geom: the chord's sag bound of a sagging capsule at the last kinematics (else 0)
+  std::vector<double> geom_sag;
   // scratch (sized once)
   std::vector<mjtNum> tmp_nv, qacc_tmp;
   // A copy of the state (qpos, qvel, act, act_dot, time), sized by the constructor.

@@ -368,6 +368,61 @@ TEST(Contact, ContactsAreFoundAroundTheCentreLine) {
   }
 }
 
+// The same through an explicit <pair> (MuJoCo reads the pair's margin, not the geoms'): the
+// ball's own filters off, the pair's margin and gap widened by the capsule's sag.
+TEST(Contact, ExplicitPairsFindContactsAroundTheCentreLine) {
+  for (const double curvature : {-5.0, 5.0}) {
+    SCOPED_TRACE(curvature);
+    const std::string pose = curvature < 0 ? "pos=\"-0.05 0 0.06\" euler=\"0 17 0\"" : "pos=\"-0.05 0 0.062\" euler=\"0 -17 0\"";
+    auto s = load_scene_string("<mujoco><worldbody><geom name=\"ball\" type=\"sphere\" pos=\"0 0 0\" size=\"0.05\" "
+                               "contype=\"0\" conaffinity=\"0\"/>"
+                               "<cosserat name=\"rod\" " + pose + " length=\"0.2\" sections=\"1\" strain=\"kl\" "
+                               "radius=\"0.01\" capsules=\"1\" contype=\"0\" conaffinity=\"0\"/></worldbody>"
+                               "<contact><pair geom1=\"ball\" geom2=\"rod/s0/g0\" margin=\"0.001\"/></contact></mujoco>", kPath);
+    SceneData sd(*s);
+    sd.d->qpos[s->rods[0].qpos0 + 1] = curvature;
+    forward(*s, sd);
+    EXPECT_NEAR(s->m->pair_margin[0], 0.001 + 5.0 * 0.2 * 0.2 / 8.0, 1e-12);  // kappa l^2 / 8
+    if (curvature < 0) {  // chord 9 mm clear, centre line 9 mm in
+      ASSERT_EQ(sd.d->ncon, 1);
+      EXPECT_EQ(sd.d->contact[0].exclude, 0);
+      EXPECT_LT(sd.d->contact[0].dist, -0.005);
+      EXPECT_NEAR(sd.d->contact[0].includemargin, 0.001, 1e-15);
+      EXPECT_GT(sd.d->nefc, 0);
+    } else {  // chord 9 mm in, centre line 9 mm clear
+      EXPECT_EQ(sd.d->nefc, 0);
+    }
+  }
+}
+
+// Two soft rods crossing at right angles, their sections bending towards each other: each centre
+// line bulges 24.5 mm beyond its chord, the chords' surfaces 40 mm apart, the centre lines' 9 mm
+// into each other. MuJoCo takes the larger of two geoms' margins, so each capsule's is widened by
+// twice its sag bound (the sum of both is needed).
+TEST(Contact, SoftRodsBendingTowardsEachOtherFindTheirContact) {
+  const double a = 0.5, c = 2 * std::sin(a) / 5.0;  // half the turning angle (5 /m over 0.2 m), the chord
+  char xml[1024];
+  std::snprintf(xml, sizeof xml, R"(<mujoco><compiler angle="radian"/><worldbody>
+    <cosserat name="low" pos="0 0 0" euler="0 %.15f 0" length="0.2" sections="1" strain="kl" radius="0.01" capsules="1"/>
+    <cosserat name="high" pos="%.15f %.15f 0.06" xyaxes="0 %.15f %.15f -1 0 0" length="0.2" sections="1" strain="kl"
+              radius="0.01" capsules="1"/>
+  </worldbody></mujoco>)", -a, c / 2, -c / 2, std::cos(a), -std::sin(a));
+  auto s = load_scene_string(xml, kPath);
+  SceneData sd(*s);
+  sd.d->qpos[s->rods[0].qpos0 + 1] = 5.0;   // low: along x, turning down, bulging up
+  sd.d->qpos[s->rods[1].qpos0 + 1] = -5.0;  // high: along y, turning up, bulging down
+  forward(*s, sd);
+  const Vec3 top = rod_pose(s->rods[0].model, sd.rod[0], 0, 0.1).u, bottom = rod_pose(s->rods[1].model, sd.rod[1], 0, 0.1).u;
+  const double rise = (1 - std::cos(a)) / 5.0;
+  ASSERT_LT((top - Vec3(c / 2, 0, rise)).norm(), 1e-9);
+  ASSERT_LT((bottom - Vec3(c / 2, 0, 0.06 - rise)).norm(), 1e-9);
+  ASSERT_LT((rod_pose(s->rods[1].model, sd.rod[1], 0, 0.2).u - Vec3(c / 2, c / 2, 0.06)).norm(), 1e-9);  // level chords
+  ASSERT_EQ(sd.d->ncon, 1);
+  EXPECT_EQ(sd.d->contact[0].exclude, 0);
+  EXPECT_NEAR(sd.d->contact[0].dist, 0.06 - 2 * rise - 0.02, 1e-9);  // the centre lines' surfaces, 9 mm in
+  EXPECT_GT(sd.d->nefc, 0);
+}
+
 // Probe L's F1: a soft GVS rod (3 sections of order 2, 2 capsules each) dropped onto a sphere
 // through a stiff frictionless contact (solref 0.004, solimp 0.99 0.999). With distances measured
 // on the chords and rows acting on the material points, the contact did positive work while the
