@@ -931,13 +931,17 @@ void Preprocessor::check_depth(const XMLElement* root) const {
     for (const RodDecl& rod : rods_) {
       const auto& p = rod.proxies;
       if (std::find(p.begin(), p.end(), b->Attribute("name")) == p.end()) continue;
+      // the rod's chain: one proxy per section and its helpers; the rest of the depth is the scene's
+      int levels = rod.spec.sections;
+      for (const auto& [helper, proxy] : helper_proxy_) levels += std::find(p.begin(), p.end(), proxy) != p.end();
+      const double per_section = static_cast<double>(levels) / rod.spec.sections;
+      const int fits = static_cast<int>(std::floor((levels - (depth - limit)) / per_section));
       throw LoadError(rod.file, rod.line,
                       "rod '" + rod.name + "': the generated bodies nest " + std::to_string(depth) +
                           " elements deep, MuJoCo 2.2.2's XML parser stops at " + std::to_string(limit) +
                           " (each section is one nested body; a section with more than 6 dofs, more): "
                           "use at most about " +
-                          std::to_string(std::max(1, rod.spec.sections - (depth - limit))) +
-                          " sections here");
+                          std::to_string(std::max(1, fits)) + " sections here");
     }
   }
   throw LoadError(origin(e).file, origin(e).line, "elements nested too deep for MuJoCo's XML parser");

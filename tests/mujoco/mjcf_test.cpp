@@ -175,6 +175,9 @@ std::vector<BadCase> bad_cases() {
       {"unknown default class", in_world(rod + R"( class="nosuch"/>)"), 3, "'class' names no <default class=...>: 'nosuch'"},
       {"site with an unknown class", in_world(rod + ">\n<site name=\"s\" at=\"0\" class=\"nosuch\"/>\n</cosserat>"), 4, "'class' names no"},
       {"too many sections for MuJoCo's XML depth", in_world("<body name=\"b\">\n" + rod + R"( sections="120"/>)" "\n</body>"), 4, "use at most about 94 sections"},
+      // sections of 20 dofs nest 4 bodies each (3 helpers and the proxy): 23 fit whatever the request
+      {"too many GVS sections for MuJoCo's XML depth", in_world(rod + R"( sections="24" order="4" strain="kl"/>)"), 3, "use at most about 23 sections"},
+      {"far too many GVS sections for MuJoCo's XML depth", in_world(rod + R"( sections="32" order="4" strain="kl"/>)"), 3, "use at most about 23 sections"},
       {"generated body name taken", in_world("<body name=\"a/s0\"/>\n" + rod + "/>"), 4, "generated body name 'a/s0'"},
       {"step_tol not positive", "<mujoco>\n<custom>\n<numeric name=\"cosserat:step_tol\" data=\"0\"/>\n</custom>\n</mujoco>\n",
        3, "'data' of 'cosserat:step_tol' must be one positive number, got '0'"},
@@ -515,6 +518,12 @@ TEST(MjcfScenes, DeepestChainMuJoCoAccepts) {
   EXPECT_THROW(preprocess_string(
                    in_world("<body name=\"b\">\n<cosserat name=\"a\" length=\"1\" sections=\"95\" capsules=\"1\"/>\n</body>"),
                    kInline),
+               LoadError);
+  // GVS sections of 20 dofs nest 4 bodies each: the table's hint, 23, is the limit
+  EXPECT_TRUE(compile(preprocess_string(
+      in_world("<cosserat name=\"a\" length=\"1\" sections=\"23\" order=\"4\" strain=\"kl\" capsules=\"1\"/>"), kInline)));
+  EXPECT_THROW(preprocess_string(
+                   in_world("<cosserat name=\"a\" length=\"1\" sections=\"24\" order=\"4\" strain=\"kl\" capsules=\"1\"/>"), kInline),
                LoadError);
 }
 
