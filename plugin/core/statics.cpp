@@ -1,6 +1,7 @@
 #include "statics.hpp"
 
 #include <cmath>
+#include <cstdio>
 
 #include <Eigen/LU>
 
@@ -103,7 +104,7 @@ StaticsResult equilibrium(const Model& m, Data& d, const StaticsOptions& opt) {
       d.q = q_good;
       dlam *= 0.5;
       if (++halvings > opt.max_load_halvings) {
-        res.message = "no convergence: load continuation stalled at load factor " + std::to_string(lam);
+        res.message = "no convergence: load continuation stalled at load factor " + load_factor_text(lam);
         d.v.setZero();
         return res;
       }
@@ -113,6 +114,12 @@ StaticsResult equilibrium(const Model& m, Data& d, const StaticsOptions& opt) {
   res.message = "converged";
   d.v.setZero();
   return res;
+}
+
+std::string load_factor_text(double lambda) {
+  char b[32];
+  std::snprintf(b, sizeof b, "%.10g", lambda);
+  return b;
 }
 
 }  // namespace cosserat

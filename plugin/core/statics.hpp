@@ -31,5 +31,8 @@ StaticsResult equilibrium(const Model& m, Data& d, const StaticsOptions& opt = {
 double static_residual(const Model& m, Data& d, double lambda, VecX& r);
 // Tangent stiffness dr/dq at lambda (central differences of the residual).
 void tangent_stiffness(const Model& m, Data& d, double lambda, MatX& Kt);
+// A continuation's load factor as its failure messages print it: exactly enough to evaluate the
+// loads it stood at again.
+std::string load_factor_text(double lambda);
 
 }  // namespace cosserat

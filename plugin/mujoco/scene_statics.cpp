@@ -12,6 +12,8 @@
 #include <Eigen/LU>
 #include <Eigen/QR>
 
+#include "statics.hpp"
+
 namespace cosserat::mj {
 
 namespace {
@@ -285,7 +287,7 @@ bool solve_smooth(StaticProblem& p, const Scene& s, SceneData& sd, const SceneSt
       p.set_qpos(q_good);
       dlam *= 0.5;
       if (++halvings > opt.max_load_halvings) {
-        res.message = "no convergence: load continuation stalled at load factor " + std::to_string(lam) +
+        res.message = "no convergence: load continuation stalled at load factor " + cosserat::load_factor_text(lam) +
                       (res.unstable_steps_refused ? " (beyond it the equilibria found are unstable)" : "");
         return false;
       }
@@ -475,8 +477,18 @@ SceneStaticsResult equilibrium(const Scene& s, SceneData& sd, const SceneStatics
     res.message = why;
     return res;
   }
+  const std::vector<mjtNum> q_newton(d->qpos, d->qpos + m->nq);  // Newton's last converged load step
+  sd.compression = {};
   res.converged = relax(s, sd, q_start, opt, res);
   res.message = (res.converged ? "" : res.message + "; ") + "relaxation used because " + why;
+  if (!res.converged) {
+    // a relaxation that diverged or did not settle leaves a state of no meaning (probe O: inverted
+    // sections after a blow-up): report the last equilibrium Newton found instead
+    if (const std::string c = collapse_warning(s, sd); !c.empty()) res.message += "; during the relaxation " + c;
+    std::copy(q_newton.begin(), q_newton.end(), d->qpos);
+    res.message += q_newton == q_start ? "; the positions reported are the start's"
+                                       : "; the positions reported are Newton's last converged load step";
+  }
   forward(s, sd);
   res.constraint_rows = load_bearing_rows(d);
   // relaxation settles where the motion stops, which a symmetric start can do on an unstable

@@ -57,7 +57,8 @@ struct SceneStaticsResult {
 //
 // Solves for sd.d->qpos in place; qvel = 0 and the stages are evaluated at the result (positions
 // in xpos/site_xpos are current). Actuators with filter or muscle dynamics are put at their steady
-// state act = ctrl. On failure qpos holds the last converged load step (Newton).
+// state act = ctrl. On failure qpos holds the last converged load step (Newton; the start when it
+// made none), also after a dynamic relaxation that failed, and the message says so.
 SceneStaticsResult equilibrium(const Scene& s, SceneData& sd, const SceneStaticsOptions& opt = {});
 
 // The smooth generalised force f(q) at rest under load factor lambda (gravity, ctrl, qfrc_applied

@@ -9,6 +9,7 @@
 
 #include <Eigen/Eigenvalues>
 
+#include "kinematics.hpp"
 #include "linearize.hpp"
 #include "statics.hpp"
 
@@ -331,4 +332,37 @@ TEST(SceneStatics, AStandingColumnBeyondItsBucklingLoadIsNoEquilibrium) {
     ASSERT_NE(at, std::string::npos) << r.message;
     EXPECT_NEAR(std::atof(r.message.c_str() + at + 23) * g, 0.1598, 0.005);
   }
+}
+
+// Probe O: a cable pulling a soft rod at 300 N (T/EA = 0.95) has no equilibrium the continuation
+// reaches, and the dynamic relaxation that follows blows up (sections inverted). The positions
+// reported must then be Newton's last converged load step, an equilibrium at the load factor where
+// the continuation stalled, not the relaxation's wreckage, and the message must say both.
+TEST(SceneStatics, AFailedRelaxationReportsNewtonsLastLoadStep) {
+  std::string sites, path;
+  for (int i = 0; i <= 4; ++i) {
+    sites += "<site name=\"c" + std::to_string(i) + "\" at=\"" + std::to_string(0.125 * i) + "\" pos=\"0 0.005 0\"/>";
+    path += "<site site=\"c" + std::to_string(i) + "\"/>";
+  }
+  auto s = load_scene_string(R"(<mujoco><option gravity="0 0 0"/><worldbody><body name="mount">
+    <cosserat name="arm" length="0.5" sections="4" strain="kl" radius="0.01" young="1e6" poisson="0.5" contype="0"
+              conaffinity="0">)" + sites + R"(</cosserat></body></worldbody>
+    <tendon><spatial name="c">)" + path + R"(</spatial></tendon>
+    <actuator><motor name="c" tendon="c" gear="-1"/></actuator></mujoco>)", kPath);
+  SceneData sd(*s);
+  sd.d->ctrl[0] = 300;
+  const SceneStaticsResult r = equilibrium(*s, sd);
+  ASSERT_FALSE(r.converged);
+  EXPECT_EQ(r.method, "dynamic relaxation");
+  EXPECT_NE(r.message.find("compressed to"), std::string::npos) << r.message;
+  EXPECT_NE(r.message.find("the positions reported are Newton's last converged load step"), std::string::npos) << r.message;
+  const size_t at = r.message.find("stalled at load factor ");
+  ASSERT_NE(at, std::string::npos) << r.message;
+  const double lambda = std::atof(r.message.c_str() + at + 23);
+  ASSERT_GT(lambda, 0.0);
+  Eigen::VectorXd f;
+  const double scale = static_force(*s, sd, lambda, f);
+  EXPECT_LT(f.norm() / scale, 1e-6);  // an equilibrium at that load (the wreckage is far from one)
+  EXPECT_GT(cosserat::min_axial_stretch(s->rods[0].model, sd.rod[0]), 0.5);
+  for (int k = 0; k < s->m->nq; ++k) EXPECT_TRUE(std::isfinite(sd.d->qpos[k]));
 }
