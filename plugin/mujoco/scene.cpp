@@ -804,12 +804,23 @@ void setup_sagging_contacts(Scene& s) {
     if (sagging[g1] || sagging[g2]) s.sagging_pairs.push_back(p);
     if (sagging[g1] && sagging[g2]) s.sagging_capsules_meet = true;
   }
+  // MuJoCo's filters of a geom pair (mj_collision): the bodies' weld groups differ and are not parent
+  // and child (unless that filter is off), no <exclude> names the bodies, contype meets conaffinity
+  std::vector<int> excluded(m->exclude_signature, m->exclude_signature + m->nexclude);
+  std::sort(excluded.begin(), excluded.end());
+  const auto may_touch = [&](int g1, int g2) {
+    const int b1 = m->geom_bodyid[g1], b2 = m->geom_bodyid[g2];
+    const int w1 = m->body_weldid[b1], w2 = m->body_weldid[b2];
+    if (w1 == w2) return false;
+    const int p1 = m->body_weldid[m->body_parentid[w1]], p2 = m->body_weldid[m->body_parentid[w2]];
+    if (!(m->opt.disableflags & mjDSBL_FILTERPARENT) && w1 && w2 && (w1 == p2 || w2 == p1)) return false;
+    const int signature = ((std::min(b1, b2) + 1) << 16) + std::max(b1, b2) + 1;
+    if (std::binary_search(excluded.begin(), excluded.end(), signature)) return false;
+    return (m->geom_contype[g1] & m->geom_conaffinity[g2]) || (m->geom_contype[g2] & m->geom_conaffinity[g1]);
+  };
   const std::vector<int>& g = s.sagging_geoms;
   for (size_t i = 0; i < g.size() && !s.sagging_capsules_meet; ++i)
-    for (size_t j = i + 1; j < g.size() && !s.sagging_capsules_meet; ++j)
-      s.sagging_capsules_meet = m->geom_bodyid[g[i]] != m->geom_bodyid[g[j]] &&
-                                ((m->geom_contype[g[i]] & m->geom_conaffinity[g[j]]) ||
-                                 (m->geom_contype[g[j]] & m->geom_conaffinity[g[i]]));
+    for (size_t j = i + 1; j < g.size() && !s.sagging_capsules_meet; ++j) s.sagging_capsules_meet = may_touch(g[i], g[j]);
 }
 
 // Load-time table of riding_frame: the rod and section each body rides with.
