@@ -488,6 +488,24 @@ TEST_F(Cli, EquilibriumWithKeyframeAndControls) {
   EXPECT_EQ(cosserat("equilibrium '" + m.string() + "' --key nope").status, 1);
 }
 
+// A control outside a limited actuator's ctrlrange: MuJoCo clamps it; the command says so, and the
+// equilibrium is the clamped control's.
+TEST_F(Cli, ControlsOutsideTheirRangeAreClampedWithAWarning) {
+  const fs::path m = scratch() / "motor.xml";
+  std::ofstream(m) << R"(<mujoco><worldbody><body name="arm"><joint name="h" type="hinge" axis="0 -1 0" stiffness="2"/>
+    <geom type="sphere" pos="0.25 0 0" size="0.02" mass="0.5"/><site name="end" pos="0.25 0 0"/></body></worldbody>
+    <actuator><motor name="m" joint="h" gear="1" ctrllimited="true" ctrlrange="-1 1"/></actuator></mujoco>)";
+  const fs::path out = scratch() / "eq.json", ref = scratch() / "ref.json";
+  const Result r = cosserat("equilibrium '" + m.string() + "' --ctrl 3 --json '" + out.string() + "'");
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.err.find("warning: --ctrl: 3 for actuator 'm' is outside its ctrlrange [-1, 1]: MuJoCo clamps it to 1"),
+            std::string::npos) << r.err;
+  const Result within = cosserat("equilibrium '" + m.string() + "' --ctrl 1 --json '" + ref.string() + "'");
+  ASSERT_EQ(within.status, 0) << within.err;
+  EXPECT_EQ(within.err.find("warning"), std::string::npos) << within.err;
+  EXPECT_EQ(json::parse(read_text(out))["sites"], json::parse(read_text(ref))["sites"]);
+}
+
 TEST_F(Cli, EquilibriumRefusesFreeBodies) {
   const fs::path m = scratch() / "free.xml";
   std::ofstream(m) << "<mujoco><worldbody><body name=\"b\"><freejoint/><geom size=\"0.1\"/></body></worldbody></mujoco>\n";
