@@ -8,10 +8,12 @@
 
 #include <algorithm>
 #include <cctype>
+#include <cerrno>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <functional>
@@ -81,14 +83,19 @@ std::ofstream open_output(const std::string& path) {
   return f;
 }
 
+// Writes j to path ('-': stdout). A write that fails, also at the final flush (a full disk: a small
+// report sits in the stream's buffer until then), is a failure naming the path and the reason.
 void write_json(const std::string& path, const json& j) {
   if (path == "-") {
     std::cout << j.dump(2) << "\n";
+    if (!std::cout.flush()) fail("cannot write stdout");
     return;
   }
   std::ofstream f = open_output(path);
   f << j.dump(2) << "\n";
-  if (!f) fail("cannot write " + path);
+  errno = 0;
+  f.close();
+  if (!f) fail("cannot write " + path + (errno ? " (" + std::string(std::strerror(errno)) + ")" : ""));
 }
 
 // ---------------------------------------------------------------------------- scene outputs --
@@ -1010,7 +1017,12 @@ int main(int argc, char** argv) {
   mju_user_warning = on_mujoco_warning;
   mju_user_error = on_mujoco_error;
   try {
-    return dispatch(argc, argv);
+    const int status = dispatch(argc, argv);
+    // what the command printed may still sit in stdout's buffers: a failed final write (a full
+    // disk, a closed pipe) is a failed command, not a silent loss
+    std::cout.flush();
+    if (std::fflush(stdout) != 0 || std::ferror(stdout) || !std::cout) fail("cannot write stdout");
+    return status;
   } catch (const mj::LoadError& e) {
     std::cerr << one_line(e.what()) << "\n";
   } catch (const std::exception& e) {  // Failure and anything unexpected

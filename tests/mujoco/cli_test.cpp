@@ -199,6 +199,24 @@ TEST_F(Cli, UnwritableOutputsAreRefusedBeforeTheRun) {
   EXPECT_FALSE(fs::exists(ok));
 }
 
+// Probe N: a small report sat in the stream's buffer and the full disk's error came at the final
+// flush, unchecked: exit 0 and no report. Every output that fails to be written fails the command.
+TEST_F(Cli, OutputsThatCannotBeWrittenFailTheCommand) {
+  for (const std::string args : {"run '" + kCantilever + "' --duration 0.01 --json /dev/full",
+                                 "equilibrium '" + kCantilever + "' --json /dev/full"}) {
+    const Result r = cosserat(args);
+    EXPECT_EQ(r.status, 1) << args;
+    EXPECT_NE(r.err.find("cannot write /dev/full (No space left on device)"), std::string::npos) << args << ": " << r.err;
+  }
+  for (const std::string args : {"run '" + kCantilever + "' --duration 0.01 --json -", "check '" + kCantilever + "'",
+                                 "linearize '" + kCantilever + "' --json -"}) {
+    const std::string cmd = "'" + tool().string() + "' " + args + " > /dev/full 2> '" + (scratch() / "err.txt").string() + "'";
+    const int raw = std::system(cmd.c_str());
+    EXPECT_EQ(WIFEXITED(raw) ? WEXITSTATUS(raw) : -1, 1) << args;
+    EXPECT_NE(read_text(scratch() / "err.txt").find("cannot write stdout"), std::string::npos) << args;
+  }
+}
+
 TEST_F(Cli, RunJsonHasRequiredKeys) {
   const fs::path out = scratch() / "run.json";
   const Result r = cosserat("run '" + kCantilever + "' --duration 0.01 --integrator rk4 --timestep 0.0001 --json '" +
