@@ -157,7 +157,8 @@ inline int parse_int(const std::string& flag, const std::string& text, int min) 
   char* end = nullptr;
   const long v = std::strtol(text.c_str(), &end, 10);
   if (text.empty() || *end) fail(flag + ": '" + text + "' is not an integer");
-  if (v < min || v > 1000000000L) fail(flag + ": must be an integer >= " + std::to_string(min) + ", got '" + text + "'");
+  if (v < min) fail(flag + ": must be an integer >= " + std::to_string(min) + ", got '" + text + "'");
+  if (v > 1000000000L) fail(flag + ": " + text + " is too large (at most 1000000000)");
   return static_cast<int>(v);
 }
 

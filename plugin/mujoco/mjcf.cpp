@@ -203,7 +203,8 @@ class Reader {
   int integer(const char* attr, int fallback, int min_value) const {
     if (!has(attr)) return fallback;
     const double x = number(attr, 0.0);
-    check(x == std::floor(x) && std::abs(x) < 1e9, attr, "must be an integer, got '" + text(attr) + "'");
+    check(x == std::floor(x), attr, "must be an integer, got '" + text(attr) + "'");
+    check(std::abs(x) < 1e9, attr, "is too large: " + text(attr) + " (at most 999999999)");
     check(x >= min_value, attr, "must be >= " + std::to_string(min_value) + ", got " + text(attr));
     return static_cast<int>(x);
   }
@@ -569,6 +570,9 @@ RodInput Preprocessor::read_rod(XMLElement* cosserat, const std::string& parent_
   return rod;
 }
 
+// The shortest section, relative to its rod's length.
+constexpr double kMinSectionFraction = 1e-6;
+
 // Fills spec.overrides (one fully resolved SectionSpec per section) and rod.section_end, from
 // `sections` or the <section> children.
 void Preprocessor::read_sections(const Reader& r, RodInput& rod) {
@@ -632,6 +636,14 @@ void Preprocessor::read_sections(const Reader& r, RodInput& rod) {
   double X = 0.0;
   for (std::size_t i = 0; i < secs.size(); ++i) {
     if (!sized[i]) secs[i].length = (L - given) / unsized;
+    // a section shorter than a millionth of the rod: no physics to resolve there, and its end
+    // abscissa is lost in the rounding of its start's (probe N: 1e-300 gave an internal error)
+    if (secs[i].length < kMinSectionFraction * L) {
+      const std::string msg = "section " + std::to_string(i) + " is " + fmt(secs[i].length) +
+                              " long, less than " + fmt(kMinSectionFraction) + " of the rod length " + fmt(L);
+      if (i < elements.size()) reader(elements[i]).fail(msg);
+      r.fail(msg);
+    }
     X += secs[i].length;
     rod.section_end.push_back(i + 1 == secs.size() ? L : X);
     // the Gauss-Lobatto mass rule's end points: singular tangent operator at whole turns

@@ -113,6 +113,10 @@ TEST_F(Cli, BadCommandLinesExitOneWithOneLineReason) {
     EXPECT_EQ(r.status, 1) << args;
     EXPECT_EQ(lines(r.err).size(), 1u) << args << ": " << r.err;
   }
+  // twentieth session's probe: a huge integer was "not an integer"
+  const Result big = cosserat("snapshot '" + kCantilever + "' --out /tmp/cosserat_cli_bad.png --width 4294967297");
+  EXPECT_EQ(big.status, 1);
+  EXPECT_NE(big.err.find("--width: 4294967297 is too large"), std::string::npos) << big.err;
 }
 
 TEST_F(Cli, EveryCommandHasHelp) {
