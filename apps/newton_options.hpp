@@ -4,6 +4,7 @@
 
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "cli.hpp"
 #include "integrators.hpp"
@@ -17,6 +18,7 @@ struct NewtonOptions {
   int newton_memory = 3;
   bool newton_refresh = false;
   std::optional<double> rho;
+  std::vector<std::string> given;  // the Newton options the command line set (not --newton)
 
   // --newton, --newton-tol, --newton-memory and --newton-refresh
   void add_newton_to(CommandLine& c) {
@@ -27,16 +29,20 @@ struct NewtonOptions {
                          "linearly implicit step). 0: one linearised solve (default: 10 for trapezoidal, genalpha and "
                          "midpoint, 0 for implicit; genalpha and midpoint always make at least 1)",
                          [this](const std::string& v) { newton = parse_int("--newton", v, 0); }});
-    c.options.push_back(positive_option("--newton-tol", "TOL",
-                                        "tolerance of the Newton corrections: h |delta a| <= TOL (|v| + h |a|), "
-                                        "max norms over the dofs (default 1e-6)",
-                                        newton_tol));
+    c.options.push_back({"--newton-tol", "TOL",
+                         "tolerance of the Newton corrections: h |delta a| <= TOL (|v| + h |a|), max norms over the "
+                         "dofs (default 1e-6)",
+                         [this](const std::string& v) {
+                           newton_tol = parse_positive("--newton-tol", v);
+                           given.push_back("--newton-tol");
+                         }});
     c.options.push_back({"--newton-memory", "M",
                          "Anderson acceleration of the Newton corrections from the last M corrections, 0 <= M <= 4 "
                          "(default 3; 0: plain simplified Newton with the step's frozen matrix)",
                          [this](const std::string& v) {
                            newton_memory = parse_int("--newton-memory", v, 0);
                            if (newton_memory > 4) fail("--newton-memory: " + v + " is more than 4");
+                           given.push_back("--newton-memory");
                          }});
     c.options.push_back(flag_option("--newton-refresh",
                                     "trapezoidal, genalpha, implicit with --newton: factorise the Newton matrix again at "
@@ -57,11 +63,22 @@ struct NewtonOptions {
   }
 
   // Into the scene for a run with `method`: --newton with a method that has no Newton iteration
-  // (euler, rk4), or --rho with any but genalpha, is refused (they had been accepted and ignored).
+  // (euler, rk4), --newton-tol, --newton-memory or --newton-refresh with a step that does not
+  // iterate (those, and implicit without --newton), or --rho with any but genalpha, is refused
+  // (they had been accepted and ignored).
   void apply(mj::Scene& s, Integrator method) const {
     if (newton && (method == Integrator::Euler || method == Integrator::RK4))
       fail(std::string("--newton: Newton corrections are for implicit, trapezoidal, genalpha and midpoint, not ") +
            integrator_name(method));
+    // the Newton iteration's own settings, where the step has none (the linearised implicit step)
+    const int iterations = newton ? *newton : s.newton_for(method);
+    const bool iterates = method != Integrator::Euler && method != Integrator::RK4 &&
+                          (method != Integrator::Implicit || iterations > 0);
+    const std::string first = !given.empty() ? given.front() : newton_refresh ? "--newton-refresh" : "";
+    if (!first.empty() && !iterates)
+      fail(first + ": the " + integrator_name(method) + " step" +
+           (method == Integrator::Implicit ? " without --newton has no Newton iteration (--newton N makes one)"
+                                           : " has no Newton iteration"));
     if (rho && method != Integrator::GeneralizedAlpha)
       fail(std::string("--rho: the spectral radius at infinite frequency is genalpha's, not ") + integrator_name(method) +
            "'s");

@@ -108,7 +108,11 @@ TEST_F(Cli, BadCommandLinesExitOneWithOneLineReason) {
                                  // options the integrator ignores accepted silently
                                  "run '" + kCantilever + "' --duration 0x10",
                                  "run '" + kCantilever + "' --integrator rk4 --newton 3",
-                                 "run '" + kCantilever + "' --integrator trapezoidal --rho 0.5"}) {
+                                 "run '" + kCantilever + "' --integrator trapezoidal --rho 0.5",
+                                 // twentieth session's probe: Newton settings of steps without one
+                                 "run '" + kCantilever + "' --newton-tol 1e-8",
+                                 "run '" + kCantilever + "' --integrator rk4 --newton-memory 1",
+                                 "run '" + kCantilever + "' --integrator euler --newton-refresh"}) {
     const Result r = cosserat(args);
     EXPECT_EQ(r.status, 1) << args;
     EXPECT_EQ(lines(r.err).size(), 1u) << args << ": " << r.err;
