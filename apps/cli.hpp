@@ -36,6 +36,8 @@ inline void check_writable(const std::string& option, const std::string& path) {
   std::error_code ec;
   const bool existed = std::filesystem::exists(path, ec);
   if (std::filesystem::is_directory(path, ec)) fail(option + ": " + path + " is a directory");
+  // a named pipe: opening it blocks until a reader comes, which is what writing it will wait for
+  if (std::filesystem::is_fifo(path, ec)) return;
   const std::filesystem::path dir = std::filesystem::path(path).parent_path();
   std::error_code dir_ec;  // why the directory could not be made, if it could not
   if (!dir.empty()) std::filesystem::create_directories(dir, dir_ec);

@@ -3,6 +3,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -187,6 +188,13 @@ int render_command(int argc, char** argv) {
     if (frames < 1) fail("--duration " + format(duration) + " at --fps " + format(fps) + " makes no frame");
     if (!video.empty() && rd::find_program("ffmpeg").empty())
       fail("--video needs ffmpeg, which is not installed (apt-get install ffmpeg); without --video only the frames are written");
+    if (!video.empty()) {  // ffmpeg picks the container from the extension: a wrong one failed after every frame
+      std::string ext = std::filesystem::path(video).extension().string();
+      std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+      if (ext != ".mp4" && ext != ".mkv" && ext != ".webm" && ext != ".mov" && ext != ".avi" && ext != ".gif" && ext != ".m4v")
+        fail("--video: " + video + ": ffmpeg takes the video's format from its extension; use .mp4, .mkv, .webm, .mov, "
+             ".avi, .m4v or .gif");
+    }
     check_writable("--video", video);
 
     Simulation sim((*pos)[0], o);

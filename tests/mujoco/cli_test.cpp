@@ -112,7 +112,8 @@ TEST_F(Cli, BadCommandLinesExitOneWithOneLineReason) {
                                  // twentieth session's probe: Newton settings of steps without one
                                  "run '" + kCantilever + "' --newton-tol 1e-8",
                                  "run '" + kCantilever + "' --integrator rk4 --newton-memory 1",
-                                 "run '" + kCantilever + "' --integrator euler --newton-refresh"}) {
+                                 "run '" + kCantilever + "' --integrator euler --newton-refresh",
+                                 "render '" + kCantilever + "' --out /tmp/cosserat_cli_bad --duration 0.1 --video /tmp/cosserat_cli_bad.json"}) {
     const Result r = cosserat(args);
     EXPECT_EQ(r.status, 1) << args;
     EXPECT_EQ(lines(r.err).size(), 1u) << args << ": " << r.err;
