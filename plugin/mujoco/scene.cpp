@@ -1630,6 +1630,15 @@ std::unique_ptr<Scene> compile(const Preprocessed& pre) {
       s->geom_index[s->rods[r].geom_id[k]] = static_cast<int>(k);
     }
   s->may_collide = scene_may_collide(s->m);
+  // explicit pairs, once: which geoms they name, and the table patch_contact_distances searches
+  std::vector<char> in_pair(s->m->ngeom, 0);
+  for (int k = 0; k < s->m->npair; ++k) {
+    const long long g1 = s->m->pair_geom1[k], g2 = s->m->pair_geom2[k], n = s->m->ngeom;
+    in_pair[g1] = in_pair[g2] = 1;
+    s->pair_by_geoms.emplace_back(g1 * n + g2, k);
+    if (g1 != g2) s->pair_by_geoms.emplace_back(g2 * n + g1, k);
+  }
+  std::sort(s->pair_by_geoms.begin(), s->pair_by_geoms.end());  // a geom pair's first <pair> first, as the search found it
   for (RodBinding& rb : s->rods) {
     const size_t n = rb.geom_id.size();
     rb.geom_sagging.assign(n, 0);
@@ -1639,10 +1648,8 @@ std::unique_ptr<Scene> compile(const Preprocessed& pre) {
       const int id = rb.geom_id[k];
       rb.geom_margin0[k] = s->m->geom_margin[id];
       rb.geom_gap0[k] = s->m->geom_gap[id];
-      bool paired = false;
-      for (int p = 0; p < s->m->npair && !paired; ++p) paired = s->m->pair_geom1[p] == id || s->m->pair_geom2[p] == id;
       rb.geom_sagging[k] = s->may_collide && !rb.geom_fixed[k].fixed &&
-                           (s->m->geom_contype[id] != 0 || s->m->geom_conaffinity[id] != 0 || paired);
+                           (s->m->geom_contype[id] != 0 || s->m->geom_conaffinity[id] != 0 || in_pair[id]);
       if (rb.geom_sagging[k]) s->sagging_geoms.push_back(id);
     }
   }
@@ -1651,12 +1658,6 @@ std::unique_ptr<Scene> compile(const Preprocessed& pre) {
   for (const RodBinding& rb : s->rods)
     for (int b = rb.base_body + 1; b < rb.below_end; ++b) s->body_by_rod[b] = 1;
   setup_riding_frames(*s);
-  for (int k = 0; k < s->m->npair; ++k) {
-    const long long g1 = s->m->pair_geom1[k], g2 = s->m->pair_geom2[k], n = s->m->ngeom;
-    s->pair_by_geoms.emplace_back(g1 * n + g2, k);
-    if (g1 != g2) s->pair_by_geoms.emplace_back(g2 * n + g1, k);
-  }
-  std::sort(s->pair_by_geoms.begin(), s->pair_by_geoms.end());  // a geom pair's first <pair> first, as the search found it
   // acceleration sensors read every cdof_dot (mj_rnePostConstraint; whatever the sensor flags say now)
   const bool acceleration_sensors = has_sensor_from(s->m, mjSTAGE_ACC);
   for (RodBinding& rb : s->rods) rb.cdof_dot_read = acceleration_sensors || mass_or_rod_below(*s, rb);
