@@ -191,10 +191,13 @@ mj::LoadError error_at_initial_state(const std::string& path, const MujocoError&
   return mj::LoadError(path, 0, std::string(e.what()) + ", raised while evaluating the model at its initial state");
 }
 
-// mj::load_scene, with error_at_initial_state's report.
+// mj::load_scene, with error_at_initial_state's report; prints the loader's warnings
+// (mj::Scene::load_warnings) on stderr.
 std::unique_ptr<mj::Scene> load(const std::string& path) {
   try {
-    return mj::load_scene(path);
+    auto s = mj::load_scene(path);
+    for (const auto& w : s->load_warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
+    return s;
   } catch (const MujocoError& e) {
     throw error_at_initial_state(path, e);
   }

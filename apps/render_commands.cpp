@@ -103,6 +103,7 @@ struct Simulation {
   long steps = 0;
 
   Simulation(const std::string& path, const PictureOptions& o) : scene(mj::load_scene(path)) {
+    for (const auto& w : scene->load_warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
     mjModel* m = scene->m;
     if (o.timestep > 0) m->opt.timestep = o.timestep;
     integrator = scene->integrator;

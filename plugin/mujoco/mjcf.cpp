@@ -31,6 +31,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <map>
 #include <memory>
 #include <optional>
@@ -320,6 +321,44 @@ SectionSpec read_section_spec(const Reader& r, SectionSpec s) {
   return s;
 }
 
+// "file:line: <element>: ", the start of a warning about the element of `r`.
+std::string where(const Reader& r) {
+  return r.origin().file + ":" + std::to_string(r.origin().line) + ": <" + r.element()->Name() + ">: ";
+}
+
+// Values that load but describe no real rod. Refused: a section whose inertia or bending stiffness
+// underflows the doubles (radius="1e-300", young="5e-324": a rod with no mass or no stiffness that
+// ran without a word). Warned about (Preprocessed::warnings): moduli and densities outside those of
+// real materials in SI units (a unit slip, e.g. MPa or g/cm^3). Each element is checked for the
+// attributes it gives (a <section> inherits the checked values of its rod); read_rod also warns
+// about radii below molecular sizes and rods thicker than they are long.
+void check_section_scales(const Reader& r, const SectionSpec& s, double r_min, std::vector<std::string>& warnings) {
+  const double I = M_PI * r_min * r_min * r_min * r_min / 4.0;  // second moment of area, thinnest end
+  constexpr double kTiny = std::numeric_limits<double>::min();   // the smallest normal double
+  if (I < kTiny)
+    r.fail_attr("radius", "is too small: the section's second moment of area pi r^4/4 underflows (radius " +
+                              fmt(r_min) + " m)");
+  const bool rod = std::string_view(r.element()->Name()) == "cosserat";
+  if (rod || r.has("density")) {
+    r.check(s.material.density * I >= kTiny, "density",
+            "is too small: the section's rotational inertia density pi r^4/4 underflows (density " +
+                fmt(s.material.density) + " kg/m^3)");
+    if (s.material.density < 1e-1 || s.material.density > 1e5)
+      warnings.push_back(where(r) + "density " + fmt(s.material.density) +
+                         " kg/m^3 is outside the densities of real solids (about 1 for aerogels to 2.3e4 for "
+                         "osmium): check the units (kg/m^3)");
+  }
+  if (rod || r.has("young")) {
+    r.check(s.material.young * I >= kTiny, "young",
+            "is too small: the section's bending stiffness young pi r^4/4 underflows (young " +
+                fmt(s.material.young) + " Pa)");
+    if (s.material.young < 1.0 || s.material.young > 1e13)
+      warnings.push_back(where(r) + "young " + fmt(s.material.young) +
+                         " Pa is outside the moduli of real materials (about 10 Pa for the softest gels to 1.2e12 Pa "
+                         "for diamond): check the units (Pa)");
+  }
+}
+
 // ------------------------------------------------------------------------------------------------
 // Preprocessor: owns the parsed documents and the origin of every element.
 
@@ -367,6 +406,7 @@ class Preprocessor {
   std::map<std::string, Origin> rod_names_;
   std::set<std::string> declared_rods_;  // names of the <cosserat> elements (collect_names)
   std::vector<RodDecl> rods_;
+  std::vector<std::string> warnings_;  // Preprocessed::warnings
   // the generated helper bodies (sections with more than 6 dofs), each with its section's proxy
   std::map<std::string, std::string> helper_proxy_;
   std::vector<std::pair<std::string, std::string>> excludes_;
@@ -537,6 +577,16 @@ RodInput Preprocessor::read_rod(XMLElement* cosserat, const std::string& parent_
   defaults.dofs = *strain_mask_from_name("kl");
   spec.section = read_section_spec(r, defaults);
   spec.section.length = 0.0;
+  const double r_min = std::min(spec.radius_base, spec.radius_tip);
+  check_section_scales(r, spec.section, r_min, warnings_);
+  if (r_min < 1e-9)
+    warnings_.push_back(where(r) + "radius " + fmt(r_min) +
+                        " m is below molecular sizes (a bacterial flagellum's filament is about 1e-8 m): check the "
+                        "units (m)");
+  if (2.0 * std::max(spec.radius_base, spec.radius_tip) > spec.length)
+    warnings_.push_back(where(r) + "the rod is thicker than it is long (diameter " +
+                        fmt(2.0 * std::max(spec.radius_base, spec.radius_tip)) + " m, length " + fmt(spec.length) +
+                        " m): the rod theory describes slender bodies, its results for this one are not physical");
   read_sections(r, rod);
 
   // fluid (plugin/mujoco/fluid.hpp)
@@ -591,6 +641,7 @@ void Preprocessor::read_sections(const Reader& r, RodInput& rod) {
                         "viscosity", "quadrature"});
     s.allow_children({});
     SectionSpec ss = read_section_spec(s, spec.section);
+    check_section_scales(s, ss, std::min(spec.radius_base, spec.radius_tip), warnings_);
     ss.length = s.number("length", 0.0);
     s.check(!s.has("length") || ss.length > 0, "length", "must be positive, got " + s.text("length"));
     secs.push_back(ss);
@@ -1009,7 +1060,8 @@ Preprocessed Preprocessor::run(const std::string& text, const std::string& path)
 
   tinyxml2::XMLPrinter printer;
   doc.Print(&printer);
-  Preprocessed out{printer.CStr(), path, std::move(rods_), {}, {}, {}, {}, {}, {}};
+  Preprocessed out{printer.CStr(), path, std::move(rods_), {}, {}, {}, {}, {}, {}, {}};
+  out.warnings = std::move(warnings_);
   map_lines(root, out);
   for (const XMLElement* kf = root->FirstChildElement("keyframe"); kf; kf = kf->NextSiblingElement("keyframe"))
     for (const XMLElement* k = kf->FirstChildElement("key"); k; k = k->NextSiblingElement("key"))

@@ -95,6 +95,9 @@ struct Preprocessed {
   // per actuator: it or a <default> of the model may give its lengthrange (else MuJoCo's compiler
   // computes a muscle's by simulating the compiled model)
   std::vector<char> actuator_lengthrange_given;
+  // what loads but is likely a mistake ("file:line: <element>: ..."): a rod thicker than it is long,
+  // moduli and densities outside those of real materials in SI units
+  std::vector<std::string> warnings;
 };
 
 // Reads `path`, expands <include file=...> recursively (relative to the including file), and

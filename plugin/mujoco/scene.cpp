@@ -1582,6 +1582,7 @@ void check_muscle_lengthranges(const Preprocessed& pre, const Scene& s) {
 std::unique_ptr<Scene> compile(const Preprocessed& pre) {
   auto s = std::make_unique<Scene>();
   s->path = pre.path;
+  s->load_warnings = pre.warnings;
   s->m = compile_xml(pre);
   check_keyframes(pre, s->m);
   for (const auto& decl : pre.rods) s->rods.push_back(bind_rod(s->m, decl));

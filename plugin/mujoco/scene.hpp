@@ -146,6 +146,9 @@ struct Scene {
   // subtree with rods: placed from the centre of mass with the rods (MuJoCo's counts rigid bodies)
   std::vector<int> com_cameras, com_lights;
   std::string path;
+  // the loader's warnings about values that load but are likely mistakes (Preprocessed::warnings:
+  // "file:line: <element>: ..."); the command-line tool prints them on stderr at load
+  std::vector<std::string> load_warnings;
   // false when no two geoms of the model can ever touch (scene_may_collide, at load): the step then
   // skips MuJoCo's collision detection, whose broad phase otherwise costs a tenth of a step on a
   // rod in free space. The collision filters (geom contype/conaffinity, <pair>, <exclude>; the

@@ -1,6 +1,7 @@
 // MJCF pre-processor (plugin/mujoco/mjcf.hpp): bad input gives LoadError with file:line, good
 // scenes compile in MuJoCo 2.2.2 with the contract's names, dof counts and frames.
 #include "mjcf.hpp"
+#include "scene.hpp"
 
 #include <gtest/gtest.h>
 #include <mujoco/mujoco.h>
@@ -203,6 +204,13 @@ std::vector<BadCase> bad_cases() {
       {"a billion sections", in_world(rod + R"( sections="999999999"/>)"), 3, "'sections' is 999999999, but each section nests one body"},
       {"radius beyond 1e6 m", in_world(rod + R"( radius="1e100"/>)"), 3, "'radius' must be at most 1e6 m"},
       {"length beyond 1e6 m", in_world(R"(<cosserat name="a" length="1e150"/>)"), 3, "'length' must be at most 1e6 m"},
+      // (outside probe N, twentieth session: a rod without mass or stiffness loaded and ran without a word)
+      {"a radius whose section inertia underflows", in_world(rod + R"( radius="1e-300"/>)"), 3,
+       "'radius' is too small: the section's second moment of area pi r^4/4 underflows"},
+      {"a denormal Young's modulus", in_world(rod + R"( young="5e-324"/>)"), 3,
+       "'young' is too small: the section's bending stiffness young pi r^4/4 underflows"},
+      {"a section's density whose inertia underflows", in_world(rod + ">\n<section density=\"1e-300\"/>\n</cosserat>"), 4,
+       "<section>: attribute 'density' is too small"},
       // (outside probes, fourteenth session: a gear or cutoff of inf or nan ran NaN from the first
       // step with MuJoCo's line-less warning; settotalmass scaled the rods' placeholder bodies too)
       {"infinite gear", "<mujoco>\n<worldbody>\n<body>\n<joint name=\"j\"/>\n<geom size=\"0.1\"/>\n</body>\n</worldbody>\n"
@@ -241,6 +249,44 @@ TEST(MjcfErrors, TableOfBadInput) {
       EXPECT_EQ(std::string(e.what()).rfind(prefix, 0), 0u) << e.what();
     }
   }
+}
+
+// Values that load but are likely mistakes: warned about with their file and line (a unit slip, a
+// rod thicker than it is long); real materials load without a word.
+TEST(MjcfErrors, ImplausibleValuesAreWarnedAbout) {
+  const std::string rod = R"(<cosserat name="a" length="0.3")";
+  const struct {
+    std::string xml;
+    std::string warning;  // "" for none
+  } cases[] = {
+      {in_world(rod + R"( radius="0.005" young="1e6" density="1000"/>)"), ""},
+      {in_world(rod + R"( radius="0.005" young="1e12" density="22000"/>)"), ""},
+      {in_world(rod + R"( radius="1e-8" young="1e10" density="1300"/>)"), ""},  // a bacterial flagellum
+      {in_world(rod + R"( radius="0.15"/>)"), ""},  // as thick as long: the limit
+      {in_world(rod + R"( radius="2"/>)"), "inline.xml:3: <cosserat>: the rod is thicker than it is long (diameter 4 m, length 0.3 m)"},
+      {in_world(rod + R"( radius="0.01 0.2"/>)"), "inline.xml:3: <cosserat>: the rod is thicker than it is long (diameter 0.4 m"},
+      {in_world(rod + R"( radius="1e-12"/>)"), "inline.xml:3: <cosserat>: radius 1e-12 m is below molecular sizes"},
+      {in_world(rod + R"( young="0.5"/>)"), "inline.xml:3: <cosserat>: young 0.5 Pa is outside the moduli of real materials"},
+      {in_world(rod + R"( young="2e14"/>)"), "inline.xml:3: <cosserat>: young 2e+14 Pa is outside the moduli"},
+      {in_world(rod + R"( density="1.1"/>)"), ""},
+      {in_world(rod + R"( density="0.001"/>)"), "inline.xml:3: <cosserat>: density 0.001 kg/m^3 is outside the densities of real solids"},
+      {in_world(rod + ">\n<section/>\n<section density=\"1e6\"/>\n</cosserat>"),
+       "inline.xml:5: <section>: density 1e+06 kg/m^3 is outside the densities of real solids"},
+  };
+  for (const auto& c : cases) {
+    SCOPED_TRACE(c.xml);
+    const Preprocessed p = preprocess_string(c.xml, kInline);
+    if (c.warning.empty()) {
+      EXPECT_TRUE(p.warnings.empty()) << p.warnings.front();
+    } else {
+      ASSERT_EQ(p.warnings.size(), 1u);
+      EXPECT_EQ(p.warnings[0].rfind(kData + c.warning, 0), 0u) << p.warnings[0];
+    }
+  }
+  // the scene keeps them for the tools that load it
+  const auto scene = load_scene_string(in_world(rod + R"( young="0.5"/>)"), kInline);
+  ASSERT_EQ(scene->load_warnings.size(), 1u);
+  EXPECT_NE(scene->load_warnings[0].find("young 0.5 Pa"), std::string::npos);
 }
 
 TEST(MjcfErrors, ModelThatIsNotARegularFile) {
