@@ -4,8 +4,8 @@
 //
 // Pipeline (Preprocessor::run):
 //   1. parse the text (tinyxml2), remember the file and line of every element (Origin);
-//   2. expand <include file=...> recursively, relative to the including file, cloning the
-//      included elements together with their origins;
+//   2. expand <include file=...> recursively, relative to the main model's directory (as MuJoCo
+//      does, nested includes too), cloning the included elements together with their origins;
 //   3. collect the names of the user's bodies, joints, geoms and sites (collision checks);
 //   4. walk the tree and replace each <cosserat> by its "<rod>/base" body (read_rod checks and
 //      collects everything first, build_rod then generates the MuJoCo elements);
@@ -407,6 +407,7 @@ class Preprocessor {
   std::set<std::string> declared_rods_;  // names of the <cosserat> elements (collect_names)
   std::vector<RodDecl> rods_;
   std::vector<std::string> warnings_;  // Preprocessed::warnings
+  fs::path main_dir_;                   // the main model's directory: includes are relative to it
   // the generated helper bodies (sections with more than 6 dofs), each with its section's proxy
   std::map<std::string, std::string> helper_proxy_;
   std::vector<std::pair<std::string, std::string>> excludes_;
@@ -466,7 +467,9 @@ void Preprocessor::splice_include(XMLElement* include, XMLDocument& doc, std::ve
   r.allow_attributes({"file"});
   r.allow_children({});
   const std::string name = r.required_text("file");
-  const std::string path = (fs::path(r.origin().file).parent_path() / name).lexically_normal().string();
+  // MuJoCo 2.2.2 reads every include, nested ones too, relative to the main model's directory
+  // (outside probe P: relative to the including file, a nested include loaded another file)
+  const std::string path = (main_dir_ / name).lexically_normal().string();
   const std::string key = canonical_key(path);
 
   // cycles and missing files are errors at the <include>
@@ -1040,6 +1043,7 @@ void Preprocessor::check_helper_references(const XMLElement* e) const {
 
 Preprocessed Preprocessor::run(const std::string& text, const std::string& path) {
   const std::string file = path.empty() ? "<string>" : path;
+  main_dir_ = fs::path(file).parent_path();
   XMLDocument& doc = parse(text, file);
   XMLElement* root = doc.RootElement();
   if (!is(root, "mujoco")) reader(root).fail("the root element must be <mujoco>");
@@ -1190,6 +1194,12 @@ void Preprocessor::check_compiler(const XMLElement* root) const {
       r.check((*v)[0] <= 0, "settotalmass",
               "is not supported in models with <cosserat> rods (their mass comes from density and size; MuJoCo would "
               "scale the rigid bodies with the rods' placeholder bodies counted): give the rigid bodies' masses");
+    // the generated section bodies are placed in local coordinates: under coordinate="global"
+    // MuJoCo read them, and the bodies at a rod's tip, as global (outside probe P: a tip body 1 m off)
+    r.check(r.text("coordinate") != "global", "coordinate",
+            "must be 'local' in models with <cosserat> rods: their generated bodies are placed in local coordinates, "
+            "which MuJoCo would read as global; write the model in local coordinates (MuJoCo's default; later "
+            "versions removed 'global')");
   }
 }
 

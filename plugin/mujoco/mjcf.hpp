@@ -100,8 +100,8 @@ struct Preprocessed {
   std::vector<std::string> warnings;
 };
 
-// Reads `path`, expands <include file=...> recursively (relative to the including file), and
-// rewrites every <cosserat>. Throws LoadError on bad input (file:line: what is wrong).
+// Reads `path`, expands <include file=...> recursively (relative to the main model's directory, as
+// MuJoCo 2.2.2 reads them, nested includes too), and rewrites every <cosserat>. Throws LoadError on bad input (file:line: what is wrong).
 Preprocessed preprocess_file(const std::string& path);
 // Same for MJCF text; `path` names it in messages and anchors relative includes.
 Preprocessed preprocess_string(const std::string& xml, const std::string& path);

@@ -235,7 +235,17 @@ RodBinding bind_rod(const mjModel* m, const RodDecl& decl) {
       throw LoadError(decl.file, decl.line, "internal: rod dofs are not contiguous");
     }
   }
-  for (const auto& g : decl.geoms) rb.geom_id.push_back(require_id(m, mjOBJ_GEOM, g.name, decl));
+  for (const auto& g : decl.geoms) {
+    // MuJoCo's <compiler discardvisual="true"> drops geoms that cannot collide (outside probe P: an
+    // "internal" error for a rod with contype = conaffinity = 0)
+    if (mj_name2id(m, mjOBJ_GEOM, g.name.c_str()) < 0)
+      throw LoadError(decl.file, decl.line,
+                      "<cosserat>: the rod's capsule '" + g.name + "' is missing in the compiled model: <compiler "
+                      "discardvisual=\"true\"> discards the capsules of a rod that cannot collide (contype = conaffinity "
+                      "= 0), and a rod needs them (they draw it and carry its contacts): remove discardvisual, or "
+                      "let the rod collide");
+    rb.geom_id.push_back(require_id(m, mjOBJ_GEOM, g.name, decl));
+  }
   for (const auto& s : decl.sites) rb.site_id.push_back(require_id(m, mjOBJ_SITE, s.name, decl));
   const int last_proxy = rb.proxy_body.back();
   auto on_rod = [&](int body) { return body > rb.base_body && body <= last_proxy; };
@@ -293,10 +303,14 @@ SE3 get_pose(const mjtNum* xpos, const mjtNum* xmat) {
   return g;
 }
 
-// Pose of a proxy (or helper) body: frame, inertial frame (inertia is zero) and joint axes.
+// Pose of a proxy (or helper) body: frame, inertial frame (inertia is zero) and joint axes. Its
+// quaternion is the one of the two nearer its parent's (set first): continuous in time as MuJoCo's
+// own parent * local composition is, where mju_mat2Quat's choice of sign jumps.
 void set_body_pose(const mjModel* m, mjData* d, int b, const SE3& g) {
   set_pose(d->xpos + 3 * b, d->xmat + 9 * b, g);
-  mju_mat2Quat(d->xquat + 4 * b, d->xmat + 9 * b);
+  mjtNum* q = d->xquat + 4 * b;
+  mju_mat2Quat(q, d->xmat + 9 * b);
+  if (mju_dot(q, d->xquat + 4 * m->body_parentid[b], 4) < 0) mju_scl(q, q, -1, 4);
   mju_copy3(d->xipos + 3 * b, d->xpos + 3 * b);
   mju_copy(d->ximat + 9 * b, d->xmat + 9 * b, 9);
   for (int j = m->body_jntadr[b]; j < m->body_jntadr[b] + m->body_jntnum[b]; ++j) {

@@ -43,16 +43,28 @@ bool rod_placed_frame(const Scene& s, int type, int id) {
 }
 
 // The world orientation of a frame sensor's object (MuJoCo's object types of frame sensors) as a
-// quaternion of its frame matrix, which the rod sets for its sites and capsules.
-void frame_quat(const mjData* d, int type, int id, mjtNum q[4]) {
+// quaternion of its frame matrix, which the rod sets for its sites and capsules. Of the two
+// quaternions of a rotation, the one nearer the carrying body's (xquat, continuous in time as
+// MuJoCo's own composition body * local is): it changes sign only where the object turns more than
+// half a turn from its body, not wherever mju_mat2Quat's choice of sign does (a rod site's framequat
+// jumped to its negative on a tumbling body, outside probe P).
+void frame_quat(const mjModel* m, const mjData* d, int type, int id, mjtNum q[4]) {
   const mjtNum* mat = type == mjOBJ_XBODY    ? d->xmat + 9 * id
                       : type == mjOBJ_BODY   ? d->ximat + 9 * id
                       : type == mjOBJ_GEOM   ? d->geom_xmat + 9 * id
                       : type == mjOBJ_SITE   ? d->site_xmat + 9 * id
                       : type == mjOBJ_CAMERA ? d->cam_xmat + 9 * id
                                              : nullptr;
-  if (mat) mju_mat2Quat(q, mat);
-  else q[0] = 1, q[1] = q[2] = q[3] = 0;
+  if (!mat) {
+    q[0] = 1, q[1] = q[2] = q[3] = 0;
+    return;
+  }
+  mju_mat2Quat(q, mat);
+  const int body = type == mjOBJ_GEOM ? m->geom_bodyid[id]
+                   : type == mjOBJ_SITE ? m->site_bodyid[id]
+                   : type == mjOBJ_CAMERA ? m->cam_bodyid[id]
+                                          : id;
+  if (mju_dot(q, d->xquat + 4 * body, 4) < 0) mju_scl(q, q, -1, 4);
 }
 
 // Scene::rod_quat_sensors: the object's orientation, relative to the reference frame's if it has
@@ -62,13 +74,13 @@ void patch_quat_sensors(const Scene& s, SceneData& sd) {
   mjData* d = sd.d;
   for (int i : s.rod_quat_sensors) {
     mjtNum obj[4], ref[4];
-    frame_quat(d, m->sensor_objtype[i], m->sensor_objid[i], obj);
+    frame_quat(m, d, m->sensor_objtype[i], m->sensor_objid[i], obj);
     mjtNum* out = d->sensordata + m->sensor_adr[i];
     if (m->sensor_refid[i] < 0) {
       mju_copy4(out, obj);
       continue;
     }
-    frame_quat(d, m->sensor_reftype[i], m->sensor_refid[i], ref);
+    frame_quat(m, d, m->sensor_reftype[i], m->sensor_refid[i], ref);
     mju_negQuat(ref, ref);
     mju_mulQuat(out, ref, obj);
   }

@@ -35,6 +35,7 @@ struct DataDeleter {
   void operator()(mjData* d) const { mj_deleteData(d); }
 };
 using ModelPtr = std::unique_ptr<mjModel, ModelDeleter>;
+namespace fs = std::filesystem;
 using DataPtr = std::unique_ptr<mjData, DataDeleter>;
 
 // Loads MJCF text through a VFS file named `name`; MuJoCo resolves relative asset paths against
@@ -220,6 +221,9 @@ std::vector<BadCase> bad_cases() {
                      "objname=\"s\" cutoff=\"nan\"/>\n</sensor>\n</mujoco>\n",
        6, "'cutoff' has a number that is not finite"},
       {"a size beyond the double range", in_world("<geom size=\"1e309\"/>"), 3, "'size' has a number that is not finite"},
+      // (outside probe P, twenty-first session: the generated bodies were read as global, a tip body landed 1 m off)
+      {"global coordinates with a rod", "<mujoco>\n<compiler coordinate=\"global\"/>\n<worldbody>\n" + rod + "/>\n</worldbody>\n</mujoco>\n",
+       2, "'coordinate' must be 'local' in models with <cosserat> rods"},
       {"settotalmass with a rod", "<mujoco>\n<compiler settotalmass=\"1\"/>\n<worldbody>\n" + rod + "/>\n</worldbody>\n</mujoco>\n",
        2, "'settotalmass' is not supported in models with <cosserat> rods"},
       // (outside probe M, nineteenth session: constraints and sensors on a helper body loaded and
@@ -287,6 +291,22 @@ TEST(MjcfErrors, ImplausibleValuesAreWarnedAbout) {
   const auto scene = load_scene_string(in_world(rod + R"( young="0.5"/>)"), kInline);
   ASSERT_EQ(scene->load_warnings.size(), 1u);
   EXPECT_NE(scene->load_warnings[0].find("young 0.5 Pa"), std::string::npos);
+}
+
+// <compiler discardvisual="true"> drops the capsules of a rod that cannot collide: said at the rod's
+// line (outside probe P: "internal: generated element 'arm/s0/g0' missing"); a colliding rod keeps them.
+TEST(MjcfErrors, DiscardVisualWithARodThatCannotCollideIsExplained) {
+  const std::string head = "<mujoco>\n<compiler discardvisual=\"true\"/>\n<worldbody>\n<cosserat name=\"arm\" length=\"0.3\"";
+  try {
+    load_scene_string(head + " contype=\"0\" conaffinity=\"0\"/>\n</worldbody>\n</mujoco>\n", kInline);
+    ADD_FAILURE() << "no LoadError";
+  } catch (const LoadError& e) {
+    EXPECT_EQ(e.line, 4) << e.what();
+    EXPECT_NE(e.message.find("discardvisual=\"true\"> discards the capsules of a rod that cannot collide"),
+              std::string::npos) << e.what();
+  }
+  const auto scene = load_scene_string(head + "/>\n</worldbody>\n</mujoco>\n", kInline);
+  EXPECT_EQ(scene->rods[0].geom_id.size(), 2u);  // one section (the default) of 2 capsules
 }
 
 TEST(MjcfErrors, ModelThatIsNotARegularFile) {
@@ -599,6 +619,31 @@ TEST(MjcfScenes, IncludesAndDefaultClasses) {
   EXPECT_EQ(m->body_parentid[w], id(m.get(), mjOBJ_BODY, "arm/s1"));
   EXPECT_NEAR(m->body_mass[w], 0.05, 1e-12);
   EXPECT_EQ(m->nv, 8);
+}
+
+// Nested includes are read relative to the main model's directory, as MuJoCo 2.2.2 reads them
+// (outside probe P: they were read relative to the including file, and a file of the same name
+// there loaded instead). MuJoCo's own reading is checked on the same files without the rod.
+TEST(MjcfScenes, NestedIncludesAreRelativeToTheMainModelsDirectory) {
+  const fs::path dir = fs::temp_directory_path() / ("cosserat_nested_include_" + std::to_string(getpid()));
+  fs::create_directories(dir / "sub");
+  auto write = [&](const fs::path& f, const std::string& text) { std::ofstream(dir / f) << text; };
+  write("tip.xml", "<mujoco><body name=\"from_main_dir\"><geom size=\"0.01\"/></body></mujoco>");
+  write("sub/tip.xml", "<mujoco><body name=\"from_sub_dir\"><geom size=\"0.01\"/></body></mujoco>");
+  write("sub/arm.xml", "<mujoco><cosserat name=\"arm\" length=\"0.3\"><include file=\"tip.xml\"/></cosserat></mujoco>");
+  write("sub/native.xml", "<mujoco><body name=\"b\"><geom size=\"0.01\"/><include file=\"tip.xml\"/></body></mujoco>");
+  write("main.xml", "<mujoco><worldbody><include file=\"sub/arm.xml\"/></worldbody></mujoco>");
+  write("native.xml", "<mujoco><worldbody><include file=\"sub/native.xml\"/></worldbody></mujoco>");
+  char error[512] = "";
+  ModelPtr native(mj_loadXML((dir / "native.xml").c_str(), nullptr, error, sizeof error));
+  ASSERT_TRUE(native) << error;
+  EXPECT_GE(id(native.get(), mjOBJ_BODY, "from_main_dir"), 0);  // MuJoCo's reading
+  EXPECT_LT(id(native.get(), mjOBJ_BODY, "from_sub_dir"), 0);
+  ModelPtr m = compile(preprocess_file((dir / "main.xml").string()));
+  ASSERT_TRUE(m);
+  EXPECT_GE(id(m.get(), mjOBJ_BODY, "from_main_dir"), 0);
+  EXPECT_LT(id(m.get(), mjOBJ_BODY, "from_sub_dir"), 0);
+  fs::remove_all(dir);
 }
 
 // euler with <compiler angle="degree">: the base frame is rotated by MuJoCo's own rules.

@@ -190,6 +190,52 @@ TEST(Sensors, FrameQuaternionsOfRodSitesAndCapsulesReadTheirOwnFrames) {
   }
 }
 
+// Frame quaternions are continuous in time, as MuJoCo's own composition body * local is: a rod on a
+// tumbling free body (outside probe P: a rod site's framequat jumped to its negative twice in 1000
+// steps, where the native site's never did, because mju_mat2Quat picks a sign of its own). Over
+// 1000 steps no sensor's quaternion, and no proxy's xquat, turns by more than a small angle per step
+// (|q(t) . q(t - h)| near 1 and positive), and each still reads its frame.
+TEST(Sensors, FrameQuaternionsAreContinuousInTime) {
+  auto s = load_scene_string(R"(<mujoco><option gravity="0 0 0"/><compiler angle="degree"/><worldbody>
+    <body name="hub" pos="0 0 1" euler="30 10 45"><freejoint/><inertial pos="0 0 0" mass="0.1" diaginertia="1e-4 1e-4 1e-4"/>
+      <cosserat name="arm" pos="0.02 0.03 0.04" xyaxes="1 1 0 -1 1 0.5" length="0.4" strain="sr" young="1e9"
+                sections="2" radius="0.01" contype="0" conaffinity="0">
+        <site name="c1" at="0.15" pos="0 0.006 0"/>
+        <body name="gripper" pos="0.02 0.01 0" euler="10 20 30"><geom type="box" size=".01 .02 .01" mass="0.02"/>
+          <site name="gs" pos="0.01 0.02 0.03"/></body>
+      </cosserat></body></worldbody>
+    <sensor>
+      <framequat name="site" objtype="site" objname="c1"/>
+      <framequat name="site_ref" objtype="site" objname="c1" reftype="site" refname="gs"/>
+      <framequat name="capsule" objtype="geom" objname="arm/s1/g1"/>
+      <framequat name="proxy" objtype="xbody" objname="arm/s1"/>
+    </sensor>
+  </mujoco>)", "/tmp/cosserat_sensor_test.xml");
+  SceneData sd(*s);
+  const mjModel* m = s->m;
+  mjData* d = sd.d;
+  const double w[6] = {0.1, -0.2, 0.3, 2, -3, 5};  // free joint velocity: tumbling at 6 rad/s
+  for (int k = 0; k < 6; ++k) d->qvel[k] = w[k];
+  const int proxy = mj_name2id(m, mjOBJ_BODY, "arm/s1");
+  std::vector<Eigen::Vector4d> prev;
+  double turns = 0.0;  // how far the hub turned
+  for (int k = 0; k <= 1000; ++k) {
+    forward(*s, sd);
+    std::vector<Eigen::Vector4d> now;
+    for (int i = 0; i < m->nsensor; ++i) now.push_back(Eigen::Map<const Eigen::Vector4d>(d->sensordata + m->sensor_adr[i]));
+    now.push_back(Eigen::Map<const Eigen::Vector4d>(d->xquat + 4 * proxy));
+    if (!prev.empty())
+      for (size_t i = 0; i < now.size(); ++i) ASSERT_GT(now[i].dot(prev[i]), 0.99) << "quaternion " << i << " at step " << k;
+    prev = now;
+    // the site's quaternion still reads its frame
+    const Eigen::Quaterniond q(now[0](0), now[0](1), now[0](2), now[0](3));
+    ASSERT_LT((q.toRotationMatrix() - site_mat(d, mj_name2id(m, mjOBJ_SITE, "c1"))).norm(), 1e-12);
+    turns += 6.2 * m->opt.timestep / (2 * M_PI);
+    ASSERT_EQ(step(*s, sd), cosserat::Status::Ok);
+  }
+  EXPECT_GT(turns, 1.0);  // the frames turned through every sign of mju_mat2Quat's choice
+}
+
 // A touch sensor on a rod site counts the whole rod's contacts in its zone (the rod is one body to
 // it; MuJoCo would count the site's section's only): a rod resting on the floor on its capsules
 // alone (its base body has no geom) carries its weight and its base's, and a zone over the whole
