@@ -106,6 +106,12 @@ LoadError mujoco_error(const Preprocessed& pre, const std::string& error) {
       !pre.rods.empty())
     hint = ": a rod's mass is the rod's own, not its parent body's; give the body an <inertial> (it may be tiny, "
            "e.g. mass=\"1e-6\" diaginertia=\"1e-12 1e-12 1e-12\") or a geom";
+  // a <default> geom pos reaching the capsules, which are placed with fromto (outside probe P: the
+  // user wrote neither)
+  if (first.find("both pos and fromto defined") != std::string::npos &&
+      std::any_of(pre.rods.begin(), pre.rods.end(), [&](const RodDecl& r) { return first.find("'" + r.name + "/s") != std::string::npos; }))
+    hint = ": a <default> geom pos reaches the rod's capsules, which are placed with fromto; give the rod a class "
+           "without a geom pos";
   return LoadError(where.file, where.line,
                    "MuJoCo: " + first + (object.empty() ? "" : " (object '" + object + "')") + hint);
 }

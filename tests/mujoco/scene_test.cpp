@@ -340,6 +340,11 @@ TEST(Scene, MujocoCompileErrorsPointAtTheUsersFileAndLine) {
   expect_load_error("<mujoco>\n<worldbody>\n<body name=\"hub\">\n<freejoint/>\n"
                     "<cosserat name=\"rod\" length=\"0.3\" sections=\"2\"/>\n</body>\n</worldbody>\n</mujoco>\n",
                     dir, "hub.xml", 3, "object 'hub'): a rod's mass is the rod's own, not its parent body's; give the body an <inertial>");
+  // a <default> geom pos reaching the capsules (placed with fromto): MuJoCo's error says why (outside
+  // probe P: the user wrote neither)
+  expect_load_error("<mujoco>\n<default>\n<geom pos=\"0 0 0.01\"/>\n</default>\n<worldbody>\n"
+                    "<cosserat name=\"arm\" length=\"0.3\" sections=\"2\"/>\n</worldbody>\n</mujoco>\n",
+                    dir, "default_pos.xml", 6, "a <default> geom pos reaches the rod's capsules, which are placed with fromto");
   // keyframe errors name the key's index and no line: the index's <key> (was line 0); a value
   // MuJoCo reads as NaN (with only a warning) is refused at its <key>
   const std::string rod2 = "<mujoco>\n<worldbody>\n<cosserat name=\"rod\" length=\"0.3\" sections=\"2\"/>\n</worldbody>\n"
