@@ -767,6 +767,9 @@ XMLElement* new_slide_joint(XMLDocument& doc, const std::string& name) {
                      {{"name", name}, {"type", "slide"}, {"pos", "0 0 0"}, {"axis", "1 0 0"},
                       {"limited", "false"}, {"stiffness", "0"}, {"damping", "0"}, {"armature", "1"},
                       {"frictionloss", "0"}, {"ref", "0"}, {"springref", "0"},
+                      // nor a <default>'s range and margin (outside probe P: a program setting
+                      // jnt_limited from C inherited a class's range)
+                      {"range", "0 0"}, {"margin", "0"},
                       // MuJoCo's compiler sets stiffness and damping from a positive springdamper
                       // (a user <default>'s), overriding the two above
                       {"springdamper", "0 0"}});

@@ -556,13 +556,14 @@ TEST(Scene, ProxiesAndHelpersCarryNoInertia) {
 
 // A user's <default> joint attributes reach the user's joints, never the generated strain joints
 // (the rod's elasticity, damping and inertia are the solver's): a springdamper (from which MuJoCo's
-// compiler computes stiffness and damping), stiffness, damping, armature, friction loss and limits.
+// compiler computes stiffness and damping), stiffness, damping, armature, friction loss, limits,
+// range and margin.
 TEST(Scene, UserJointDefaultsDoNotReachTheStrainJoints) {
   const std::string plain = arm_xml("kl", 3, 0, 0.0);
   const std::string with_defaults = replace_all(
       plain, "<worldbody>",
       R"(<default><joint springdamper="0.05 1" stiffness="10" damping="3" armature="0.1" frictionloss="0.2"
-           limited="true" range="-0.1 0.1"/></default><worldbody>)");
+           limited="true" range="-0.1 0.1" margin="0.02"/></default><worldbody>)");
   ASSERT_NE(with_defaults, plain);
   auto s = load_scene_string(with_defaults, kPath);
   const mjModel* m = s->m;
@@ -574,6 +575,10 @@ TEST(Scene, UserJointDefaultsDoNotReachTheStrainJoints) {
     EXPECT_EQ(m->dof_armature[dof], 0.0) << k;
     EXPECT_EQ(m->dof_frictionloss[dof], 0.0) << k;
     EXPECT_EQ(m->jnt_limited[j], 0) << k;
+    // nor a range and margin that a program setting jnt_limited from C would inherit (probe P)
+    EXPECT_EQ(m->jnt_range[2 * j], 0.0) << k;
+    EXPECT_EQ(m->jnt_range[2 * j + 1], 0.0) << k;
+    EXPECT_EQ(m->jnt_margin[j], 0.0) << k;
   }
   // the user's hinge has them
   EXPECT_GT(m->jnt_stiffness[0], 0.0);
