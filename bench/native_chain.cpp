@@ -5,6 +5,7 @@
 
 #include <tinyxml2.h>
 
+#include <algorithm>
 #include <charconv>
 #include <cmath>
 #include <map>
@@ -47,6 +48,22 @@ const SectionSpec& section_at(const RodSpec& spec, double X) {
     if (X < X0 - 1e-12 * spec.length || i + 1 == spec.overrides.size()) return spec.overrides[i];
   }
   return spec.section;
+}
+
+// The rest pose of abscissa b in the frame of abscissa a <= b: the sections' rest strains composed
+// across their boundaries (a chain link straddling the flagellate's hook-helix boundary took one
+// section's strain for all of it, outside probe Q: its helix was 2 mm off, at any N).
+SE3 rest_between(const RodSpec& spec, double a, double b) {
+  if (spec.overrides.empty()) return exp_se3(b - a, spec.section.rest_strain);
+  SE3 g;
+  double X0 = 0.0;
+  for (std::size_t i = 0; i < spec.overrides.size(); ++i) {
+    const double X1 = i + 1 == spec.overrides.size() ? spec.length : X0 + spec.overrides[i].length;
+    const double lo = std::max(a, X0), hi = std::min(b, X1);
+    if (hi > lo) g = g * exp_se3(hi - lo, spec.overrides[i].rest_strain);
+    X0 = X1;
+  }
+  return g;
 }
 
 double radius_at(const RodSpec& spec, double X) {
@@ -134,7 +151,7 @@ struct Converter {
       const SectionSpec& sj = section_at(spec, Xk);  // joint: at X_k
       const SectionSpec& sm = section_at(spec, Xm);  // body: its middle
       SE3 place;                                     // body k in body k-1 (rest shape)
-      if (k > 0) place = exp_se3(ds, section_at(spec, Xk - 0.5 * ds).rest_strain);
+      if (k > 0) place = rest_between(spec, Xk - ds, Xk);
       XMLElement* b = add(doc, body, "body", {{"name", n + "/b" + std::to_string(k)}, {"pos", fmt3(place.u)}});
       if (!place.R.isIdentity(1e-15)) b->SetAttribute("quat", quat_text(place.R).c_str());
       bodies.push_back(b);
@@ -143,15 +160,21 @@ struct Converter {
       {
         const double r = radius_at(spec, Xk), A = kPi * r * r, I = kPi * r * r * r * r / 4, J = 2 * I;
         const double E = sj.material.young, G = E / (2 * (1 + sj.material.poisson)), mu = sj.material.viscosity;
+        // the clamp factor on bending only: the chain's torsion and stretch are exact with 1/ds
+        // (outside probe Q: doubling them too made the clamp's torsion too stiff to first order)
         const double f = k == 0 ? opt.base_spring_factor : 1.0;
+        const double fb[6] = {1.0, f, f, 1.0, 1.0, 1.0};
         const double kstiff[6] = {G * J / ds, E * I / ds, E * I / ds, E * A / ds, G * A / ds, G * A / ds};
+        // armature on the hinges (a MuJoCo user's way to a larger stable step): a multiple of the
+        // segment's rotational inertia about its centre, rho A ds^3 / 12
+        const double armature = opt.armature_factor * sj.material.density * A * ds * ds * ds / 12;
         const double kdamp[6] = {mu * J / ds, 3 * mu * I / ds, 3 * mu * I / ds, 3 * mu * A / ds, mu * A / ds, mu * A / ds};
         const std::string jp = n + "/b" + std::to_string(k) + "/";
         const bool any_rot = sj.dofs[0] || sj.dofs[1] || sj.dofs[2];
         if (opt.ball && any_rot) {
           add(doc, b, "joint",
               {{"name", jp + "ball"}, {"type", "ball"}, {"pos", "0 0 0"}, {"stiffness", fmt(f * kstiff[1])},
-               {"damping", fmt(f * kdamp[1])}, {"armature", "0"}, {"limited", "false"}});
+               {"damping", fmt(f * kdamp[1])}, {"armature", fmt(armature)}, {"limited", "false"}});
         }
         for (int c = 0; c < 6; ++c) {
           if (!sj.dofs[c] || (opt.ball && c < 3)) continue;
@@ -159,7 +182,8 @@ struct Converter {
           axis(c % 3) = 1;
           add(doc, b, "joint",
               {{"name", jp + comp[c]}, {"type", c < 3 ? "hinge" : "slide"}, {"pos", "0 0 0"}, {"axis", fmt3(axis)},
-               {"stiffness", fmt(f * kstiff[c])}, {"damping", fmt(f * kdamp[c])}, {"armature", "0"},
+               {"stiffness", fmt(fb[c] * kstiff[c])}, {"damping", fmt(fb[c] * kdamp[c])},
+               {"armature", fmt(c < 3 ? armature : 0.0)},
                {"limited", "false"}, {"springref", "0"}});
         }
       }
@@ -167,7 +191,7 @@ struct Converter {
       {
         const double r = radius_at(spec, Xm), A = kPi * r * r, I = kPi * r * r * r * r / 4, J = 2 * I;
         const double rho = sm.material.density, mass = rho * A * ds;
-        const SE3 half = exp_se3(0.5 * ds, sm.rest_strain), end = exp_se3(ds, sm.rest_strain);
+        const SE3 half = rest_between(spec, Xk, Xm), end = rest_between(spec, Xk, Xk + ds);
         add(doc, b, "inertial",
             {{"pos", fmt3(half.u)},
              {"mass", fmt(mass)},
@@ -195,12 +219,9 @@ struct Converter {
     }
 
     // tip frame, tip site, and the rigid bodies hanging at the tip
-    XMLElement* tip = add(doc, body, "body",
-                          {{"name", n + "/tipframe"}, {"pos", fmt3(exp_se3(ds, section_at(spec, L).rest_strain).u)}});
-    {
-      const Mat3 R = exp_se3(ds, section_at(spec, L).rest_strain).R;
-      if (!R.isIdentity(1e-15)) tip->SetAttribute("quat", quat_text(R).c_str());
-    }
+    const SE3 tip_place = rest_between(spec, L - ds, L);
+    XMLElement* tip = add(doc, body, "body", {{"name", n + "/tipframe"}, {"pos", fmt3(tip_place.u)}});
+    if (!tip_place.R.isIdentity(1e-15)) tip->SetAttribute("quat", quat_text(tip_place.R).c_str());
     add(doc, tip, "site", {{"name", n + "/tip"}, {"pos", "0 0 0"}});
 
     // user sites: on the body holding their abscissa
@@ -211,7 +232,7 @@ struct Converter {
         if (s.name == sn) sd = &s;
       if (!sd) fail(path, "site '" + sn + "' not found among the rod's sites");
       const int k = std::min(N - 1, static_cast<int>(std::floor(sd->X / ds + 1e-9)));
-      const SE3 g = exp_se3(sd->X - k * ds, section_at(spec, sd->X).rest_strain);
+      const SE3 g = rest_between(spec, k * ds, sd->X);
       XMLElement* s = add(doc, bodies[k], "site", {{"name", sn}, {"pos", fmt3(g.act(sd->pos))}});
       for (auto* a = c->FirstAttribute(); a; a = a->Next()) {
         const std::string an = a->Name();

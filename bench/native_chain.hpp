@@ -7,8 +7,9 @@
 //   ball mode:  one ball joint with the isotropic stiffness EI/ds (MuJoCo's ball joints take a
 //               single stiffness: torsion is then (1 + nu) too stiff) plus the slides.
 // Damping matches the rod's Kelvin-Voigt law (DESIGN.md section 3): mu J/ds (torsion), 3 mu I/ds
-// (bending), 3 mu A/ds (stretch), mu A/ds (shear). A rest strain xi* places body i+1 at
-// exp(ds xi*) in body i (so the chain starts in the rod's rest shape, springs at rest).
+// (bending), 3 mu A/ds (stretch), mu A/ds (shear). The rest strains place body i+1 in body i at
+// the rest pose of X_{i+1} in X_i's frame, composed across section boundaries (so the chain starts
+// in the rod's rest shape, springs at rest).
 //
 // Names: the fixed "<rod>/base" body (pos/orientation of the <cosserat>), bodies "<rod>/b<i>",
 // joints "<rod>/b<i>/<kx|ky|kz|px|py|pz|ball>", capsules "<rod>/b<i>/g", sites "<rod>/base",
@@ -38,6 +39,10 @@ struct NativeChainOptions {
   // Spring of the first joint (at the clamp) as a multiple of EI/ds. 1 is the textbook chain of
   // the issue (stiffness EI/ds everywhere); 2 lumps only the half segment next to the clamp.
   double base_spring_factor = 1.0;
+  // Armature of every hinge (and ball joint) as a multiple of its segment's rotational inertia
+  // about its centre, rho A ds^3 / 12: MuJoCo's way to a larger stable step (it adds inertia of
+  // the order of the chain's own discretisation error, second order in ds); 0: none.
+  double armature_factor = 0.0;
 };
 
 // MJCF text of the native equivalent of `xml` (a scene with <cosserat> elements; `path` names it
