@@ -108,8 +108,9 @@ LoadError mujoco_error(const Preprocessed& pre, const std::string& error) {
            "e.g. mass=\"1e-6\" diaginertia=\"1e-12 1e-12 1e-12\") or a geom";
   // a <default> geom pos reaching the capsules, which are placed with fromto (outside probe P: the
   // user wrote neither)
+  auto names_a_capsule = [&](const RodDecl& r) { return first.find("'" + r.name + "/s") != std::string::npos; };
   if (first.find("both pos and fromto defined") != std::string::npos &&
-      std::any_of(pre.rods.begin(), pre.rods.end(), [&](const RodDecl& r) { return first.find("'" + r.name + "/s") != std::string::npos; }))
+      std::any_of(pre.rods.begin(), pre.rods.end(), names_a_capsule))
     hint = ": a <default> geom pos reaches the rod's capsules, which are placed with fromto; give the rod a class "
            "without a geom pos";
   return LoadError(where.file, where.line,
@@ -247,9 +248,9 @@ RodBinding bind_rod(const mjModel* m, const RodDecl& decl) {
     if (mj_name2id(m, mjOBJ_GEOM, g.name.c_str()) < 0)
       throw LoadError(decl.file, decl.line,
                       "<cosserat>: the rod's capsule '" + g.name + "' is missing in the compiled model: <compiler "
-                      "discardvisual=\"true\"> discards the capsules of a rod that cannot collide (contype = conaffinity "
-                      "= 0), and a rod needs them (they draw it and carry its contacts): remove discardvisual, or "
-                      "let the rod collide");
+                      "discardvisual=\"true\"> discards the capsules of a rod that cannot collide (contype = "
+                      "conaffinity = 0), and a rod needs them (they draw it and carry its contacts): remove "
+                      "discardvisual, or let the rod collide");
     rb.geom_id.push_back(require_id(m, mjOBJ_GEOM, g.name, decl));
   }
   for (const auto& s : decl.sites) rb.site_id.push_back(require_id(m, mjOBJ_SITE, s.name, decl));
