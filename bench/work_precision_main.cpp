@@ -259,6 +259,8 @@ Problem cantilever(const Options& o) {
     p.families.push_back({"GVS 2 sec / trapezoidal-lin", false, false, Method::TrapezoidalLinear, {1}, 2, {5e-3, 2e-3}});
     p.families.push_back({"native hinge / euler", true, false, Method::Euler, {4, 8}, 0, {1e-3, 5e-4}});
     p.families.push_back({"native hinge clamp 2EI/ds / euler", true, false, Method::Euler, {4, 8}, 0, {1e-3, 5e-4}, 2.0});
+    p.families.push_back({"native hinge clamp 2EI/ds armature x10 / euler", true, false, Method::Euler, {4, 8}, 0,
+                          {1e-3, 5e-4}, 2.0, 10.0});
   } else {
     for (Method m : {Method::Implicit, Method::TrapezoidalLinear, Method::RK4, Method::Euler}) {
       p.families.push_back({std::string("PCS / ") + method_name(m), false, false, m, ours_space, 0, ours_h});
