@@ -23,7 +23,7 @@ struct NewtonOptions {
   // --newton, --newton-tol, --newton-memory and --newton-refresh
   void add_newton_to(CommandLine& c) {
     c.options.push_back({"--newton", "N",
-                         "implicit and trapezoidal: up to N Newton corrections per step, making the step fully implicit "
+                         "implicit, trapezoidal, genalpha and midpoint: up to N Newton corrections per step, making the step fully implicit "
                          "(every force, constraints included, at the end of the step); a step that does not converge is "
                          "split in halves. 1: one correction per step, without a convergence test or splitting (a "
                          "linearly implicit step). 0: one linearised solve (default: 10 for trapezoidal, genalpha and "
