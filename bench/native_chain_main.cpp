@@ -1,5 +1,5 @@
 // Prints the MuJoCo-native equivalent of a scene with <cosserat> rods (native_chain.hpp).
-// Usage: bench_native_chain MODEL.xml [--segments N] [--ball] [--base-spring F] [--out FILE]
+// Usage: bench_native_chain MODEL.xml [--segments N] [--ball] [--base-spring F] [--armature A] [--out FILE]
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
@@ -19,8 +19,10 @@ int main(int argc, char** argv) {
                       {"MODEL.xml"},
                       {cli::int_option("--segments", "N", "capsule bodies per rod (default 8)", opt.segments, 1),
                        cli::flag_option("--ball", "ball joints instead of hinge triples", opt.ball),
-                       {"--base-spring", "F", "the clamp's spring: F times EI/ds (default 1)",
+                       {"--base-spring", "F", "the clamp's bending spring: F times EI/ds (default 1)",
                         [&opt](const std::string& v) { opt.base_spring_factor = cli::parse_positive("--base-spring", v); }},
+                       {"--armature", "A", "armature of every hinge: A times its segment's rho A ds^3 / 12 (default 0)",
+                        [&opt](const std::string& v) { opt.armature_factor = cli::parse_positive("--armature", v); }},
                        cli::text_option("--out", "FILE", "write the XML there (default: stdout)", out)}};
   cl.program.clear();
   std::string in;
