@@ -103,9 +103,15 @@ LoadError mujoco_error(const Preprocessed& pre, const std::string& error) {
     }
   }
   if (first.find("mass and inertia of moving bodies must be larger than mjMINVAL") != std::string::npos &&
-      !pre.rods.empty())
-    hint = ": a rod's mass is the rod's own, not its parent body's; give the body an <inertial> (it may be tiny, "
-           "e.g. mass=\"1e-6\" diaginertia=\"1e-12 1e-12 1e-12\") or a geom";
+      !pre.rods.empty()) {
+    // (outside probe P: under inertiafromgeom="false" a geom does not help, and the rod is not the cause)
+    if (pre.xml.find("inertiafromgeom=\"false\"") != std::string::npos)
+      hint = ": under <compiler inertiafromgeom=\"false\"> a body's geoms add no mass, and a rod's mass is the "
+             "rod's own, not its parent body's; give the body an <inertial>";
+    else
+      hint = ": a rod's mass is the rod's own, not its parent body's; give the body an <inertial> (it may be tiny, "
+             "e.g. mass=\"1e-6\" diaginertia=\"1e-12 1e-12 1e-12\") or a geom";
+  }
   // a <default> geom pos reaching the capsules, which are placed with fromto (outside probe P: the
   // user wrote neither)
   auto names_a_capsule = [&](const RodDecl& r) { return first.find("'" + r.name + "/s") != std::string::npos; };

@@ -340,6 +340,10 @@ TEST(Scene, MujocoCompileErrorsPointAtTheUsersFileAndLine) {
   expect_load_error("<mujoco>\n<worldbody>\n<body name=\"hub\">\n<freejoint/>\n"
                     "<cosserat name=\"rod\" length=\"0.3\" sections=\"2\"/>\n</body>\n</worldbody>\n</mujoco>\n",
                     dir, "hub.xml", 3, "object 'hub'): a rod's mass is the rod's own, not its parent body's; give the body an <inertial>");
+  // under inertiafromgeom="false" the hub's geom adds no mass: the hint says so (probe P)
+  expect_load_error("<mujoco>\n<compiler inertiafromgeom=\"false\"/>\n<worldbody>\n<body name=\"hub\">\n<joint/>\n"
+                    "<geom size=\"0.02\"/>\n<cosserat name=\"rod\" length=\"0.3\" sections=\"2\"/>\n</body>\n</worldbody>\n</mujoco>\n",
+                    dir, "nogeommass.xml", 4, "under <compiler inertiafromgeom=\"false\"> a body's geoms add no mass");
   // a <default> geom pos reaching the capsules (placed with fromto): MuJoCo's error says why (outside
   // probe P: the user wrote neither)
   expect_load_error("<mujoco>\n<default>\n<geom pos=\"0 0 0.01\"/>\n</default>\n<worldbody>\n"
