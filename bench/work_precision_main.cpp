@@ -71,13 +71,14 @@ struct Options {
 
 // ------------------------------------------------------------------------------------ settings --
 
-// One run: ours (sections, order, method, h) or the native chain (segments, ball, method, h).
+// %g of a factor, for labels.
 std::string fmt_g(double v) {
   char b[32];
   std::snprintf(b, sizeof b, "%g", v);
   return b;
 }
 
+// One run: ours (sections, order, method, h) or the native chain (segments, ball, method, h).
 struct Setting {
   bool native = false;
   int space = 1;  // sections (ours) or segments (native)

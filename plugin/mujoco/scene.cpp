@@ -251,13 +251,14 @@ RodBinding bind_rod(const mjModel* m, const RodDecl& decl) {
   for (const auto& g : decl.geoms) {
     // MuJoCo's <compiler discardvisual="true"> drops geoms that cannot collide (outside probe P: an
     // "internal" error for a rod with contype = conaffinity = 0)
-    if (mj_name2id(m, mjOBJ_GEOM, g.name.c_str()) < 0)
+    const int id = mj_name2id(m, mjOBJ_GEOM, g.name.c_str());
+    if (id < 0)
       throw LoadError(decl.file, decl.line,
                       "<cosserat>: the rod's capsule '" + g.name + "' is missing in the compiled model: <compiler "
                       "discardvisual=\"true\"> discards the capsules of a rod that cannot collide (contype = "
                       "conaffinity = 0), and a rod needs them (they draw it and carry its contacts): remove "
                       "discardvisual, or let the rod collide");
-    rb.geom_id.push_back(require_id(m, mjOBJ_GEOM, g.name, decl));
+    rb.geom_id.push_back(id);
   }
   for (const auto& s : decl.sites) rb.site_id.push_back(require_id(m, mjOBJ_SITE, s.name, decl));
   const int last_proxy = rb.proxy_body.back();
@@ -866,7 +867,6 @@ void setup_riding_frames(Scene& s) {
     }
   }
 }
-
 
 // Patch point 5b: MuJoCo's contact rows constrain J qacc and leave the velocity product dJ/dt qvel
 // to the reference acceleration's feedback (aref = -b J qvel - k r). For a point on a rigid body
