@@ -69,8 +69,9 @@ Integrator parse_integrator(const std::string& flag, const std::string& text) {
 }
 
 Option integrator_option(std::optional<Integrator>& target) {
-  return {"--integrator", "NAME", "euler | implicit | trapezoidal | genalpha | midpoint | rk4 (default: implicit with rods, euler "
-          "without; midpoint: the energy-conserving implicit midpoint rule, for long undamped runs)",
+  return {"--integrator", "NAME", "euler | implicit | trapezoidal | genalpha | midpoint | rk4 | rosenbrock (default: implicit with "
+          "rods, euler without; midpoint: the energy-conserving implicit midpoint rule, for long undamped runs; "
+          "rosenbrock: third order, linearly implicit, 4 evaluations per step, for accuracy at large steps)",
           [&target](const std::string& v) { target = parse_integrator("--integrator", v); }};
 }
 
@@ -366,6 +367,9 @@ std::string divergence_hint(Simulation& s) {
   if (in == Integrator::Euler || in == Integrator::RK4)
     hint = "try a smaller --timestep, or --integrator implicit: explicit integrators need steps below the stiffest "
            "mode's period";
+  else if (in == Integrator::Rosenbrock)
+    hint = "try a smaller --timestep, or --integrator implicit: the rosenbrock step treats gravity, Coriolis and "
+           "geometric stiffness explicitly";
   else if (s.scene().newton_for(in) == 0)
     hint = "try --newton 10 (gravity, Coriolis and geometric stiffness are explicit in the linearised step) or a "
            "smaller --timestep";
@@ -901,7 +905,7 @@ int cmd_demo(int argc, char** argv) {
                  "Writes DIR/demo.csv with time,energy,tip.x,tip.y,tip.z,tension and prints a summary.\n"};
   cl.options = {positive_option("--duration", "T", "simulated time [s] (default 2)", o.duration),
                 positive_option("--timestep", "h", "time step [s] (default 0.001)", o.timestep),
-                {"--integrator", "NAME", "euler | implicit | trapezoidal | rk4 (default: implicit)",
+                {"--integrator", "NAME", "euler | implicit | trapezoidal | rk4 | rosenbrock (default: implicit)",
                  [&o](const std::string& v) { o.integrator = parse_integrator("--integrator", v); }},
                 int_option("--sections", "N", "rod sections (default 6)", o.sections, 1),
                 int_option("--order", "P", "GVS strain order per section (default 0: PCS)", o.order, 0),

@@ -63,17 +63,18 @@ struct NewtonOptions {
   }
 
   // Into the scene for a run with `method`: --newton with a method that has no Newton iteration
-  // (euler, rk4), --newton-tol, --newton-memory or --newton-refresh with a step that does not
+  // (euler, rk4, rosenbrock), --newton-tol, --newton-memory or --newton-refresh with a step that does not
   // iterate (those, and implicit without --newton), or --rho with any but genalpha, is refused
   // (they had been accepted and ignored).
   void apply(mj::Scene& s, Integrator method) const {
-    if (newton && (method == Integrator::Euler || method == Integrator::RK4))
+    const bool explicit_or_rosenbrock =
+        method == Integrator::Euler || method == Integrator::RK4 || method == Integrator::Rosenbrock;
+    if (newton && explicit_or_rosenbrock)
       fail(std::string("--newton: Newton corrections are for implicit, trapezoidal, genalpha and midpoint, not ") +
            integrator_name(method));
     // the Newton iteration's own settings, where the step has none (the linearised implicit step)
     const int iterations = newton ? *newton : s.newton_for(method);
-    const bool iterates = method != Integrator::Euler && method != Integrator::RK4 &&
-                          (method != Integrator::Implicit || iterations > 0);
+    const bool iterates = !explicit_or_rosenbrock && (method != Integrator::Implicit || iterations > 0);
     const std::string first = !given.empty() ? given.front() : newton_refresh ? "--newton-refresh" : "";
     if (!first.empty() && !iterates)
       fail(first + ": the " + integrator_name(method) + " step" +

@@ -81,7 +81,7 @@ struct PictureOptions {
     c.options.push_back(int_option("--samples", "N", "multisampling per pixel (default: the model's offsamples)", r.samples, 0));
     state.add_to(c);
     c.options.push_back(positive_option("--timestep", "h", "time step [s] (default: the model's <option timestep>)", timestep));
-    c.options.push_back(text_option("--integrator", "NAME", "euler | implicit | trapezoidal | genalpha | midpoint | rk4 (default: implicit with rods, euler without; see 'cosserat run --help')", integrator));
+    c.options.push_back(text_option("--integrator", "NAME", "euler | implicit | trapezoidal | genalpha | midpoint | rk4 | rosenbrock (default: implicit with rods, euler without; see 'cosserat run --help')", integrator));
     c.options.push_back(optional_positive_option("--step-tol", "TOL", "adaptive substeps to this tolerance (implicit, trapezoidal, genalpha, midpoint; default: the model's cosserat:step_tol, else fixed steps; see 'cosserat run --help')", step_tol));
     newton.add_newton_to(c);
     newton.add_rho_to(c);

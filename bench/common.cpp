@@ -252,6 +252,7 @@ const char* method_name(Method m) {
     case Method::GeneralizedAlpha: return "genalpha";
     case Method::ImplicitNewton: return "implicit-newton";
     case Method::Midpoint: return "midpoint";
+    case Method::Rosenbrock: return "rosenbrock";
   }
   return "?";
 }
@@ -278,6 +279,7 @@ class RodSim : public Sim {
         break;
       case Method::GeneralizedAlpha: integ_ = Integrator::GeneralizedAlpha; break;
       case Method::Midpoint: integ_ = Integrator::Midpoint; break;
+      case Method::Rosenbrock: integ_ = Integrator::Rosenbrock; break;
     }
     scene_->step_tol = rod_sim_options().step_tol;
     scene_->newton_refresh = rod_sim_options().newton_refresh;

@@ -68,7 +68,7 @@ mjModel* load_mujoco_string(const std::string& xml, const std::string& path);
 // Trapezoidal (the scene's default: fully implicit, Newton), TrapezoidalLinear (--newton 0: one
 // linearised solve), GeneralizedAlpha (rho_inf 0.8), ImplicitNewton (backward Euler, --newton 10),
 // Midpoint (the energy-conserving implicit midpoint rule): ours only.
-enum class Method { Euler, Implicit, RK4, Trapezoidal, TrapezoidalLinear, GeneralizedAlpha, ImplicitNewton, Midpoint };
+enum class Method { Euler, Implicit, RK4, Trapezoidal, TrapezoidalLinear, GeneralizedAlpha, ImplicitNewton, Midpoint, Rosenbrock };
 const char* method_name(Method m);
 
 // One simulation, ours (Scene + SceneData, our integrators) or MuJoCo's (mjModel + mjData, mj_step

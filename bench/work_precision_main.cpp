@@ -258,18 +258,19 @@ Problem cantilever(const Options& o) {
     p.families.push_back({"PCS / implicit", false, false, Method::Implicit, {2, 4}, 0, {1e-3, 5e-4}});
     p.families.push_back({"GVS 2 sec / rk4", false, false, Method::RK4, {1, 2}, 2, {1e-3, 5e-4}});
     p.families.push_back({"GVS 2 sec / trapezoidal-lin", false, false, Method::TrapezoidalLinear, {1}, 2, {5e-3, 2e-3}});
+    p.families.push_back({"GVS 2 sec / rosenbrock", false, false, Method::Rosenbrock, {1}, 2, {2e-2, 1e-2}});
     p.families.push_back({"native hinge / euler", true, false, Method::Euler, {4, 8}, 0, {1e-3, 5e-4}});
     p.families.push_back({"native hinge clamp 2EI/ds / euler", true, false, Method::Euler, {4, 8}, 0, {1e-3, 5e-4}, 2.0});
     p.families.push_back({"native hinge clamp 2EI/ds armature x10 / euler", true, false, Method::Euler, {4, 8}, 0,
                           {1e-3, 5e-4}, 2.0, 10.0});
   } else {
-    for (Method m : {Method::Implicit, Method::TrapezoidalLinear, Method::RK4, Method::Euler}) {
+    for (Method m : {Method::Implicit, Method::TrapezoidalLinear, Method::RK4, Method::Euler, Method::Rosenbrock}) {
       p.families.push_back({std::string("PCS / ") + method_name(m), false, false, m, ours_space, 0, ours_h});
       p.families.push_back({std::string("GVS 2 sec / ") + method_name(m), false, false, m, {1, 2, 3, 4}, 2, ours_h});
     }
     // PCS with the 3-point Gauss-Lobatto mass rule (quadrature="lobatto"): as exact as the
     // default 2 Gauss points, with two nodes and one exponential per section instead of three and two
-    for (Method m : {Method::Implicit, Method::TrapezoidalLinear}) {
+    for (Method m : {Method::Implicit, Method::TrapezoidalLinear, Method::Rosenbrock}) {
       Family f{std::string("PCS lobatto / ") + method_name(m), false, false, m, ours_space, 0, ours_h};
       f.lobatto = true;
       p.families.push_back(f);
@@ -350,7 +351,7 @@ Problem circle(const Options& o) {
     p.families.push_back({"PCS / implicit", false, false, Method::Implicit, {1, 2}, 0, {1e-2, 5e-3}});
     p.families.push_back({"native hinge / euler", true, false, Method::Euler, {4, 8}, 0, {1e-3, 5e-4}});
   } else {
-    for (Method m : {Method::Implicit, Method::TrapezoidalLinear, Method::RK4})
+    for (Method m : {Method::Implicit, Method::TrapezoidalLinear, Method::RK4, Method::Rosenbrock})
       p.families.push_back({std::string("PCS / ") + method_name(m), false, false, m, {1, 2, 3, 4, 6, 8}, 0, ours_h});
     p.families.push_back({"GVS 1 sec / implicit", false, false, Method::Implicit, {1, 2}, 1, ours_h});
     for (Method m : {Method::Euler, Method::Implicit, Method::RK4})
@@ -415,6 +416,7 @@ std::vector<Problem> flagellates(const Options& o) {
     } else {
       p.families.push_back({"PCS / implicit", false, false, Method::Implicit, {1, 2, 3, 4}, 0, hs});
       p.families.push_back({"PCS / rk4", false, false, Method::RK4, {1, 2, 3, 4}, 0, hs});
+      p.families.push_back({"PCS / rosenbrock", false, false, Method::Rosenbrock, {1, 2, 3, 4}, 0, hs});
       p.families.push_back({"native / euler", true, false, Method::Euler, kNativeChains, 0, hs});
       p.families.push_back({"native / rk4", true, false, Method::RK4, kNativeChains, 0, hs});
       // the native chain with our implicit step too (motor servo and fluid damping implicit), so
@@ -479,9 +481,9 @@ Problem octopus(const Options& o) {
     p.families.push_back({"PCS / implicit", false, false, Method::Implicit, {2, 4}, 0, {1e-3, 5e-4}});
     p.families.push_back({"native hinge / euler", true, false, Method::Euler, {8}, 0, {1e-3, 5e-4}});
   } else {
-    for (Method m : {Method::Implicit, Method::TrapezoidalLinear, Method::RK4})
+    for (Method m : {Method::Implicit, Method::TrapezoidalLinear, Method::RK4, Method::Rosenbrock})
       p.families.push_back({std::string("PCS / ") + method_name(m), false, false, m, {2, 3, 4, 6, 8, 12, 16, 24, 32}, 0, ours_h});
-    for (Method m : {Method::Implicit, Method::TrapezoidalLinear, Method::RK4})
+    for (Method m : {Method::Implicit, Method::TrapezoidalLinear, Method::RK4, Method::Rosenbrock})
       p.families.push_back({std::string("GVS 2 sec / ") + method_name(m), false, false, m, {1, 2, 3, 4}, 2, ours_h});
     for (Method m : {Method::Euler, Method::Implicit, Method::RK4})
       p.families.push_back({std::string("native hinge / ") + method_name(m), true, false, m, kNativeChains, 0, native_h});

@@ -14,6 +14,7 @@ std::optional<Integrator> integrator_from_name(std::string_view n) {
   if (n == "trapezoidal") return Integrator::Trapezoidal;
   if (n == "genalpha") return Integrator::GeneralizedAlpha;
   if (n == "midpoint") return Integrator::Midpoint;
+  if (n == "rosenbrock") return Integrator::Rosenbrock;
   return std::nullopt;
 }
 
@@ -25,6 +26,7 @@ const char* integrator_name(Integrator method) {
     case Integrator::Trapezoidal: return "trapezoidal";
     case Integrator::GeneralizedAlpha: return "genalpha";
     case Integrator::Midpoint: return "midpoint";
+    case Integrator::Rosenbrock: return "rosenbrock";
   }
   return "?";
 }
@@ -74,6 +76,48 @@ void step_rk4(const Model& m, Data& d, double h) {
   d.v = d.v0 + (h / 6.0) * (d.kv[0] + 2.0 * d.kv[1] + 2.0 * d.kv[2] + d.kv[3]);
   d.qacc = (1.0 / 6.0) * (d.kv[0] + 2.0 * d.kv[1] + 2.0 * d.kv[2] + d.kv[3]);
 }
+
+// ROS34PW2 (integrators.hpp) with u_q, u_v in kq, kv.
+void step_rosenbrock(const Model& m, Data& d, double h) {
+  namespace R = ros34pw2;
+  const double hg = h * R::gamma, t0 = d.time;
+  for (int st = 0; st < R::kStages; ++st) {
+    if (st > 0) {  // Y_st = y + sum_j a_stj u_j
+      d.q = d.q0;
+      d.v = d.v0;
+      for (int j = 0; j < st; ++j) {
+        d.q += R::a[st][j] * d.kq[j];
+        d.v += R::a[st][j] * d.kv[j];
+      }
+      d.time = t0 + R::c[st] * h;
+    }
+    forward(m, d);  // (uses d.ldlt and d.rhs: the step's matrix has its own factor)
+    if (st == 0) {
+      d.M0 = d.M;
+      d.A = d.M + hg * m.D + (hg * hg) * m.K;
+      d.ldlt_w.compute(d.A);
+    }
+    d.tmp = d.v;     // r_q
+    d.rhs = d.qacc;  // r_v
+    for (int j = 0; j < st; ++j) {
+      d.tmp += (R::C[st][j] / h) * d.kq[j];
+      d.rhs += (R::C[st][j] / h) * d.kv[j];
+    }
+    VecX& uv = d.kv[st];
+    uv.noalias() = hg * d.M0 * d.rhs;
+    uv.noalias() -= (hg * hg) * m.K * d.tmp;
+    d.ldlt_w.solveInPlace(uv);
+    d.kq[st] = hg * (d.tmp + uv);
+  }
+  d.q = d.q0;
+  d.v = d.v0;
+  for (int st = 0; st < R::kStages; ++st) {
+    d.q += R::b[st] * d.kq[st];
+    d.v += R::b[st] * d.kv[st];
+  }
+  d.qacc = (d.v - d.v0) / h;
+  d.time = t0;  // step() adds h
+}
 }  // namespace
 
 Status step(const Model& m, Data& d, double h, Integrator method) {
@@ -88,6 +132,7 @@ Status step(const Model& m, Data& d, double h, Integrator method) {
       throw std::invalid_argument("the generalized-alpha integrator is the scene's (mj::step) only");
     case Integrator::Midpoint:
       throw std::invalid_argument("the midpoint integrator is the scene's (mj::step) only");
+    case Integrator::Rosenbrock: step_rosenbrock(m, d, h); break;
   }
   if (!d.q.allFinite() || !d.v.allFinite()) {
     // our own divergence check: restore the last good state and report

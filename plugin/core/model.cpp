@@ -424,6 +424,8 @@ Data::Data(const Model& m) {
   ldlt = Eigen::LDLT<MatX>(n);
   q0 = v0 = VecX::Zero(n);
   for (int k = 0; k < 4; ++k) kq[k] = kv[k] = VecX::Zero(n);
+  M0 = MatX::Zero(n, n);
+  ldlt_w = Eigen::LDLT<MatX>(n);
 }
 
 }  // namespace cosserat

@@ -279,7 +279,9 @@ struct Data {
   VecX tmp, rhs;
   MatX A;                  // system matrix of the implicit integrator
   Eigen::LDLT<MatX> ldlt;
-  VecX q0, v0, kq[4], kv[4];  // RK4 stages
+  VecX q0, v0, kq[4], kv[4];  // RK4 and Rosenbrock stages
+  MatX M0;                    // Rosenbrock: the mass matrix at the step's start
+  Eigen::LDLT<MatX> ldlt_w;   // Rosenbrock: the step's matrix (forward() factorises M in ldlt)
 };
 
 }  // namespace cosserat

@@ -1174,6 +1174,8 @@ SceneData::SceneData(const Scene& s) {
   rk_kv.assign(4 * nv, 0);
   rk_ka.assign(4 * na, 0);
   rk_dx.assign(nv, 0);
+  ros_M0.assign(s.m->nM, 0);
+  for (auto* v : {&ros_sq, &ros_sv, &ros_rhs}) v->assign(nv, 0);
   A_LD.assign(s.m->nM, 0);
   A_LDiagInv.assign(nv, 0);
   newton.size(s.m);
@@ -2348,6 +2350,88 @@ void rk4_step(const Scene& s, SceneData& sd) {
   d->time = t0 + h;
 }
 
+// One step of the Rosenbrock-W method ROS34PW2 (cosserat::ros34pw2, integrators.hpp) on
+// y = (q, v, act) with F = (v, qacc, act_dot) (our forward, constraints included) and
+// W = [0 I 0; -M0^-1 K  -M0^-1 D  0; 0 0 0]: M0 the mass matrix at the step's start, K the rods'
+// stiffness, D the implicit step's damping (factor_implicit: joints, rods, velocity actuators,
+// fluid). Eliminating u_q, each stage solves the implicit step's matrix A = M0 + gamma h D +
+// gamma^2 h^2 K (factorised once per step):
+//   A u_v = h gamma (M0 r_v - h gamma K r_q),   u_q = h gamma (r_q + u_v),   u_act = h gamma r_act,
+// with r the stage's right-hand side F(Y_i) + sum_j C_ij / h u_j. Positions are integrated with
+// mj_integratePos (as rk4_step does: on free and ball joints the quaternions then lose the third order).
+void rosenbrock_step(const Scene& s, SceneData& sd) {
+  namespace R = ros34pw2;
+  const mjModel* m = s.m;
+  mjData* d = sd.d;
+  const int nv = m->nv, nq = m->nq, na = m->na;
+  const double h = m->opt.timestep, hg = h * R::gamma;
+  std::vector<mjtNum>&q0 = sd.rk_q0, &v0 = sd.rk_v0, &a0 = sd.rk_a0;
+  std::vector<mjtNum>&uq = sd.rk_kq, &uv = sd.rk_kv, &ua = sd.rk_ka, &dx = sd.rk_dx;
+  std::vector<mjtNum>&sq = sd.ros_sq, &sv = sd.ros_sv, &rhs = sd.ros_rhs;
+  std::copy(d->qpos, d->qpos + nq, q0.begin());
+  std::copy(d->qvel, d->qvel + nv, v0.begin());
+  std::copy(d->act, d->act + na, a0.begin());
+  const double t0 = d->time;
+  for (int st = 0; st < R::kStages; ++st) {
+    if (st > 0) {  // Y_st = y + sum_j a_stj u_j
+      std::fill(dx.begin(), dx.end(), 0.0);
+      mju_copy(d->qvel, v0.data(), nv);
+      mju_copy(d->act, a0.data(), na);
+      for (int j = 0; j < st; ++j) {
+        mju_addToScl(dx.data(), uq.data() + j * nv, R::a[st][j], nv);
+        mju_addToScl(d->qvel, uv.data() + j * nv, R::a[st][j], nv);
+        if (na) mju_addToScl(d->act, ua.data() + j * na, R::a[st][j], na);
+      }
+      mju_copy(d->qpos, q0.data(), nq);
+      mj_integratePos(m, d->qpos, dx.data(), 1.0);
+      d->time = t0 + R::c[st] * h;
+    }
+    forward(s, sd);
+    if (st == 0) {
+      std::copy(d->qM, d->qM + m->nM, sd.ros_M0.begin());
+      factor_implicit(s, sd, true, R::gamma, R::gamma * R::gamma);
+    }
+    // r_q = v + sum_j C_stj / h u_q,j (in sq), r_v = qacc + sum_j C_stj / h u_v,j (in sv)
+    mju_copy(sq.data(), d->qvel, nv);
+    mju_copy(sv.data(), d->qacc, nv);
+    mjtNum* ua_st = na ? ua.data() + st * na : nullptr;
+    if (na) mju_copy(ua_st, d->act_dot, na);
+    for (int j = 0; j < st; ++j) {
+      const double cj = R::C[st][j] / h;
+      mju_addToScl(sq.data(), uq.data() + j * nv, cj, nv);
+      mju_addToScl(sv.data(), uv.data() + j * nv, cj, nv);
+      if (na) mju_addToScl(ua_st, ua.data() + j * na, cj, na);
+    }
+    // rhs = h gamma (M0 r_v - h gamma K r_q)
+    mul_tree(m, sd.ros_M0.data(), rhs.data(), sv.data());
+    for (size_t r = 0; r < s.rods.size(); ++r) {
+      const RodBinding& rb = s.rods[r];
+      VecX& Kq = sd.scratch[r].Kv;
+      Kq.noalias() = rb.model.K * Eigen::Map<const VecX>(sq.data() + rb.dof0, rb.model.nv);
+      for (int k = 0; k < rb.model.nv; ++k) rhs[rb.dof0 + k] -= hg * Kq(k);
+    }
+    mju_scl(rhs.data(), rhs.data(), hg, nv);
+    mjtNum* uv_st = uv.data() + st * nv;
+    mjtNum* uq_st = uq.data() + st * nv;
+    solve_implicit(s, sd, uv_st, rhs.data());
+    for (int i = 0; i < nv; ++i) uq_st[i] = hg * (sq[i] + uv_st[i]);
+    if (na) mju_scl(ua_st, ua_st, hg, na);
+  }
+  std::fill(dx.begin(), dx.end(), 0.0);
+  mju_copy(d->qvel, v0.data(), nv);
+  mju_copy(d->act, a0.data(), na);
+  for (int st = 0; st < R::kStages; ++st) {
+    mju_addToScl(dx.data(), uq.data() + st * nv, R::b[st], nv);
+    mju_addToScl(d->qvel, uv.data() + st * nv, R::b[st], nv);
+    if (na) mju_addToScl(d->act, ua.data() + st * na, R::b[st], na);
+  }
+  mju_copy(d->qpos, q0.data(), nq);
+  mj_integratePos(m, d->qpos, dx.data(), 1.0);
+  for (int i = 0; i < nv; ++i) d->qacc[i] = (d->qvel[i] - v0[i]) / h;
+  mju_copy(d->qacc_warmstart, d->qacc, nv);
+  d->time = t0 + h;
+}
+
 bool state_finite(const mjModel* m, const mjData* d) {
   for (int i = 0; i < m->nq; ++i)
     if (!std::isfinite(d->qpos[i])) return false;
@@ -2383,6 +2467,7 @@ Status step(const Scene& s, SceneData& sd, Integrator method) {
       }
       break;
     case Integrator::RK4: rk4_step(s, sd); break;
+    case Integrator::Rosenbrock: rosenbrock_step(s, sd); break;
     default:  // implicit, trapezoidal, genalpha, midpoint (single_step)
       if (s.step_tol > 0) adaptive_step(s, sd, method);
       else newton_step_split(s, sd, method);

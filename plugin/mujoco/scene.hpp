@@ -203,6 +203,7 @@ struct Scene {
   double step_tol = 0.0;
   double rho_inf = 0.8;  // generalized alpha: spectral radius at infinite frequency, in [0, 1]
   int newton_for(Integrator method) const {
+    if (method == Integrator::Euler || method == Integrator::RK4 || method == Integrator::Rosenbrock) return 0;
     if (newton_iterations >= 0) return newton_iterations;
     return method == Integrator::Trapezoidal || method == Integrator::GeneralizedAlpha || method == Integrator::Midpoint
                ? 10
@@ -213,8 +214,10 @@ struct Scene {
 
 // Scene::step_tol: the finest adaptive substep is h / 2^kMaxSubstepLevel.
 constexpr int kMaxSubstepLevel = 10;
-// Whether `method` takes adaptive substeps under Scene::step_tol (euler and rk4 keep fixed steps).
-inline bool takes_substeps(Integrator method) { return method != Integrator::Euler && method != Integrator::RK4; }
+// Whether `method` takes adaptive substeps under Scene::step_tol (euler, rk4 and rosenbrock keep fixed steps).
+inline bool takes_substeps(Integrator method) {
+  return method != Integrator::Euler && method != Integrator::RK4 && method != Integrator::Rosenbrock;
+}
 
 struct SceneData {
   explicit SceneData(const Scene& s);
@@ -256,7 +259,9 @@ struct SceneData {
     }
   };
   SavedState step_start;  // the state step() started from (restored when the step diverges)
-  std::vector<mjtNum> rk_q0, rk_v0, rk_a0, rk_kq, rk_kv, rk_ka, rk_dx;  // RK4 stages
+  // the 4 stages of RK4 and of the Rosenbrock-W method: kq, kv, ka hold one row of nv (na) per stage
+  std::vector<mjtNum> rk_q0, rk_v0, rk_a0, rk_kq, rk_kv, rk_ka, rk_dx;
+  std::vector<mjtNum> ros_M0, ros_sq, ros_sv, ros_rhs;  // Rosenbrock-W: M at the step's start, sums
   struct RodScratch {
     std::vector<int> anc;  // MuJoCo dofs above the rod's base, nearest first
     Mat6X C;               // their base-frame columns (6 x anc.size())

@@ -54,4 +54,18 @@ void solve_ldl(const mjModel* m, const mjtNum* LD, const mjtNum* diag_inv, mjtNu
   }
 }
 
+void mul_tree(const mjModel* m, const mjtNum* M, mjtNum* res, const mjtNum* vec) {
+  const int nv = m->nv;
+  const int* adr = m->dof_Madr;
+  const int* parent = m->dof_parentid;
+  for (int i = 0; i < nv; ++i) res[i] = M[adr[i]] * vec[i];
+  for (int i = 0; i < nv; ++i) {
+    int ij = adr[i] + 1;
+    for (int j = parent[i]; j >= 0; j = parent[j], ++ij) {
+      res[i] += M[ij] * vec[j];
+      res[j] += M[ij] * vec[i];
+    }
+  }
+}
+
 }  // namespace cosserat::mj

@@ -21,4 +21,7 @@ void factor_ldl(const mjModel* m, mjData* d, const mjtNum* M, mjtNum* LD, mjtNum
 // x = (L^T D L)^-1 y for one vector, as mj_solveM does with d->qLD (x and y may be the same array).
 void solve_ldl(const mjModel* m, const mjtNum* LD, const mjtNum* diag_inv, mjtNum* x, const mjtNum* y);
 
+// res = M vec for M (nM) in qM's layout, as mj_mulM does with d->qM (res and vec distinct).
+void mul_tree(const mjModel* m, const mjtNum* M, mjtNum* res, const mjtNum* vec);
+
 }  // namespace cosserat::mj

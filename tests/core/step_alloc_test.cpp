@@ -29,13 +29,15 @@ using namespace cosserat::testing;
 
 namespace {
 
-constexpr Integrator kAll[] = {Integrator::Euler, Integrator::Implicit, Integrator::RK4};
+constexpr Integrator kAll[] = {Integrator::Euler, Integrator::Implicit, Integrator::RK4, Integrator::Rosenbrock};
 
 const char* name_of(Integrator it) {
   switch (it) {
     case Integrator::Euler: return "Euler";
     case Integrator::Implicit: return "Implicit";
     case Integrator::RK4: return "RK4";
+    case Integrator::Rosenbrock: return "Rosenbrock";
+    default: break;
   }
   return "?";
 }

@@ -113,6 +113,9 @@ TEST_F(Cli, BadCommandLinesExitOneWithOneLineReason) {
                                  "run '" + kCantilever + "' --newton-tol 1e-8",
                                  "run '" + kCantilever + "' --integrator rk4 --newton-memory 1",
                                  "run '" + kCantilever + "' --integrator euler --newton-refresh",
+                                 // the Rosenbrock step has no Newton iteration
+                                 "run '" + kCantilever + "' --integrator rosenbrock --newton 3",
+                                 "run '" + kCantilever + "' --integrator rosenbrock --newton-memory 1",
                                  "render '" + kCantilever + "' --out /tmp/cosserat_cli_bad --duration 0.1 --video /tmp/cosserat_cli_bad.json"}) {
     const Result r = cosserat(args);
     EXPECT_EQ(r.status, 1) << args;
@@ -697,7 +700,7 @@ TEST_F(Cli, RunTakesAdaptiveSubsteps) {
   const Result euler = cosserat("run '" + own.string() + "' --duration 0.001 --timestep 1e-5 --integrator euler");
   ASSERT_EQ(euler.status, 0) << euler.err;
   EXPECT_NE(euler.err.find("cosserat:step_tol (adaptive substeps) does not apply to euler"), std::string::npos) << euler.err;
-  for (const char* integrator : {"euler", "rk4"}) {
+  for (const char* integrator : {"euler", "rk4", "rosenbrock"}) {
     const Result bad = cosserat("run '" + model + "' --integrator " + integrator + " --step-tol 1e-2 --duration 0.01");
     EXPECT_EQ(bad.status, 1);
     EXPECT_EQ(lines(bad.err).size(), 1u) << bad.err;

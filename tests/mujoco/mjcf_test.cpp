@@ -189,7 +189,7 @@ std::vector<BadCase> bad_cases() {
       {"step_tol with two numbers", "<mujoco>\n<custom>\n<numeric name=\"cosserat:step_tol\" data=\"1 2\"/>\n</custom>\n</mujoco>\n",
        3, "'data' needs 1 number, got 2"},
       {"unknown integrator", "<mujoco>\n<custom>\n<text name=\"cosserat:integrator\" data=\"leapfrog\"/>\n</custom>\n</mujoco>\n",
-       3, "must name an integrator (euler, implicit, trapezoidal, genalpha, midpoint, rk4), got 'leapfrog'"},
+       3, "must name an integrator (euler, implicit, trapezoidal, genalpha, midpoint, rk4, rosenbrock), got 'leapfrog'"},
       // <option> values MuJoCo accepts but no simulation can use (found by fuzzing: a zero or NaN
       // time step ran 0 steps and exited 0, compare hung; NaN gravity failed without a line)
       {"zero time step", "<mujoco>\n<option timestep=\"0\"/>\n</mujoco>\n", 2, "'timestep' must be a positive number of seconds"},

@@ -43,9 +43,9 @@ TEST(SceneStepAlloc, NoHeapAllocationInStep) {
     auto s = load_scene(kModels + name);
     const double h = s->m->opt.timestep;
     for (Integrator it : {Integrator::Euler, Integrator::Implicit, Integrator::RK4, Integrator::Trapezoidal,
-                          Integrator::GeneralizedAlpha, Integrator::Midpoint})
+                          Integrator::GeneralizedAlpha, Integrator::Midpoint, Integrator::Rosenbrock})
     for (double tol : {0.0, 1e-2}) {  // fixed steps, and adaptive substeps (Scene::step_tol)
-      if (tol > 0 && (it == Integrator::Euler || it == Integrator::RK4)) continue;
+      if (tol > 0 && !takes_substeps(it)) continue;
       SCOPED_TRACE(name + " integrator " + std::to_string(static_cast<int>(it)) + " step_tol " + std::to_string(tol));
       s->step_tol = 0.0;
       SceneData sd(*s);
@@ -55,7 +55,8 @@ TEST(SceneStepAlloc, NoHeapAllocationInStep) {
       for (int k = 0; k < static_cast<int>(0.3 / h); ++k) ASSERT_EQ(step(*s, sd, Integrator::Implicit), Status::Ok);
       // the explicit integrators need small steps on the stiff rods (bench/README.md, stress)
       const bool a_stable = it == Integrator::Implicit || it == Integrator::Trapezoidal ||
-                            it == Integrator::GeneralizedAlpha || it == Integrator::Midpoint;
+                            it == Integrator::GeneralizedAlpha || it == Integrator::Midpoint ||
+                            it == Integrator::Rosenbrock;
       s->m->opt.timestep = a_stable ? h : std::min(h, 1e-5);
       s->step_tol = tol;
       for (int k = 0; k < 5; ++k) ASSERT_EQ(step(*s, sd, it), Status::Ok);  // scratch reaches its size

@@ -1,0 +1,153 @@
+// The scene's Rosenbrock-W step (scene.cpp, rosenbrock_step; the method ROS34PW2 of
+// integrators.hpp): its order against RK4 at a tiny step, on a clamped rod and on a rod riding a
+// hinged body with activation dynamics, and its L-stability on a stiff undamped rod at steps where
+// the explicit RK4 diverges.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include "scene.hpp"
+
+using namespace cosserat;
+using namespace cosserat::mj;
+
+namespace {
+
+const char* kPath = "/tmp/cosserat_rosenbrock_test.xml";
+
+// The Newton tests' undamped kl cantilever with a tip weight, released straight under gravity.
+std::string cantilever_xml(double young, double radius, int sections) {
+  char buf[1024];
+  std::snprintf(buf, sizeof buf, R"(<mujoco>
+  <option gravity="0 0 -9.81"/>
+  <worldbody>
+    <cosserat name="rod" pos="0 0 1" length="0.5" sections="%d" strain="kl" radius="%g" density="1000"
+              young="%g" poisson="0.5" viscosity="0">
+      <body name="weight" pos="0.02 0 0"><geom type="sphere" size="0.02" mass="0.05" contype="0" conaffinity="0"/></body>
+    </cosserat>
+  </worldbody>
+</mujoco>)", sections, radius, young);
+  return buf;
+}
+
+// A damped GVS rod on a hinged arm driven by a motor through a first-order filter (an activation):
+// every part of the state (qpos, qvel, act) moves.
+const char* kCoupled = R"(<mujoco>
+  <option gravity="0 0 -9.81"/>
+  <worldbody>
+    <body name="arm" pos="0 0 1">
+      <joint name="hinge" type="hinge" axis="0 1 0" damping="0.01"/>
+      <geom type="capsule" fromto="0 0 0 0.1 0 0" size="0.01" density="500" contype="0" conaffinity="0"/>
+      <cosserat name="rod" pos="0.1 0 0" length="0.3" sections="2" order="1" strain="kl" radius="0.006"
+                density="1000" young="2e6" poisson="0.5" viscosity="200"/>
+    </body>
+  </worldbody>
+  <actuator><general name="motor" joint="hinge" dyntype="filter" dynprm="0.05" gear="1"/></actuator>
+</mujoco>)";
+
+struct State {
+  std::vector<double> x;  // qpos, qvel, act
+};
+
+State run(const std::string& xml, Integrator it, double h, double T, double ctrl) {
+  auto s = load_scene_string(xml, kPath);
+  s->m->opt.timestep = h;
+  SceneData sd(*s);
+  for (int i = 0; i < s->m->nu; ++i) sd.d->ctrl[i] = ctrl;
+  const long n = std::lround(T / h);
+  for (long k = 0; k < n; ++k) EXPECT_EQ(step(*s, sd, it), Status::Ok) << "step " << k;
+  State st;
+  const mjModel* m = s->m;
+  st.x.assign(sd.d->qpos, sd.d->qpos + m->nq);
+  st.x.insert(st.x.end(), sd.d->qvel, sd.d->qvel + m->nv);
+  st.x.insert(st.x.end(), sd.d->act, sd.d->act + m->na);
+  return st;
+}
+
+double max_abs_diff(const State& a, const State& b) {
+  double e = 0.0;
+  for (size_t i = 0; i < a.x.size(); ++i) e = std::max(e, std::abs(a.x[i] - b.x[i]));
+  return e;
+}
+
+// Errors at the steps `hs` against RK4 at 1e-5 s: each halving divides them by 2^3 = 8 for a
+// third-order method (6 to 10.5 allowed; a second-order method gives 4, a fourth-order one 16).
+void expect_third_order(const std::string& xml, double T, double ctrl, const std::vector<double>& hs) {
+  const State ref = run(xml, Integrator::RK4, 1e-5, T, ctrl);
+  std::vector<double> e;
+  for (double h : hs) e.push_back(max_abs_diff(run(xml, Integrator::Rosenbrock, h, T, ctrl), ref));
+  for (size_t k = 0; k < e.size(); ++k)
+    std::printf("rosenbrock h = %.2e: error %.3e%s", hs[k], e[k], k + 1 < e.size() ? ", " : "\n");
+  for (size_t k = 0; k + 1 < e.size(); ++k) {
+    EXPECT_GT(e[k] / e[k + 1], 6.0) << "errors " << e[k] << " -> " << e[k + 1];
+    EXPECT_LT(e[k] / e[k + 1], 10.5) << "errors " << e[k] << " -> " << e[k + 1];
+  }
+}
+
+// Measured ratios 6.39, 7.26, 7.65 from h = 2 ms down (5.63 from 4 ms: not yet asymptotic).
+TEST(Rosenbrock, IsThirdOrderOnTheCantilever) {
+  expect_third_order(cantilever_xml(1e6, 0.01, 3), 0.2, 0.0, {2e-3, 1e-3, 5e-4, 2.5e-4});
+}
+
+// The hinge's motor: a constant control of 0.04 N m through the filter (act rises from 0 to it).
+// The rod's Kelvin-Voigt damping makes its fast modes decay at rates up to about E / (3 mu) = 3e3
+// 1/s: from h = 1 ms down (h lambda >= -3) the ratios are 7.67, 8.09 (5.48 from 2 ms).
+TEST(Rosenbrock, IsThirdOrderOnARodRidingAHingeWithAnActivation) {
+  expect_third_order(kCoupled, 0.2, 0.04, {1e-3, 5e-4, 2.5e-4});
+}
+
+// L-stability: an undamped stiff rod (E = 1e9 Pa, L/r = 100, 8 sections) released under gravity at
+// h = 5 ms, where its stiffest modes have h w >> 1: RK4 diverges, the Rosenbrock step damps those
+// modes and runs 2000 steps without gaining energy (the total energy may only fall), and the rod
+// keeps swinging (the slow modes are not damped away: it is third order on them).
+TEST(Rosenbrock, StiffUndampedRodAtLargeStepsGainsNoEnergy) {
+  const std::string xml = cantilever_xml(1e9, 0.005, 8);
+  {
+    auto s = load_scene_string(xml, kPath);
+    s->m->opt.timestep = 5e-3;
+    SceneData sd(*s);
+    Status st = Status::Ok;
+    for (int k = 0; k < 200 && st == Status::Ok; ++k) st = step(*s, sd, Integrator::RK4);
+    EXPECT_EQ(st, Status::Diverged) << "RK4 should not be stable at this step";
+  }
+  auto s = load_scene_string(xml, kPath);
+  s->m->opt.timestep = 5e-3;
+  SceneData sd(*s);
+  forward(*s, sd);
+  const double e0 = energy(*s, sd).total();
+  // the energy scale: the weight's and the rod's potential energy over the rod's length
+  const double scale = 9.81 * 0.5 * (0.05 + 1000 * M_PI * 0.005 * 0.005 * 0.5);
+  double highest = -1e300, lowest = 1e300, tip_lowest = 1e300, tip_highest = -1e300;
+  const int tip = mj_name2id(s->m, mjOBJ_BODY, "weight");
+  for (int k = 0; k < 2000; ++k) {
+    ASSERT_EQ(step(*s, sd, Integrator::Rosenbrock), Status::Ok) << "step " << k;
+    forward(*s, sd);
+    const double e = energy(*s, sd).total() - e0;
+    highest = std::max(highest, e);
+    lowest = std::min(lowest, e);
+    if (k > 1000) {
+      tip_lowest = std::min(tip_lowest, sd.d->xpos[3 * tip + 2]);
+      tip_highest = std::max(tip_highest, sd.d->xpos[3 * tip + 2]);
+    }
+  }
+  std::printf("stiff rod, h = 5 ms, 2000 steps: energy change in [%.3e, %.3e] of %.3e J; tip height range over the "
+              "last 5 s %.3e m\n", lowest, highest, scale, tip_highest - tip_lowest);
+  EXPECT_LT(highest, 1e-6 * scale);
+  EXPECT_GT(lowest, -0.5 * scale);
+  EXPECT_GT(tip_highest - tip_lowest, 1e-4);  // still oscillating
+}
+
+// A model selects it with <custom><text name="cosserat:integrator" data="rosenbrock"/>.
+TEST(Rosenbrock, ModelChoosesIt) {
+  auto s = load_scene_string(R"(<mujoco><custom><text name="cosserat:integrator" data="rosenbrock"/></custom>
+    <worldbody><cosserat name="rod" length="0.3" radius="0.01"/></worldbody></mujoco>)",
+                             kPath);
+  EXPECT_EQ(s->integrator, Integrator::Rosenbrock);
+  EXPECT_EQ(s->newton_for(Integrator::Rosenbrock), 0);
+  EXPECT_FALSE(takes_substeps(Integrator::Rosenbrock));
+}
+
+}  // namespace
