@@ -242,7 +242,8 @@ json result_json(const Result& r) {
 }
 
 const Method kMethods[] = {Method::Euler,       Method::Implicit,         Method::ImplicitNewton, Method::Trapezoidal,
-                           Method::TrapezoidalLinear, Method::GeneralizedAlpha, Method::Midpoint, Method::RK4};
+                           Method::TrapezoidalLinear, Method::GeneralizedAlpha, Method::Midpoint, Method::RK4,
+                           Method::Rosenbrock};
 
 }  // namespace
 
@@ -265,7 +266,7 @@ int run_stress(int argc, char** argv) {
                           g_rod_attrs.emplace_back(v.substr(0, eq), v.substr(eq + 1));
                         }},
                        cli::positive_option("--step-tol", "TOL",
-                                            "run every integrator but euler and rk4 with adaptive substeps to this "
+                                            "run every integrator but euler, rk4 and rosenbrock with adaptive substeps to this "
                                             "tolerance (mj::Scene::step_tol; default: fixed steps)",
                                             rod_sim_options().step_tol),
                        cli::flag_option("--newton-refresh", "refactorise the Newton matrix at the first iterate "
