@@ -1837,6 +1837,16 @@ void advance(const Scene& s, SceneData& sd, const mjtNum* av) {
   std::copy(av, av + nv, d->qacc_warmstart);
 }
 
+// y -= c K x over every rod's dofs (K the rod's stiffness; x and y of size nv, MuJoCo's dof order).
+void subtract_rod_stiffness(const Scene& s, SceneData& sd, double c, const mjtNum* x, mjtNum* y) {
+  for (size_t r = 0; r < s.rods.size(); ++r) {
+    const RodBinding& rb = s.rods[r];
+    VecX& Kx = sd.scratch[r].Kv;
+    Kx.noalias() = rb.model.K * Eigen::Map<const VecX>(x + rb.dof0, rb.model.nv);
+    for (int k = 0; k < rb.model.nv; ++k) y[rb.dof0 + k] -= c * Kx(k);
+  }
+}
+
 // One linearised implicit step (after forward, d->qacc MuJoCo's explicit accelerations with the
 // constraint forces): with A = M + theta h D + theta^2 h^2 K,
 //   A a = M qacc - theta h K v,   q+ = q + h (v + theta h a),  v+ = v + h a.
@@ -1853,13 +1863,7 @@ void implicit_step(const Scene& s, SceneData& sd, bool rods = true, double theta
     mju_copy(sd.qacc_tmp.data(), d->qfrc_smooth, nv);
   else
     mj_mulM(m, d, sd.qacc_tmp.data(), d->qacc);
-  if (rods)
-    for (size_t r = 0; r < s.rods.size(); ++r) {
-      const RodBinding& rb = s.rods[r];
-      VecX& Kv = sd.scratch[r].Kv;
-      Kv.noalias() = rb.model.K * sd.rod[r].v;
-      for (int k = 0; k < rb.model.nv; ++k) sd.qacc_tmp[rb.dof0 + k] -= th * Kv(k);
-    }
+  if (rods) subtract_rod_stiffness(s, sd, th, d->qvel, sd.qacc_tmp.data());
   factor_implicit(s, sd, rods, theta, theta * theta);
   solve_implicit(s, sd, d->qacc, sd.qacc_tmp.data());
   if (theta == 1.0) {
@@ -2404,12 +2408,7 @@ void rosenbrock_step(const Scene& s, SceneData& sd) {
     }
     // rhs = h gamma (M0 r_v - h gamma K r_q)
     mul_tree(m, sd.ros_M0.data(), rhs.data(), sv.data());
-    for (size_t r = 0; r < s.rods.size(); ++r) {
-      const RodBinding& rb = s.rods[r];
-      VecX& Kq = sd.scratch[r].Kv;
-      Kq.noalias() = rb.model.K * Eigen::Map<const VecX>(sq.data() + rb.dof0, rb.model.nv);
-      for (int k = 0; k < rb.model.nv; ++k) rhs[rb.dof0 + k] -= hg * Kq(k);
-    }
+    subtract_rod_stiffness(s, sd, hg, sq.data(), rhs.data());
     mju_scl(rhs.data(), rhs.data(), hg, nv);
     mjtNum* uv_st = uv.data() + st * nv;
     mjtNum* uq_st = uq.data() + st * nv;

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "scene.hpp"
+#include "support/weighted_cantilever.hpp"
 
 using namespace cosserat;
 using namespace cosserat::mj;
@@ -19,19 +20,8 @@ namespace {
 
 const char* kPath = "/tmp/cosserat_newton_test.xml";
 
-// An undamped kl cantilever with a tip weight, released straight under gravity (large deflection).
 std::string cantilever_xml(double young, double radius, int sections, double timestep) {
-  char buf[1024];
-  std::snprintf(buf, sizeof buf, R"(<mujoco>
-  <option timestep="%g" gravity="0 0 -9.81"/>
-  <worldbody>
-    <cosserat name="rod" pos="0 0 1" length="0.5" sections="%d" strain="kl" radius="%g" density="1000"
-              young="%g" poisson="0.5" viscosity="0">
-      <body name="weight" pos="0.02 0 0"><geom type="sphere" size="0.02" mass="0.05" contype="0" conaffinity="0"/></body>
-    </cosserat>
-  </worldbody>
-</mujoco>)", timestep, sections, radius, young);
-  return buf;
+  return cosserat::testing::weighted_cantilever_xml(young, radius, sections, timestep);
 }
 
 std::vector<double> qpos(const SceneData& sd, int nq) { return std::vector<double>(sd.d->qpos, sd.d->qpos + nq); }

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "scene.hpp"
+#include "support/weighted_cantilever.hpp"
 
 using namespace cosserat;
 using namespace cosserat::mj;
@@ -18,19 +19,9 @@ namespace {
 
 const char* kPath = "/tmp/cosserat_rosenbrock_test.xml";
 
-// The Newton tests' undamped kl cantilever with a tip weight, released straight under gravity.
+// The Newton tests' cantilever (support/weighted_cantilever.hpp); run() sets the step.
 std::string cantilever_xml(double young, double radius, int sections) {
-  char buf[1024];
-  std::snprintf(buf, sizeof buf, R"(<mujoco>
-  <option gravity="0 0 -9.81"/>
-  <worldbody>
-    <cosserat name="rod" pos="0 0 1" length="0.5" sections="%d" strain="kl" radius="%g" density="1000"
-              young="%g" poisson="0.5" viscosity="0">
-      <body name="weight" pos="0.02 0 0"><geom type="sphere" size="0.02" mass="0.05" contype="0" conaffinity="0"/></body>
-    </cosserat>
-  </worldbody>
-</mujoco>)", sections, radius, young);
-  return buf;
+  return cosserat::testing::weighted_cantilever_xml(young, radius, sections, 1e-3);
 }
 
 // A damped GVS rod on a hinged arm driven by a motor through a first-order filter (an activation):
