@@ -1313,7 +1313,7 @@ void fwd_position(const Scene& s, SceneData& sd, Need need) {
   mj_transmission(m, d);
   if (!s.rod_site_actuators.empty()) patch_site_transmissions(s, sd);
   sd.forces_only = need == Need::StaticForces ||
-                   (need == Need::Forces && d->nefc == 0 && !has_acceleration_sensors(m));
+                   (need == Need::Forces && d->nefc == 0 && (sd.step_sensors_done || !has_acceleration_sensors(m)));
   if (sd.forces_only) return;
   mj_factorM(m, d);
   mj_projectConstraint(m, d);
@@ -1342,17 +1342,24 @@ void fwd_velocity(const Scene& s, SceneData& sd) {
 void forward(const Scene& s, SceneData& sd, Need need) {
   const mjModel* m = s.m;
   mjData* d = sd.d;
+  const bool sensors = !sd.step_sensors_done;  // (SceneData::step_sensors_done)
   fwd_position(s, sd, need);
-  mj_sensorPos(m, d);
-  patch_sensors(s, sd, mjSTAGE_POS);
+  if (sensors) {
+    mj_sensorPos(m, d);
+    patch_sensors(s, sd, mjSTAGE_POS);
+  }
   fwd_velocity(s, sd);
-  mj_sensorVel(m, d);
-  patch_sensors(s, sd, mjSTAGE_VEL);
+  if (sensors) {
+    mj_sensorVel(m, d);
+    patch_sensors(s, sd, mjSTAGE_VEL);
+  }
+  if (sd.in_step) sd.step_sensors_done = true;
   if (m->opt.enableflags & mjENBL_ENERGY) {  // <flag energy="enable"/>: MuJoCo's d->energy, rods included
     const SceneEnergy e = energy(s, sd);
     d->energy[0] = e.gravity + e.elastic;
     d->energy[1] = e.kinetic;
   }
+  if (mjcb_control) mjcb_control(m, d);  // MuJoCo 2.2.2's mj_forwardSkip calls it here, at every evaluation
   mj_fwdActuation(m, d);
   if (sd.forces_only) {  // no constraints, no acceleration sensors: the forces are all the step needs
     smooth_forces(m, d);
@@ -1362,8 +1369,10 @@ void forward(const Scene& s, SceneData& sd, Need need) {
   }
   mj_fwdAcceleration(m, d);
   mj_fwdConstraint(m, d);
-  mj_sensorAcc(m, d);
-  patch_sensors(s, sd, mjSTAGE_ACC);
+  if (sensors) {
+    mj_sensorAcc(m, d);
+    patch_sensors(s, sd, mjSTAGE_ACC);
+  }
 }
 
 // --------------------------------------------------------------------------- load / reset --
@@ -2453,6 +2462,11 @@ void abandon_step(SceneData& sd, const std::string& reason) {
 Status step(const Scene& s, SceneData& sd, Integrator method) {
   const mjModel* m = s.m;
   mjData* d = sd.d;
+  struct InStep {  // SceneData::step_sensors_done, reset however the step ends
+    SceneData& sd;
+    explicit InStep(SceneData& x) : sd(x) { sd.in_step = true, sd.step_sensors_done = false; }
+    ~InStep() { sd.in_step = false, sd.step_sensors_done = false; }
+  } in_step(sd);
   save_state(sd.step_start, m, d);
   const double t = d->time;
   switch (method) {

@@ -243,6 +243,11 @@ struct SceneData {
   // constraints, Need::StaticForces): d->qfrc_smooth holds the forces, d->qacc, d->qacc_smooth
   // and d->qLD are stale (and after Need::StaticForces d->qM too)
   bool forces_only = false;
+  // in_step: inside step(). step_sensors_done: the start state's sensors are in d->sensordata, and the step's further forward
+  // evaluations (stages, iterates, substeps) skip the sensors, as mj_step's RK4 stages do
+  // (mj_forwardSkip with skipsensor): after a step, sensordata holds the start state's values,
+  // MuJoCo's convention, whatever the integrator.
+  bool in_step = false, step_sensors_done = false;
   // per MuJoCo geom: the chord's sag bound of a sagging capsule at the last kinematics (else 0)
   std::vector<double> geom_sag;
   // scratch (sized once)
@@ -341,7 +346,8 @@ std::unique_ptr<Scene> load_scene_string(const std::string& xml, const std::stri
 enum class Need { Acceleration, Forces, StaticForces };
 
 // Staged MuJoCo pipeline with the rod patches: position, velocity, actuation, acceleration,
-// constraint solve. With Need::Acceleration it leaves d->qacc as MuJoCo's forward would.
+// constraint solve. With Need::Acceleration it leaves d->qacc as MuJoCo's forward would. MuJoCo's
+// control callback (mjcb_control) is called before the actuation, as mj_forward calls it.
 void forward(const Scene& s, SceneData& sd, Need need = Need::Acceleration);
 // One time step with s.integrator (or `method`). Returns Diverged (and restores the state) when
 // the state goes non-finite. Euler and Implicit treat the fluid's damping implicitly (as joint
@@ -351,6 +357,11 @@ void forward(const Scene& s, SceneData& sd, Need need = Need::Acceleration);
 // fluid inactive, Implicit without Newton corrections is MuJoCo's own implicit integrator
 // (mj_implicit: joint damping and the velocity derivatives of the passive, actuator and bias
 // forces implicit), as mj_step runs it.
+// Every forward evaluation of a step calls mjcb_control (and mjcb_passive), at the evaluation's
+// time: RK4 and Rosenbrock at their stage times, the Newton schemes at each iterate. After a step,
+// d->sensordata holds the sensors of the step's start state (mj_step's convention; the further
+// evaluations skip the sensors); qacc, the contacts and the constraint rows are those of the
+// step's last evaluation. Call forward() for the end state's.
 Status step(const Scene& s, SceneData& sd);
 Status step(const Scene& s, SceneData& sd, Integrator method);
 // qpos = qpos0, qvel = 0, time = 0, and MuJoCo's mj_resetData.

@@ -61,12 +61,22 @@ const char* kRigidScene = R"(<mujoco>
   </worldbody>
   <tendon><spatial name="t" stiffness="5"><site site="s1"/><site site="s2"/></spatial>
     <spatial name="pull" stiffness="3"><site site="s2"/><site site="s3"/></spatial></tendon>
-  <actuator><motor joint="h" gear="1"/></actuator>
+  <actuator><motor name="m0" joint="h" gear="1"/></actuator>
+  <sensor><accelerometer site="s1"/><framepos objtype="site" objname="s2"/><touch site="s1"/><jointpos joint="h"/>
+    <actuatorfrc actuator="m0"/></sensor>
 </mujoco>)";
 
+// MuJoCo's control callback (mjcb_control) for the tests: a time-dependent control, counted.
+int control_calls = 0;
+void sine_control(const mjModel*, mjData* d) {
+  d->ctrl[0] = 0.2 * std::sin(10.0 * d->time);
+  ++control_calls;
+}
+
 // Our step against mj_step, 300 steps of the rigid scene with the model's <option> integrator
-// (`option`: the attribute added to kRigidScene's <option>), stepped with s->integrator.
-void expect_mj_step_bit_for_bit(const std::string& option, Integrator expected) {
+// (`option`: the attribute added to kRigidScene's <option>), stepped with s->integrator; with
+// `callback` the control comes from mjcb_control (sine_control) instead of being set between steps.
+void expect_mj_step_bit_for_bit(const std::string& option, Integrator expected, bool callback = false) {
   std::string xml = kRigidScene;
   xml.replace(xml.find("<option "), 8, "<option " + option + " ");
   auto s = load_scene_string(xml, kPath);
@@ -76,8 +86,9 @@ void expect_mj_step_bit_for_bit(const std::string& option, Integrator expected) 
   mjData* d = mj_makeData(m);
   d->qvel[0] = 0.3;
   sd.d->qvel[0] = 0.3;
+  if (callback) mjcb_control = sine_control;
   for (int k = 0; k < 300; ++k) {
-    d->ctrl[0] = sd.d->ctrl[0] = 0.2 * std::sin(0.01 * k);
+    if (!callback) d->ctrl[0] = sd.d->ctrl[0] = 0.2 * std::sin(0.01 * k);
     // the mocap body moves (and its quaternion is not normalised: the kinematics normalises it)
     const double mocap[7] = {0.5 + 0.1 * std::sin(0.02 * k), 0.0, 0.8, 1.0, 0.1 * k / 300.0, 0.2, 0.0};
     for (mjData* x : {d, sd.d}) {
@@ -87,6 +98,7 @@ void expect_mj_step_bit_for_bit(const std::string& option, Integrator expected) 
     mj_step(m, d);
     ASSERT_EQ(step(*s, sd), Status::Ok);
   }
+  mjcb_control = nullptr;
   EXPECT_GT(d->ncon, 0);  // the box rests on the plane: contacts were exercised
   EXPECT_EQ(std::memcmp(d->qpos, sd.d->qpos, sizeof(mjtNum) * m->nq), 0);
   EXPECT_EQ(std::memcmp(d->qvel, sd.d->qvel, sizeof(mjtNum) * m->nv), 0);
@@ -96,6 +108,8 @@ void expect_mj_step_bit_for_bit(const std::string& option, Integrator expected) 
   EXPECT_EQ(std::memcmp(d->geom_xmat, sd.d->geom_xmat, sizeof(mjtNum) * 9 * m->ngeom), 0);
   EXPECT_EQ(std::memcmp(d->site_xpos, sd.d->site_xpos, sizeof(mjtNum) * 3 * m->nsite), 0);
   EXPECT_EQ(std::memcmp(d->mocap_quat, sd.d->mocap_quat, sizeof(mjtNum) * 4 * m->nmocap), 0);
+  // the sensors of the last step's start state (mj_step's forward)
+  EXPECT_EQ(std::memcmp(d->sensordata, sd.d->sensordata, sizeof(mjtNum) * m->nsensordata), 0);
   mj_deleteData(d);
   mj_deleteModel(m);
 }
@@ -106,6 +120,66 @@ TEST(Scene, StagedPipelineReproducesMjStepBitForBit) { expect_mj_step_bit_for_bi
 // run as Euler, silently)
 TEST(Scene, RodFreeImplicitIsMujocosImplicitBitForBit) {
   expect_mj_step_bit_for_bit("integrator=\"implicit\"", Integrator::Implicit);
+}
+
+// MuJoCo's control callback: mj_step calls it in its forward, and so does our step, at each of
+// its evaluations (outside probe S: it was never called, and a controller ported from mj_step ran
+// with its controls frozen). Euler and MuJoCo's implicit integrator: bit for bit with mj_step; RK4
+// and the Rosenbrock-W method call it at each of their 4 stages, at the stage's time.
+TEST(Scene, ControlCallbackIsCalledAtEveryEvaluationAsMjStepCallsIt) {
+  control_calls = 0;
+  expect_mj_step_bit_for_bit("", Integrator::Euler, true);
+  EXPECT_EQ(control_calls, 600);  // 300 mj_step and 300 of ours
+  expect_mj_step_bit_for_bit("integrator=\"implicit\"", Integrator::Implicit, true);
+  for (const Integrator it : {Integrator::RK4, Integrator::Rosenbrock}) {
+    auto s = load_scene_string(kRigidScene, kPath);
+    SceneData sd(*s);
+    mjcb_control = [](const mjModel*, mjData* d) { d->ctrl[0] = 0.2 * std::sin(10.0 * d->time); ++control_calls; };
+    control_calls = 0;
+    for (int k = 0; k < 10; ++k) ASSERT_EQ(step(*s, sd, it), Status::Ok);
+    mjcb_control = nullptr;
+    EXPECT_EQ(control_calls, 40) << integrator_name(it);
+    EXPECT_NE(sd.d->ctrl[0], 0.0);
+  }
+}
+
+// After a step, d->sensordata holds the sensors of the step's start state, as after mj_step,
+// whatever the integrator (outside probe S: the Rosenbrock-W method left its last stage's, O(h^2)
+// from the end state, and the trapezoidal rule its end state's). A rod on a servoed hinge with
+// position, velocity and acceleration sensors on the rod; no constraints, so that the forward at
+// the start state below is the step's own first evaluation, bit for bit.
+TEST(Scene, AStepLeavesTheSensorsOfItsStartStateWhateverTheIntegrator) {
+  const char* xml = R"(<mujoco><option timestep="0.0002"/><worldbody>
+    <body name="hub" pos="0 0 0.5"><joint name="h" type="hinge" axis="0 1 0" stiffness="2"/>
+      <geom type="sphere" size="0.03" mass="0.2" contype="0" conaffinity="0"/>
+      <cosserat name="rod" length="0.4" sections="3" radius="0.006" density="1100" young="2e6"
+                contype="0" conaffinity="0"><site name="m" at="0.2"/></cosserat></body></worldbody>
+    <actuator><position name="servo" joint="h" kp="4"/></actuator>
+    <sensor><framepos objtype="site" objname="rod/tip"/><velocimeter site="m"/><accelerometer site="m"/>
+      <gyro site="rod/tip"/><jointvel joint="h"/><actuatorfrc actuator="servo"/></sensor></mujoco>)";
+  for (const Integrator it : {Integrator::Euler, Integrator::Implicit, Integrator::Trapezoidal,
+                              Integrator::GeneralizedAlpha, Integrator::Midpoint, Integrator::RK4,
+                              Integrator::Rosenbrock}) {
+    for (const double tol : {0.0, 1e-3}) {
+      if (tol > 0 && !takes_substeps(it)) continue;
+      SCOPED_TRACE(std::string(integrator_name(it)) + (tol > 0 ? " with step_tol" : ""));
+      auto s = load_scene_string(xml, kPath);
+      s->step_tol = tol;
+      SceneData sd(*s);
+      sd.d->ctrl[0] = 0.8;
+      const int n = s->m->nsensordata;
+      std::vector<mjtNum> start(n);
+      for (int k = 0; k < 20; ++k) {
+        forward(*s, sd);  // (changes no state)
+        std::copy(sd.d->sensordata, sd.d->sensordata + n, start.begin());
+        ASSERT_EQ(step(*s, sd, it), Status::Ok);
+      }
+      EXPECT_EQ(std::memcmp(start.data(), sd.d->sensordata, sizeof(mjtNum) * n), 0);
+      // and not the end state's (the sensors move)
+      forward(*s, sd);
+      EXPECT_NE(std::memcmp(start.data(), sd.d->sensordata, sizeof(mjtNum) * n), 0);
+    }
+  }
 }
 
 TEST(Scene, RecomputedInvweight0EqualsMujocosOnRigidScene) {
@@ -1004,7 +1078,9 @@ TEST(Scene, StepsWithoutAccelerationsEqualTheFullPipeline) {
     SCOPED_TRACE("integrator " + std::to_string(static_cast<int>(c.it)) + ", newton " + std::to_string(c.newton) +
                  ", rho " + std::to_string(c.rho));
     EXPECT_TRUE(skipped[0]);
-    EXPECT_FALSE(skipped[1]);
+    // with the sensor, the step's first evaluation (the start state's, whose sensors a step leaves)
+    // computes the accelerations; the Newton iterates, which skip the sensors, skip them too
+    EXPECT_EQ(skipped[1], c.newton > 0);
     double moved = 0.0, diff = 0.0;
     for (size_t i = 0; i < q[0].size(); ++i) {
       moved = std::max(moved, std::abs(q[1][i]));
