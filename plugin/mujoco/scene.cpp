@@ -1178,6 +1178,7 @@ SceneData::SceneData(const Scene& s) {
   for (auto* v : {&ros_sq, &ros_sv, &ros_rhs}) v->assign(nv, 0);
   A_LD.assign(s.m->nM, 0);
   A_LDiagInv.assign(nv, 0);
+  joint_K.assign(nv, 0);
   newton.size(s.m);
   for (auto* v : {&newton.f0, &newton.A0, &newton.A, &newton.r, &newton.y, &newton.delta, &newton.v_end})
     v->assign(nv, 0);
@@ -1767,28 +1768,38 @@ void advance_with_qacc(const Scene& s, SceneData& sd) {
   mju_copy(m->dof_damping, damping.data(), m->nv);
 }
 
-// Velocity derivative of an actuator's scalar force (MuJoCo 2.2.2: force = gain * input + bias with
-// gain and bias affine in length and velocity): d force / d velocity.
-double actuator_force_velocity_derivative(const mjModel* m, const mjData* d, int a) {
-  double dfdv = 0.0;
+// Derivatives of an actuator's scalar force (MuJoCo 2.2.2: force = gain * input + bias with gain
+// and bias affine in length and velocity) with respect to its length and its velocity.
+struct ForceDerivatives {
+  double length = 0.0, velocity = 0.0;
+};
+ForceDerivatives actuator_force_derivatives(const mjModel* m, const mjData* d, int a) {
+  ForceDerivatives df;
   if (m->actuator_gaintype[a] == mjGAIN_AFFINE) {
     const double input = m->actuator_dyntype[a] == mjDYN_NONE ? d->ctrl[a] : d->act[a - (m->nu - m->na)];
-    dfdv += m->actuator_gainprm[mjNGAIN * a + 2] * input;
+    df.length += m->actuator_gainprm[mjNGAIN * a + 1] * input;
+    df.velocity += m->actuator_gainprm[mjNGAIN * a + 2] * input;
   }
-  if (m->actuator_biastype[a] == mjBIAS_AFFINE) dfdv += m->actuator_biasprm[mjNBIAS * a + 2];
-  return dfdv;
+  if (m->actuator_biastype[a] == mjBIAS_AFFINE) {
+    df.length += m->actuator_biasprm[mjNBIAS * a + 1];
+    df.velocity += m->actuator_biasprm[mjNBIAS * a + 2];
+  }
+  return df;
 }
 
 // The implicit step's matrix
 //   A = M + cD h D + cK h^2 K,
 // D = joint damping + rods' Kelvin-Voigt damping + actuators' -gear^2 d force/d velocity + fluid
-// damping D_f, K the rods' stiffness (rods = false: joint damping + D_f, K = 0: MuJoCo's Euler with
-// the fluid added to its implicit damping). Velocity-dependent actuators count only on hinge and
-// slide joints (velocity servos such as a flagellar motor are stiff dampers) and when `rods`;
-// actuators on other transmissions (tendons, sites, ball and free joints) stay explicit.
-// Assembled in MuJoCo's sparse qM (K and D live inside each section's dof chain, D_f in the
-// kinematic tree's pattern), after forward: assembled in sd.A_LD from qM and factorised there as
-// MuJoCo factorises qM (factor_ldl), with 1/diag(D) in sd.A_LDiagInv; mjData is not touched.
+// damping D_f, K = the rods' stiffness + the springs of hinge and slide joints + actuators'
+// -gear^2 d force/d length (position servos) (rods = false: joint damping + D_f, K = 0: MuJoCo's
+// Euler with the fluid added to its implicit damping). Actuators count only on hinge and slide
+// joints (velocity servos such as a flagellar motor are stiff dampers, position servos stiff
+// springs) and when `rods`; actuators on other transmissions (tendons, sites, ball and free
+// joints), tendon springs and the springs of ball and free joints stay explicit. K's diagonal
+// outside the rods is kept in sd.joint_K (subtract_stiffness). Assembled in MuJoCo's sparse qM (K
+// and D live inside each section's dof chain, D_f in the kinematic tree's pattern), after
+// forward: assembled in sd.A_LD from qM and factorised there as MuJoCo factorises qM
+// (factor_ldl), with 1/diag(D) in sd.A_LDiagInv; mjData is not touched.
 void factor_implicit(const Scene& s, SceneData& sd, bool rods, double cD, double cK) {
   const mjModel* m = s.m;
   mjData* d = sd.d;
@@ -1797,10 +1808,14 @@ void factor_implicit(const Scene& s, SceneData& sd, bool rods, double cD, double
   mjtNum* A = sd.A_LD.data();
   std::copy(d->qM, d->qM + m->nM, A);
   for (int i = 0; i < nv; ++i) A[m->dof_Madr[i]] += hD * m->dof_damping[i];
+  std::fill(sd.joint_K.begin(), sd.joint_K.end(), 0.0);
+  if (rods && !(m->opt.disableflags & mjDSBL_PASSIVE))  // mj_passive's joint springs
+    for (int j = 0; j < m->njnt; ++j)
+      if (m->jnt_type[j] == mjJNT_HINGE || m->jnt_type[j] == mjJNT_SLIDE) sd.joint_K[m->jnt_dofadr[j]] += m->jnt_stiffness[j];
   if (rods && !(m->opt.disableflags & mjDSBL_ACTUATION))
     for (int a = 0; a < m->nu; ++a) {
       const int tt = m->actuator_trntype[a];
-      // a saturated force does not change with velocity
+      // a saturated force does not change with length or velocity
       if (m->actuator_forcelimited[a] && (d->actuator_force[a] <= m->actuator_forcerange[2 * a] ||
                                           d->actuator_force[a] >= m->actuator_forcerange[2 * a + 1]))
         continue;
@@ -1808,8 +1823,12 @@ void factor_implicit(const Scene& s, SceneData& sd, bool rods, double cD, double
       const int j = m->actuator_trnid[2 * a];
       if (m->jnt_type[j] != mjJNT_HINGE && m->jnt_type[j] != mjJNT_SLIDE) continue;
       const double g = m->actuator_gear[6 * a];
-      A[m->dof_Madr[m->jnt_dofadr[j]]] -= hD * g * g * actuator_force_velocity_derivative(m, d, a);
+      const ForceDerivatives df = actuator_force_derivatives(m, d, a);
+      const int dof = m->jnt_dofadr[j];
+      A[m->dof_Madr[dof]] -= hD * g * g * df.velocity;
+      sd.joint_K[dof] -= g * g * df.length;
     }
+  for (int i = 0; i < nv; ++i) A[m->dof_Madr[i]] += hK * sd.joint_K[i];
   if (rods)
     for (const auto& rb : s.rods)
       for (int i = 0; i < rb.model.nv; ++i)
@@ -1846,8 +1865,10 @@ void advance(const Scene& s, SceneData& sd, const mjtNum* av) {
   std::copy(av, av + nv, d->qacc_warmstart);
 }
 
-// y -= c K x over every rod's dofs (K the rod's stiffness; x and y of size nv, MuJoCo's dof order).
-void subtract_rod_stiffness(const Scene& s, SceneData& sd, double c, const mjtNum* x, mjtNum* y) {
+// y -= c K x with the K of the last factor_implicit (the rods' stiffness and sd.joint_K; x and y of
+// size nv, MuJoCo's dof order).
+void subtract_stiffness(const Scene& s, SceneData& sd, double c, const mjtNum* x, mjtNum* y) {
+  for (int i = 0; i < s.m->nv; ++i) y[i] -= c * sd.joint_K[i] * x[i];
   for (size_t r = 0; r < s.rods.size(); ++r) {
     const RodBinding& rb = s.rods[r];
     VecX& Kx = sd.scratch[r].Kv;
@@ -1872,8 +1893,8 @@ void implicit_step(const Scene& s, SceneData& sd, bool rods = true, double theta
     mju_copy(sd.qacc_tmp.data(), d->qfrc_smooth, nv);
   else
     mj_mulM(m, d, sd.qacc_tmp.data(), d->qacc);
-  if (rods) subtract_rod_stiffness(s, sd, th, d->qvel, sd.qacc_tmp.data());
   factor_implicit(s, sd, rods, theta, theta * theta);
+  if (rods) subtract_stiffness(s, sd, th, d->qvel, sd.qacc_tmp.data());
   solve_implicit(s, sd, d->qacc, sd.qacc_tmp.data());
   if (theta == 1.0) {
     advance(s, sd, nullptr);
@@ -2365,9 +2386,13 @@ void rk4_step(const Scene& s, SceneData& sd) {
 
 // One step of the Rosenbrock-W method ROS34PW2 (cosserat::ros34pw2, integrators.hpp) on
 // y = (q, v, act) with F = (v, qacc, act_dot) (our forward, constraints included) and
-// W = [0 I 0; -M0^-1 K  -M0^-1 D  0; 0 0 0]: M0 the mass matrix at the step's start, K the rods'
-// stiffness, D the implicit step's damping (factor_implicit: joints, rods, velocity actuators,
-// fluid). Eliminating u_q, each stage solves the implicit step's matrix A = M0 + gamma h D +
+// W = [0 I 0; -M0^-1 K  -M0^-1 D  0; 0 0 0]: M0 the mass matrix at the step's start, K and D the
+// implicit step's stiffness and damping (factor_implicit: the rods', the hinge and slide joints'
+// springs and damping, the position and velocity gains of actuators on them, the fluid's damping).
+// What W leaves out (gravity, Coriolis, geometric stiffness, cables and other tendons, contacts,
+// activation dynamics) is integrated as by an explicit method: there an undamped oscillation of
+// frequency w gains energy by a factor 1 + O((h w)^4) per step (outside probe S), and the step
+// limit is about RK4's. Eliminating u_q, each stage solves the implicit step's matrix A = M0 + gamma h D +
 // gamma^2 h^2 K (factorised once per step):
 //   A u_v = h gamma (M0 r_v - h gamma K r_q),   u_q = h gamma (r_q + u_v),   u_act = h gamma r_act,
 // with r the stage's right-hand side F(Y_i) + sum_j C_ij / h u_j. Positions are integrated with
@@ -2417,7 +2442,7 @@ void rosenbrock_step(const Scene& s, SceneData& sd) {
     }
     // rhs = h gamma (M0 r_v - h gamma K r_q)
     mul_tree(m, sd.ros_M0.data(), rhs.data(), sv.data());
-    subtract_rod_stiffness(s, sd, hg, sq.data(), rhs.data());
+    subtract_stiffness(s, sd, hg, sq.data(), rhs.data());
     mju_scl(rhs.data(), rhs.data(), hg, nv);
     mjtNum* uv_st = uv.data() + st * nv;
     mjtNum* uq_st = uq.data() + st * nv;

@@ -284,8 +284,10 @@ struct SceneData {
     mutable std::vector<Mat6X> section_J, section_Jdot;
   };
   std::vector<RodScratch> scratch;  // per rod
-  // the implicit step's factor (A = M + theta h D + theta^2 h^2 K, MuJoCo's qLD layout)
-  std::vector<mjtNum> A_LD, A_LDiagInv;
+  // the implicit step's factor (A = M + theta h D + theta^2 h^2 K, MuJoCo's qLD layout), and the
+  // diagonal of K outside the rods it was assembled with (hinge and slide joints' springs and
+  // position gains of actuators on them; zero elsewhere)
+  std::vector<mjtNum> A_LD, A_LDiagInv, joint_K;
   struct NewtonScratch : SavedState {  // the step's start state, and:
     std::vector<mjtNum> f0, A0, A, r, y, delta;
     // generalized alpha: the end acceleration A0 carries over to the next step if it starts from

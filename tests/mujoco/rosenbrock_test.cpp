@@ -6,9 +6,11 @@
 
 #include <algorithm>
 #include <cmath>
+#include <complex>
 #include <string>
 #include <vector>
 
+#include "integrators.hpp"
 #include "scene.hpp"
 #include "support/weighted_cantilever.hpp"
 
@@ -22,6 +24,21 @@ const char* kPath = "/tmp/cosserat_rosenbrock_test.xml";
 // The Newton tests' cantilever (support/weighted_cantilever.hpp); run() sets the step.
 std::string cantilever_xml(double young, double radius, int sections) {
   return cosserat::testing::weighted_cantilever_xml(young, radius, sections, 1e-3);
+}
+
+// |R(i y)| for ROS34PW2's stability function (the method on y' = i y, W exact), from its
+// transformed tableau: (1/gamma - z) u_i = z (1 + sum_j a_ij u_j) + sum_j C_ij u_j, z = i y.
+double stability_function_modulus(double y) {
+  namespace R = cosserat::ros34pw2;
+  const std::complex<double> z(0.0, y);
+  std::complex<double> u[R::kStages], out = 1.0;
+  for (int i = 0; i < R::kStages; ++i) {
+    std::complex<double> Y = 1.0, r = 0.0;
+    for (int j = 0; j < i; ++j) Y += R::a[i][j] * u[j], r += R::C[i][j] * u[j];
+    u[i] = (z * Y + r) / (1.0 / R::gamma - z);
+    out += R::b[i] * u[i];
+  }
+  return std::abs(out);
 }
 
 // A damped GVS rod on a hinged arm driven by a motor through a first-order filter (an activation):
@@ -129,6 +146,43 @@ TEST(Rosenbrock, StiffUndampedRodAtLargeStepsGainsNoEnergy) {
   EXPECT_LT(highest, 1e-6 * scale);
   EXPECT_GT(lowest, -0.5 * scale);
   EXPECT_GT(tip_highest - tip_lowest, 1e-4);  // still oscillating
+}
+
+// MuJoCo's joint springs and position servos on hinge and slide joints are in the method's matrix
+// (factor_implicit's K). Outside probe S: a slide joint's spring (w = 100 rad/s, undamped) was
+// explicit, and its energy grew by a factor 1 + O((h w)^4) per step at every step (0.5 J to 0.70 J
+// over 3 s at 4 ms, to 10 J at 8 ms, 45 kJ at 12 ms). With the spring in W the linear oscillation
+// is integrated by the L-stable method itself: the energy may only fall, at every step size; the
+// same for a position servo (kp = 1e4, the same frequency), whose energy is counted by hand.
+TEST(Rosenbrock, JointSpringsAndPositionServosGainNoEnergy) {
+  auto xml = [](bool servo) {
+    return std::string(R"(<mujoco><option gravity="0 0 0"/><worldbody><body name="b">
+      <joint name="s" type="slide" axis="1 0 0" )") + (servo ? "" : R"(stiffness="10000")") +
+           R"(/><geom type="sphere" size="0.05" mass="1" contype="0" conaffinity="0"/></body></worldbody>)" +
+           (servo ? R"(<actuator><position joint="s" kp="10000"/></actuator>)" : "") + "</mujoco>";
+  };
+  for (const bool servo : {false, true})
+    for (const double h : {1e-3, 4e-3, 8e-3, 12e-3, 16e-3}) {
+      SCOPED_TRACE((servo ? "servo, h = " : "spring, h = ") + std::to_string(h));
+      auto s = load_scene_string(xml(servo), kPath);
+      s->m->opt.timestep = h;
+      SceneData sd(*s);
+      sd.d->qpos[0] = 0.01;
+      auto e = [&] { return 0.5 * sd.d->qvel[0] * sd.d->qvel[0] + 0.5 * 1e4 * sd.d->qpos[0] * sd.d->qpos[0]; };
+      const double e0 = e();
+      double highest = 0.0;
+      const int n = static_cast<int>(std::lround(3.0 / h));
+      for (int k = 0; k < n; ++k) {
+        ASSERT_EQ(step(*s, sd, Integrator::Rosenbrock), Status::Ok);
+        highest = std::max(highest, e() - e0);
+      }
+      EXPECT_LE(highest, 1e-12 * e0);
+      // the linear oscillator's exact answer: the energy scales by |R(i h w)|^2 per step, R the
+      // method's stability function (from the tableau alone)
+      const double R = stability_function_modulus(h * 100.0);
+      EXPECT_LT(R, 1.0);
+      EXPECT_NEAR(e(), e0 * std::pow(R, 2 * n), 1e-9 * e0);
+    }
 }
 
 // A model selects it with <custom><text name="cosserat:integrator" data="rosenbrock"/>.
