@@ -155,6 +155,7 @@ std::vector<std::string> collect_warnings(const mj::Scene& sc, const mj::SceneDa
       w.push_back(std::string(mju_warningText(i, d->warning[i].lastinfo)) + " (" + std::to_string(d->warning[i].number) +
                   " times)");
   w.insert(w.end(), g_mujoco_warnings.begin(), g_mujoco_warnings.end());
+  w.insert(w.end(), sc.load_warnings.begin(), sc.load_warnings.end());
   for (const auto& f : sc.fluid.warnings) w.push_back("fluid: " + f);
   return w;
 }
@@ -341,7 +342,11 @@ int cmd_check(int argc, char** argv) {
   std::printf("nq: %d  nv: %d  nbody: %d  ngeom: %d  nsite: %d  nu: %d\n", m->nq, m->nv, m->nbody, m->ngeom, m->nsite,
               m->nu);
   std::printf("timestep: %g s  integrator: %s", m->opt.timestep, integrator_name(s->integrator));
-  if (s->step_tol > 0) std::printf("  adaptive substeps: step_tol %g", s->step_tol);
+  if (s->step_tol > 0 && mj::takes_substeps(s->integrator))
+    std::printf("  adaptive substeps: step_tol %g", s->step_tol);
+  else if (s->step_tol > 0)
+    std::printf("  (the model's step_tol %g does not apply: %s takes fixed steps)", s->step_tol,
+                integrator_name(s->integrator));
   std::printf("\n");
   if (!s->may_collide)
     std::printf("contacts: none possible (no two geoms pass the contype/conaffinity filters, no <pair>): "

@@ -700,6 +700,21 @@ TEST_F(Cli, RunTakesAdaptiveSubsteps) {
   const Result euler = cosserat("run '" + own.string() + "' --duration 0.001 --timestep 1e-5 --integrator euler");
   ASSERT_EQ(euler.status, 0) << euler.err;
   EXPECT_NE(euler.err.find("cosserat:step_tol (adaptive substeps) does not apply to euler"), std::string::npos) << euler.err;
+  // ... in the JSON's warnings too, and `check` of a model choosing rosenbrock does not call it active
+  // (outside probe S)
+  const fs::path euler_json = scratch() / "own_tol_euler.json";
+  ASSERT_EQ(cosserat("run '" + own.string() + "' --duration 0.001 --timestep 1e-5 --integrator euler --json '" +
+                     euler_json.string() + "'")
+                .status,
+            0);
+  EXPECT_NE(json::parse(read_text(euler_json))["warnings"].dump().find("does not apply to euler"), std::string::npos);
+  const fs::path own_ros = scratch() / "own_tol_ros.xml";
+  std::ofstream(own_ros) << R"(<mujoco><custom><numeric name="cosserat:step_tol" data="0.01"/>
+<text name="cosserat:integrator" data="rosenbrock"/></custom>
+<worldbody><cosserat name="q" length="0.3" radius="0.01"/></worldbody></mujoco>)";
+  const Result ros = cosserat("check '" + own_ros.string() + "'");
+  EXPECT_EQ(ros.out.find("adaptive substeps"), std::string::npos) << ros.out;
+  EXPECT_NE(ros.out.find("step_tol 0.01 does not apply: rosenbrock takes fixed steps"), std::string::npos) << ros.out;
   for (const char* integrator : {"euler", "rk4", "rosenbrock"}) {
     const Result bad = cosserat("run '" + model + "' --integrator " + integrator + " --step-tol 1e-2 --duration 0.01");
     EXPECT_EQ(bad.status, 1);
