@@ -1179,6 +1179,7 @@ SceneData::SceneData(const Scene& s) {
   A_LD.assign(s.m->nM, 0);
   A_LDiagInv.assign(nv, 0);
   joint_K.assign(nv, 0);
+  tree_nz.assign(nv, 0);
   newton.size(s.m);
   for (auto* v : {&newton.f0, &newton.A0, &newton.A, &newton.r, &newton.y, &newton.delta, &newton.v_end})
     v->assign(nv, 0);
@@ -1787,15 +1788,42 @@ ForceDerivatives actuator_force_derivatives(const mjModel* m, const mjData* d, i
   return df;
 }
 
+// Position of entry (i, j) of MuJoCo's sparse qM (row i, its ancestors' columns), i >= j, or -1
+// where j is not i or an ancestor of i (the tree pattern holds no such entry).
+int tree_entry(const mjModel* m, int i, int j) {
+  if (i < j) std::swap(i, j);
+  int adr = m->dof_Madr[i];
+  for (int k = i; k > j; k = m->dof_parentid[k], ++adr)
+    if (m->dof_parentid[k] < j) return -1;
+  return adr;
+}
+
+// A += c u u' for u of size nv (a tendon's or an actuator's row), in qM's tree pattern; nothing
+// and false where two of u's dofs are on different branches (the pattern cannot hold the term).
+bool add_outer_in_tree(const mjModel* m, mjtNum* A, const mjtNum* u, double c, std::vector<int>& nz) {
+  int n = 0;
+  for (int i = 0; i < m->nv; ++i)
+    if (u[i] != 0.0) nz[n++] = i;
+  for (int a = 0; a < n; ++a)
+    for (int b = 0; b < a; ++b)
+      if (tree_entry(m, nz[a], nz[b]) < 0) return false;
+  for (int a = 0; a < n; ++a)
+    for (int b = 0; b <= a; ++b) A[tree_entry(m, nz[a], nz[b])] += c * u[nz[a]] * u[nz[b]];
+  return true;
+}
+
 // The implicit step's matrix
 //   A = M + cD h D + cK h^2 K,
-// D = joint damping + rods' Kelvin-Voigt damping + actuators' -gear^2 d force/d velocity + fluid
-// damping D_f, K = the rods' stiffness + the springs of hinge and slide joints + actuators'
-// -gear^2 d force/d length (position servos) (rods = false: joint damping + D_f, K = 0: MuJoCo's
-// Euler with the fluid added to its implicit damping). Actuators count only on hinge and slide
-// joints (velocity servos such as a flagellar motor are stiff dampers, position servos stiff
-// springs) and when `rods`; actuators on other transmissions (tendons, sites, ball and free
-// joints), tendon springs and the springs of ball and free joints stay explicit. K's diagonal
+// D = joint damping + rods' Kelvin-Voigt damping + tendon damping J' d J + actuators' -d force/d
+// velocity moment moment' + fluid damping D_f, K = the rods' stiffness + the springs of hinge and
+// slide joints + actuators' -gear^2 d force/d length (position servos) on them (rods = false:
+// joint damping + D_f, K = 0: MuJoCo's Euler with the fluid added to its implicit damping). The
+// tendon and actuator terms count only when `rods` (velocity servos such as a flagellar motor are
+// stiff dampers, position servos stiff springs); a tendon or actuator whose dofs lie on different
+// branches of the tree (which qM's pattern cannot couple) stays explicit, and so do position
+// gains on other transmissions than hinge and slide joints, tendon springs and the springs of ball
+// and free joints. (MuJoCo's own implicit integrator, which a rod-free scene runs, takes the
+// velocity terms whatever their pattern, and no position terms.) K's diagonal
 // outside the rods is kept in sd.joint_K (subtract_stiffness). Assembled in MuJoCo's sparse qM (K
 // and D live inside each section's dof chain, D_f in the kinematic tree's pattern), after
 // forward: assembled in sd.A_LD from qM and factorised there as MuJoCo factorises qM
@@ -1819,15 +1847,22 @@ void factor_implicit(const Scene& s, SceneData& sd, bool rods, double cD, double
       if (m->actuator_forcelimited[a] && (d->actuator_force[a] <= m->actuator_forcerange[2 * a] ||
                                           d->actuator_force[a] >= m->actuator_forcerange[2 * a + 1]))
         continue;
-      if (tt != mjTRN_JOINT && tt != mjTRN_JOINTINPARENT) continue;
-      const int j = m->actuator_trnid[2 * a];
-      if (m->jnt_type[j] != mjJNT_HINGE && m->jnt_type[j] != mjJNT_SLIDE) continue;
-      const double g = m->actuator_gear[6 * a];
       const ForceDerivatives df = actuator_force_derivatives(m, d, a);
+      const int j = m->actuator_trnid[2 * a];
+      if ((tt != mjTRN_JOINT && tt != mjTRN_JOINTINPARENT) ||
+          (m->jnt_type[j] != mjJNT_HINGE && m->jnt_type[j] != mjJNT_SLIDE)) {
+        // other transmissions: velocity = moment' qvel (MuJoCo's actuator_velocity)
+        if (df.velocity != 0.0) add_outer_in_tree(m, A, d->actuator_moment + a * nv, -hD * df.velocity, sd.tree_nz);
+        continue;
+      }
+      const double g = m->actuator_gear[6 * a];
       const int dof = m->jnt_dofadr[j];
       A[m->dof_Madr[dof]] -= hD * g * g * df.velocity;
       sd.joint_K[dof] -= g * g * df.length;
     }
+  if (rods && !(m->opt.disableflags & mjDSBL_PASSIVE))  // mj_passive's tendon damping
+    for (int t = 0; t < m->ntendon; ++t)
+      if (m->tendon_damping[t] > 0) add_outer_in_tree(m, A, d->ten_J + t * nv, hD * m->tendon_damping[t], sd.tree_nz);
   for (int i = 0; i < nv; ++i) A[m->dof_Madr[i]] += hK * sd.joint_K[i];
   if (rods)
     for (const auto& rb : s.rods)

@@ -288,6 +288,7 @@ struct SceneData {
   // diagonal of K outside the rods it was assembled with (hinge and slide joints' springs and
   // position gains of actuators on them; zero elsewhere)
   std::vector<mjtNum> A_LD, A_LDiagInv, joint_K;
+  std::vector<int> tree_nz;  // scratch of add_outer_in_tree (nv)
   struct NewtonScratch : SavedState {  // the step's start state, and:
     std::vector<mjtNum> f0, A0, A, r, y, delta;
     // generalized alpha: the end acceleration A0 carries over to the next step if it starts from

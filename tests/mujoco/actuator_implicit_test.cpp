@@ -108,3 +108,54 @@ TEST(ActuatorImplicit, DivergedStepRestoresTheStartStateWithActivations) {
   EXPECT_EQ(std::vector<double>(sd.d->qvel, sd.d->qvel + s->m->nv), v);
   EXPECT_EQ(std::vector<double>(sd.d->act, sd.d->act + s->m->na), act);
 }
+
+namespace {
+
+// Tendon damping and the velocity gains of actuators on tendons are implicit too (A += h J' d J),
+// as MuJoCo's implicit integrator takes them on a scene without rods. Outside probe T: with a rod
+// in the scene they were explicit, and a slide damped through a fixed tendon (h d / m = 10)
+// diverged at 0.02 s. Backward Euler on v' = -(d/m) v gives v_n = v0 r^n, r = 1/(1 + h d/m), and
+// q_n = h v0 (r + ... + r^n) exactly. The same where the two dofs of a tendon lie on different
+// branches of the tree (qM's pattern cannot couple them): that tendon stays explicit and the step
+// diverges, as the documentation says.
+std::string tendon_xml(const char* tendon_attr, const char* actuator, bool branches = false) {
+  return std::string(R"(<mujoco><option timestep="0.002" gravity="0 0 0"/><worldbody>
+    <body name="b"><joint name="s" type="slide" axis="1 0 0"/>
+      <geom type="sphere" size="0.05" mass="1" contype="0" conaffinity="0"/></body>)") +
+         (branches ? R"(<body name="c" pos="0 1 0"><joint name="s2" type="slide" axis="1 0 0"/>
+      <geom type="sphere" size="0.05" mass="1" contype="0" conaffinity="0"/></body>)"
+                   : "") +
+         R"(<cosserat name="apart" pos="1 0 0" length="0.1" contype="0" conaffinity="0"/></worldbody>
+    <tendon><fixed name="t" )" + tendon_attr + R"(><joint joint="s" coef="2"/>)" +
+         (branches ? R"(<joint joint="s2" coef="1"/>)" : "") + R"(</fixed></tendon>)" + actuator + "</mujoco>";
+}
+
+TEST(ActuatorImplicit, TendonDampingAndTendonVelocityServosAreBackwardEuler) {
+  // d = 5000 N s/m on the slide: tendon damping 1250 with coef 2, or a velocity servo kv = 1250
+  for (const bool servo : {false, true}) {
+    SCOPED_TRACE(servo ? "velocity servo on the tendon" : "tendon damping");
+    auto s = load_scene_string(
+        tendon_xml(servo ? "" : R"(damping="1250")", servo ? R"(<actuator><velocity tendon="t" kv="1250"/></actuator>)" : ""),
+        kPath);
+    SceneData sd(*s);
+    sd.d->qvel[0] = 1.0;
+    const double h = 0.002, r = 1.0 / (1.0 + h * 5000.0);
+    double q = 0.0, rn = 1.0;
+    for (int k = 0; k < 50; ++k) {
+      ASSERT_EQ(step(*s, sd, Integrator::Implicit), Status::Ok) << "step " << k;
+      rn *= r;
+      q += h * rn;
+    }
+    EXPECT_NEAR(sd.d->qpos[0], q, 1e-12);
+    EXPECT_NEAR(sd.d->qvel[0], rn, 1e-12);
+  }
+  // a tendon across two branches stays explicit: h d / m = 10 diverges
+  auto s = load_scene_string(tendon_xml(R"(damping="1250")", "", true), kPath);
+  SceneData sd(*s);
+  sd.d->qvel[0] = 1.0;
+  Status st = Status::Ok;
+  for (int k = 0; k < 50 && st == Status::Ok; ++k) st = step(*s, sd, Integrator::Implicit);
+  EXPECT_EQ(st, Status::Diverged);
+}
+
+}  // namespace
