@@ -1820,7 +1820,9 @@ bool add_outer_in_tree(const mjModel* m, mjtNum* A, const mjtNum* u, double c, s
 // joint damping + D_f, K = 0: MuJoCo's Euler with the fluid added to its implicit damping). The
 // tendon and actuator terms count only when `rods` (velocity servos such as a flagellar motor are
 // stiff dampers, position servos stiff springs); a tendon or actuator whose dofs lie on different
-// branches of the tree (which qM's pattern cannot couple) stays explicit, and so do position
+// branches of the tree (which qM's pattern cannot couple) stays explicit, and so do negative
+// springs and dampers (a negative joint stiffness, positive feedback of an actuator: in A they
+// would make it indefinite, and its factorisation fails at steps of h^2 |K| ~ M), position
 // gains on other transmissions than hinge and slide joints, tendon springs and the springs of ball
 // and free joints. (MuJoCo's own implicit integrator, which a rod-free scene runs, takes the
 // velocity terms whatever their pattern, and no position terms.) K's diagonal
@@ -1839,7 +1841,8 @@ void factor_implicit(const Scene& s, SceneData& sd, bool rods, double cD, double
   std::fill(sd.joint_K.begin(), sd.joint_K.end(), 0.0);
   if (rods && !(m->opt.disableflags & mjDSBL_PASSIVE))  // mj_passive's joint springs
     for (int j = 0; j < m->njnt; ++j)
-      if (m->jnt_type[j] == mjJNT_HINGE || m->jnt_type[j] == mjJNT_SLIDE) sd.joint_K[m->jnt_dofadr[j]] += m->jnt_stiffness[j];
+      if ((m->jnt_type[j] == mjJNT_HINGE || m->jnt_type[j] == mjJNT_SLIDE) && m->jnt_stiffness[j] > 0)
+        sd.joint_K[m->jnt_dofadr[j]] += m->jnt_stiffness[j];
   if (rods && !(m->opt.disableflags & mjDSBL_ACTUATION))
     for (int a = 0; a < m->nu; ++a) {
       const int tt = m->actuator_trntype[a];
@@ -1852,13 +1855,13 @@ void factor_implicit(const Scene& s, SceneData& sd, bool rods, double cD, double
       if ((tt != mjTRN_JOINT && tt != mjTRN_JOINTINPARENT) ||
           (m->jnt_type[j] != mjJNT_HINGE && m->jnt_type[j] != mjJNT_SLIDE)) {
         // other transmissions: velocity = moment' qvel (MuJoCo's actuator_velocity)
-        if (df.velocity != 0.0) add_outer_in_tree(m, A, d->actuator_moment + a * nv, -hD * df.velocity, sd.tree_nz);
+        if (df.velocity < 0.0) add_outer_in_tree(m, A, d->actuator_moment + a * nv, -hD * df.velocity, sd.tree_nz);
         continue;
       }
       const double g = m->actuator_gear[6 * a];
       const int dof = m->jnt_dofadr[j];
-      A[m->dof_Madr[dof]] -= hD * g * g * df.velocity;
-      sd.joint_K[dof] -= g * g * df.length;
+      if (df.velocity < 0.0) A[m->dof_Madr[dof]] -= hD * g * g * df.velocity;
+      if (df.length < 0.0) sd.joint_K[dof] -= g * g * df.length;
     }
   if (rods && !(m->opt.disableflags & mjDSBL_PASSIVE))  // mj_passive's tendon damping
     for (int t = 0; t < m->ntendon; ++t)

@@ -159,3 +159,35 @@ TEST(ActuatorImplicit, TendonDampingAndTendonVelocityServosAreBackwardEuler) {
 }
 
 }  // namespace
+
+namespace {
+
+// Negative springs and positive feedback stay explicit: in the step's matrix they would make it
+// indefinite (outside probe T: a joint stiffness of -1e4 on 1 kg, or an affine bias of +1e4 per
+// m, made the implicit steps end "non-finite" at step 0 at 20 ms, where euler runs). Explicit,
+// the implicit step is the semi-implicit Euler recurrence v+ = v + h k q / m, q+ = q + h v+.
+TEST(ActuatorImplicit, NegativeSpringsAndPositiveFeedbackStayExplicit) {
+  for (const char* spring : {R"(stiffness="-10000")", ""}) {
+    const std::string xml = std::string(R"(<mujoco><option timestep="0.02" gravity="0 0 0"/><worldbody>
+      <body name="b"><joint name="s" type="slide" axis="1 0 0" )") + spring +
+                            R"(/><geom type="sphere" size="0.05" mass="1" contype="0" conaffinity="0"/></body>
+      <cosserat name="apart" pos="1 0 0" length="0.1" contype="0" conaffinity="0"/></worldbody>)" +
+                            (*spring ? "" : R"(<actuator><general joint="s" biastype="affine" biasprm="0 10000 -5"/></actuator>)") +
+                            "</mujoco>";
+    SCOPED_TRACE(*spring ? "negative joint stiffness" : "positive position feedback, negative velocity feedback");
+    auto s = load_scene_string(xml, kPath);
+    SceneData sd(*s);
+    sd.d->qpos[0] = 0.01;
+    double q = 0.01, v = 0.0;
+    const double h = 0.02, c = *spring ? 0.0 : 5.0;  // the servo's damping (kv = 5) is implicit
+    for (int k = 0; k < 3; ++k) {
+      ASSERT_EQ(step(*s, sd, Integrator::Implicit), Status::Ok) << "step " << k;
+      v = (v + h * 1e4 * q) / (1.0 + h * c);
+      q += h * v;
+    }
+    EXPECT_NEAR(sd.d->qpos[0], q, 1e-12 * std::abs(q));
+    EXPECT_NEAR(sd.d->qvel[0], v, 1e-12 * std::abs(v));
+  }
+}
+
+}  // namespace
