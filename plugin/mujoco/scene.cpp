@@ -1915,6 +1915,30 @@ void subtract_stiffness(const Scene& s, SceneData& sd, double c, const mjtNum* x
   }
 }
 
+// The activations of `filter` actuators (act' = (ctrl - act) / tau, linear) by the theta rule
+//   act+ = act0 + h ((1 - theta) act_dot0 + theta (ctrl - act+) / tau)
+// from the step's start (act0, act_dot0), solved exactly, instead of the Euler update advance()
+// made: theta = 1 is backward Euler (L-stable for any h / tau), 1/2 the trapezoidal rule (second
+// order). The control is held over the step, clamped as MuJoCo's actuation clamps it, and the
+// activation clamped to its range as mj_Euler clamps it. `integrator` dynamics (act' = ctrl) are
+// exact under Euler's update already; muscle and user dynamics keep it (first order).
+void filter_activations(const Scene& s, SceneData& sd, const mjtNum* act0, const mjtNum* act_dot0, double theta) {
+  const mjModel* m = s.m;
+  mjData* d = sd.d;
+  const double h = m->opt.timestep;
+  for (int a = m->nu - m->na; a < m->nu; ++a) {
+    if (m->actuator_dyntype[a] != mjDYN_FILTER) continue;
+    const int j = a - (m->nu - m->na);
+    double ctrl = d->ctrl[a];
+    if (m->actuator_ctrllimited[a] && !(m->opt.disableflags & mjDSBL_CLAMPCTRL))
+      ctrl = mju_clip(ctrl, m->actuator_ctrlrange[2 * a], m->actuator_ctrlrange[2 * a + 1]);
+    const double tau = std::max(mjMINVAL, m->actuator_dynprm[mjNDYN * a]);
+    double act = (act0[j] + h * (1.0 - theta) * act_dot0[j] + h * theta * ctrl / tau) / (1.0 + h * theta / tau);
+    if (m->actuator_actlimited[a]) act = mju_clip(act, m->actuator_actrange[2 * a], m->actuator_actrange[2 * a + 1]);
+    d->act[j] = act;
+  }
+}
+
 // One linearised implicit step (after forward, d->qacc MuJoCo's explicit accelerations with the
 // constraint forces): with A = M + theta h D + theta^2 h^2 K,
 //   A a = M qacc - theta h K v,   q+ = q + h (v + theta h a),  v+ = v + h a.
@@ -1934,14 +1958,20 @@ void implicit_step(const Scene& s, SceneData& sd, bool rods = true, double theta
   factor_implicit(s, sd, rods, theta, theta * theta);
   if (rods) subtract_stiffness(s, sd, th, d->qvel, sd.qacc_tmp.data());
   solve_implicit(s, sd, d->qacc, sd.qacc_tmp.data());
+  const int na = m->na;
+  if (rods && na) {  // the start's activations, for filter_activations (RK4's scratch is free here)
+    std::copy(d->act, d->act + na, sd.rk_a0.begin());
+    std::copy(d->act_dot, d->act_dot + na, sd.rk_ka.begin());
+  }
   if (theta == 1.0) {
     advance(s, sd, nullptr);
-    return;
+  } else {
+    std::vector<mjtNum>& a = sd.qacc_tmp;  // the solve's right-hand side, free now
+    std::copy(d->qacc, d->qacc + nv, a.begin());
+    mju_scl(d->qacc, a.data(), theta, nv);
+    advance(s, sd, a.data());
   }
-  std::vector<mjtNum>& a = sd.qacc_tmp;  // the solve's right-hand side, free now
-  std::copy(d->qacc, d->qacc + nv, a.begin());
-  mju_scl(d->qacc, a.data(), theta, nv);
-  advance(s, sd, a.data());
+  if (rods && na) filter_activations(s, sd, sd.rk_a0.data(), sd.rk_ka.data(), theta);
 }
 
 // The one-step schemes the Newton iterations solve, on M qddot = f(q, v) with f the scene's forward
@@ -1957,6 +1987,10 @@ struct Scheme {
 Scheme backward_euler() { return {0, 1, 0, 1, 0, 0, false}; }
 Scheme trapezoidal_rule() { return {0.25, 0.25, 0.5, 0.5, 0.5, 0.5, false}; }
 // q+ = q + h v + h^2/2 A, v+ = v + h A: q+ = q + h (v + v+)/2 (midpoint_step)
+// (cq1 = 1 alone does not tell: the generalized alpha with rho = 0 has it too.)
+bool is_backward_euler(const Scheme& sc) {
+  return sc.cq0 == 0.0 && sc.cq1 == 1.0 && sc.cv0 == 0.0 && sc.cv1 == 1.0 && sc.am == 0.0 && sc.af == 0.0;
+}
 Scheme midpoint_rule() { return {0, 0.5, 0, 1, 0, 0, false, true}; }
 // Chung and Hulbert's parameters for the spectral radius rho at infinite frequency (rho = 1: the
 // trapezoidal rule; rho < 1 damps the stiff modes, second order for every rho in [0, 1]).
@@ -2012,6 +2046,9 @@ void set_end_state(const Scene& s, SceneData& sd, const Scheme& sc) {
     w.y[i] = sc.cv0 * w.A0[i] + sc.cv1 * w.A[i];
   }
   advance(s, sd, w.y.data());
+  // filter activations: backward Euler's rule for backward Euler, the trapezoidal rule for the
+  // second-order schemes
+  if (s.m->na) filter_activations(s, sd, w.act0.data(), w.act_dot0.data(), is_backward_euler(sc) ? 1.0 : 0.5);
 }
 
 // Anderson acceleration (type II) of the fixed-point iteration x <- x + F(x), x = w.A and
@@ -2105,9 +2142,8 @@ bool newton_step(const Scene& s, SceneData& sd, const Scheme& sc, int iterations
   mjData* d = sd.d;
   const int nv = m->nv;
   SceneData::NewtonScratch& w = sd.newton;
-  // backward Euler needs no acceleration at the start (only the other schemes' f(q, v) terms do).
-  // (cq1 = 1 alone does not tell: the generalized alpha with rho = 0 has it too.)
-  const bool be = sc.cq0 == 0.0 && sc.cq1 == 1.0 && sc.cv0 == 0.0 && sc.cv1 == 1.0 && sc.am == 0.0 && sc.af == 0.0;
+  // backward Euler needs no acceleration at the start (only the other schemes' f(q, v) terms do)
+  const bool be = is_backward_euler(sc);
   forward(s, sd, be ? Need::Forces : Need::Acceleration);
   // the carried A0 is valid if the state is the one the previous step ended with
   const bool carried = sc.carry && w.carry_valid && starts_at_end(w, d);

@@ -191,3 +191,44 @@ TEST(ActuatorImplicit, NegativeSpringsAndPositiveFeedbackStayExplicit) {
 }
 
 }  // namespace
+
+namespace {
+
+// Filter activations (act' = (ctrl - act) / tau) follow the scheme: backward Euler under implicit,
+// the trapezoidal rule under trapezoidal, genalpha and midpoint (outside probe T: all advanced them
+// by Euler's rule, so the second-order schemes were first order on any scene with a filter). Exact
+// recurrences act_n - ctrl = (act_0 - ctrl) r^n, r = 1 / (1 + h / tau) and (1 - h / 2 tau) / (1 +
+// h / 2 tau); the trapezoidal rule's error against exp(-t / tau) falls fourfold per halved step.
+TEST(ActuatorImplicit, FilterActivationsFollowTheScheme) {
+  const char* xml = R"(<mujoco><option gravity="0 0 0"/><worldbody>
+    <body name="b"><joint name="h" type="hinge" axis="0 0 1" damping="0.1"/>
+      <geom type="box" size="0.1 0.02 0.02" mass="0.5" contype="0" conaffinity="0"/></body>
+    <cosserat name="apart" pos="1 0 0" length="0.1" contype="0" conaffinity="0"/></worldbody>
+    <actuator><general joint="h" dyntype="filter" dynprm="0.05" gainprm="0.01"/></actuator></mujoco>)";
+  const double tau = 0.05, T = 0.3;
+  double previous = 0.0;
+  for (const double h : {2e-3, 1e-3, 5e-4}) {
+    for (const Integrator it : {Integrator::Implicit, Integrator::Trapezoidal, Integrator::GeneralizedAlpha,
+                                Integrator::Midpoint}) {
+      SCOPED_TRACE(std::string(integrator_name(it)) + " at h = " + std::to_string(h));
+      auto s = load_scene_string(xml, kPath);
+      s->m->opt.timestep = h;
+      s->rho_inf = 0.0;  // genalpha's most damping variant (whose cq1 is backward Euler's)
+      SceneData sd(*s);
+      sd.d->act[0] = 0.1;
+      sd.d->ctrl[0] = 0.5;
+      const int n = static_cast<int>(std::lround(T / h));
+      for (int k = 0; k < n; ++k) ASSERT_EQ(step(*s, sd, it), Status::Ok);
+      const double x = h / tau;
+      const double r = it == Integrator::Implicit ? 1.0 / (1.0 + x) : (1.0 - x / 2) / (1.0 + x / 2);
+      EXPECT_NEAR(sd.d->act[0], 0.5 - 0.4 * std::pow(r, n), 1e-12);
+      if (it == Integrator::Trapezoidal) {
+        const double err = std::abs(sd.d->act[0] - (0.5 - 0.4 * std::exp(-T / tau)));
+        if (previous > 0) EXPECT_NEAR(previous / err, 4.0, 0.05);
+        previous = err;
+      }
+    }
+  }
+}
+
+}  // namespace
