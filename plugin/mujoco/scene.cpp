@@ -1926,6 +1926,7 @@ void filter_activations(const Scene& s, SceneData& sd, const mjtNum* act0, const
   const mjModel* m = s.m;
   mjData* d = sd.d;
   const double h = m->opt.timestep;
+  if (m->opt.disableflags & mjDSBL_ACTUATION) return;  // (MuJoCo's act_dot is not computed then)
   for (int a = m->nu - m->na; a < m->nu; ++a) {
     if (m->actuator_dyntype[a] != mjDYN_FILTER) continue;
     const int j = a - (m->nu - m->na);
