@@ -2024,10 +2024,16 @@ void record_end(St& st, const mjData* d) {
   std::copy(d->qvel, d->qvel + st.v_end.size(), st.v_end.begin());
   st.t_end = d->time;
 }
+// The state is the recorded end's to round-off (1e-12 relative per coordinate): MuJoCo's
+// kinematics normalises the quaternions in qpos in place, so that a forward between two steps
+// moves them by an ulp; an exact test had then dropped the generalized alpha's carried
+// acceleration at such a step and changed the step by up to 2.4e-4 m at a contact's onset (outside
+// probe T).
 template <class St>
 bool starts_at_end(const St& st, const mjData* d) {
-  return st.t_end == d->time && std::equal(st.q_end.begin(), st.q_end.end(), d->qpos) &&
-         std::equal(st.v_end.begin(), st.v_end.end(), d->qvel);
+  auto near = [](double a, double b) { return std::abs(a - b) <= 1e-12 * (1.0 + std::abs(b)); };
+  return st.t_end == d->time && std::equal(st.q_end.begin(), st.q_end.end(), d->qpos, near) &&
+         std::equal(st.v_end.begin(), st.v_end.end(), d->qvel, near);
 }
 
 // Back to the start state newton_step saved.
