@@ -71,7 +71,7 @@ Integrator parse_integrator(const std::string& flag, const std::string& text) {
 Option integrator_option(std::optional<Integrator>& target) {
   return {"--integrator", "NAME", "euler | implicit | trapezoidal | genalpha | midpoint | rk4 | rosenbrock (default: implicit with "
           "rods, euler without; midpoint: the energy-conserving implicit midpoint rule, for long undamped runs; "
-          "rosenbrock: third order, linearly implicit, 4 evaluations per step, for accuracy at large steps where the rods' and joints' stiffness dominates; cables, contacts and gravity are explicit in it)",
+          "rosenbrock: third order, linearly implicit, 4 evaluations per step, for accuracy at large steps where the stiffness of rods, joints and tendons dominates; cable tensions set by controls, contacts and gravity are explicit in it)",
           [&target](const std::string& v) { target = parse_integrator("--integrator", v); }};
 }
 

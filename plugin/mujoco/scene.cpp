@@ -1179,6 +1179,8 @@ SceneData::SceneData(const Scene& s) {
   A_LD.assign(s.m->nM, 0);
   A_LDiagInv.assign(nv, 0);
   joint_K.assign(nv, 0);
+  K_rows.assign(static_cast<size_t>(s.m->ntendon + s.m->nu) * nv, 0);
+  K_row_coef.assign(s.m->ntendon + s.m->nu, 0);
   tree_nz.assign(nv, 0);
   newton.size(s.m);
   for (auto* v : {&newton.f0, &newton.A0, &newton.A, &newton.r, &newton.y, &newton.delta, &newton.v_end})
@@ -1812,21 +1814,31 @@ bool add_outer_in_tree(const mjModel* m, mjtNum* A, const mjtNum* u, double c, s
   return true;
 }
 
+// A += hK k u u' (a tendon's spring, or a tendon actuator's position gain) where u's dofs lie on
+// one branch of the tree, the row kept for subtract_stiffness.
+void add_stiffness_row(SceneData& sd, const mjModel* m, mjtNum* A, const mjtNum* u, double k, double hK) {
+  if (!add_outer_in_tree(m, A, u, hK * k, sd.tree_nz)) return;
+  std::copy(u, u + m->nv, sd.K_rows.begin() + static_cast<size_t>(sd.K_nrows) * m->nv);
+  sd.K_row_coef[sd.K_nrows++] = k;
+}
+
 // The implicit step's matrix
 //   A = M + cD h D + cK h^2 K,
 // D = joint damping + rods' Kelvin-Voigt damping + tendon damping J' d J + actuators' -d force/d
 // velocity moment moment' + fluid damping D_f, K = the rods' stiffness + the springs of hinge and
-// slide joints + actuators' -gear^2 d force/d length (position servos) on them (rods = false:
-// joint damping + D_f, K = 0: MuJoCo's Euler with the fluid added to its implicit damping). The
-// tendon and actuator terms count only when `rods` (velocity servos such as a flagellar motor are
-// stiff dampers, position servos stiff springs); a tendon or actuator whose dofs lie on different
-// branches of the tree (which qM's pattern cannot couple) stays explicit, and so do negative
-// springs and dampers (a negative joint stiffness, positive feedback of an actuator: in A they
-// would make it indefinite, and its factorisation fails at steps of h^2 |K| ~ M), position
-// gains on other transmissions than hinge and slide joints, tendon springs and the springs of ball
+// slide joints + actuators' -gear^2 d force/d length (position servos) on them + tendon springs
+// k J' J + actuators' -d force/d length moment moment' on tendons (rods = false: joint damping +
+// D_f, K = 0: MuJoCo's Euler with the fluid added to its implicit damping). The tendon and
+// actuator terms count only when `rods` (velocity servos such as a flagellar motor are stiff
+// dampers, position servos and elastic cables stiff springs); a tendon or actuator whose dofs lie
+// on different branches of the tree (which qM's pattern cannot couple) stays explicit, and so do
+// negative springs and dampers (a negative joint stiffness, positive feedback of an actuator: in
+// A they would make it indefinite, and its factorisation fails at steps of h^2 |K| ~ M), a
+// stretched spatial tendon's geometric stiffness k (L - L0) d2L/dq2 (indefinite too), position
+// gains on other transmissions than hinge and slide joints and tendons, and the springs of ball
 // and free joints. (MuJoCo's own implicit integrator, which a rod-free scene runs, takes the
-// velocity terms whatever their pattern, and no position terms.) K's diagonal
-// outside the rods is kept in sd.joint_K (subtract_stiffness). Assembled in MuJoCo's sparse qM (K
+// velocity terms whatever their pattern, and no position terms.) K's diagonal outside the rods
+// is kept in sd.joint_K, its outer products in sd.K_rows (subtract_stiffness). Assembled in MuJoCo's sparse qM (K
 // and D live inside each section's dof chain, D_f in the kinematic tree's pattern), after
 // forward: assembled in sd.A_LD from qM and factorised there as MuJoCo factorises qM
 // (factor_ldl), with 1/diag(D) in sd.A_LDiagInv; mjData is not touched.
@@ -1839,6 +1851,7 @@ void factor_implicit(const Scene& s, SceneData& sd, bool rods, double cD, double
   std::copy(d->qM, d->qM + m->nM, A);
   for (int i = 0; i < nv; ++i) A[m->dof_Madr[i]] += hD * m->dof_damping[i];
   std::fill(sd.joint_K.begin(), sd.joint_K.end(), 0.0);
+  sd.K_nrows = 0;
   if (rods && !(m->opt.disableflags & mjDSBL_PASSIVE))  // mj_passive's joint springs
     for (int j = 0; j < m->njnt; ++j)
       if ((m->jnt_type[j] == mjJNT_HINGE || m->jnt_type[j] == mjJNT_SLIDE) && m->jnt_stiffness[j] > 0)
@@ -1856,6 +1869,8 @@ void factor_implicit(const Scene& s, SceneData& sd, bool rods, double cD, double
           (m->jnt_type[j] != mjJNT_HINGE && m->jnt_type[j] != mjJNT_SLIDE)) {
         // other transmissions: velocity = moment' qvel (MuJoCo's actuator_velocity)
         if (df.velocity < 0.0) add_outer_in_tree(m, A, d->actuator_moment + a * nv, -hD * df.velocity, sd.tree_nz);
+        // a tendon's length is moment' q to first order (a site transmission has no length)
+        if (tt == mjTRN_TENDON && df.length < 0.0) add_stiffness_row(sd, m, A, d->actuator_moment + a * nv, -df.length, hK);
         continue;
       }
       const double g = m->actuator_gear[6 * a];
@@ -1863,9 +1878,11 @@ void factor_implicit(const Scene& s, SceneData& sd, bool rods, double cD, double
       if (df.velocity < 0.0) A[m->dof_Madr[dof]] -= hD * g * g * df.velocity;
       if (df.length < 0.0) sd.joint_K[dof] -= g * g * df.length;
     }
-  if (rods && !(m->opt.disableflags & mjDSBL_PASSIVE))  // mj_passive's tendon damping
-    for (int t = 0; t < m->ntendon; ++t)
+  if (rods && !(m->opt.disableflags & mjDSBL_PASSIVE))  // mj_passive's tendon damping and springs
+    for (int t = 0; t < m->ntendon; ++t) {
       if (m->tendon_damping[t] > 0) add_outer_in_tree(m, A, d->ten_J + t * nv, hD * m->tendon_damping[t], sd.tree_nz);
+      if (m->tendon_stiffness[t] > 0) add_stiffness_row(sd, m, A, d->ten_J + t * nv, m->tendon_stiffness[t], hK);
+    }
   for (int i = 0; i < nv; ++i) A[m->dof_Madr[i]] += hK * sd.joint_K[i];
   if (rods)
     for (const auto& rb : s.rods)
@@ -1903,10 +1920,15 @@ void advance(const Scene& s, SceneData& sd, const mjtNum* av) {
   std::copy(av, av + nv, d->qacc_warmstart);
 }
 
-// y -= c K x with the K of the last factor_implicit (the rods' stiffness and sd.joint_K; x and y of
-// size nv, MuJoCo's dof order).
+// y -= c K x with the K of the last factor_implicit (the rods' stiffness, sd.joint_K and the rows
+// of sd.K_rows; x and y of size nv, MuJoCo's dof order).
 void subtract_stiffness(const Scene& s, SceneData& sd, double c, const mjtNum* x, mjtNum* y) {
-  for (int i = 0; i < s.m->nv; ++i) y[i] -= c * sd.joint_K[i] * x[i];
+  const int nv = s.m->nv;
+  for (int i = 0; i < nv; ++i) y[i] -= c * sd.joint_K[i] * x[i];
+  for (int r = 0; r < sd.K_nrows; ++r) {  // tendon springs and gains: k u (u' x)
+    const mjtNum* u = sd.K_rows.data() + static_cast<size_t>(r) * nv;
+    mju_addToScl(y, u, -c * sd.K_row_coef[r] * mju_dot(u, x, nv), nv);
+  }
   for (size_t r = 0; r < s.rods.size(); ++r) {
     const RodBinding& rb = s.rods[r];
     VecX& Kx = sd.scratch[r].Kv;

@@ -288,6 +288,11 @@ struct SceneData {
   // diagonal of K outside the rods it was assembled with (hinge and slide joints' springs and
   // position gains of actuators on them; zero elsewhere)
   std::vector<mjtNum> A_LD, A_LDiagInv, joint_K;
+  // K's outer-product terms outside the rods that A was assembled with: tendon springs k J' J and
+  // position gains of actuators on tendons (-dF/dlength) moment moment', each a copy of its row
+  // (nv) at the factorisation with its coefficient (K_nrows of at most ntendon + nu)
+  std::vector<mjtNum> K_rows, K_row_coef;
+  int K_nrows = 0;
   std::vector<int> tree_nz;  // scratch of add_outer_in_tree (nv)
   struct NewtonScratch : SavedState {  // the step's start state, and:
     std::vector<mjtNum> f0, A0, A, r, y, delta;

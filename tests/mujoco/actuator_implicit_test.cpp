@@ -158,6 +158,41 @@ TEST(ActuatorImplicit, TendonDampingAndTendonVelocityServosAreBackwardEuler) {
   EXPECT_EQ(st, Status::Diverged);
 }
 
+
+// Tendon springs and position servos on tendons are in K too (twenty-fourth session; they had
+// stayed explicit). On the slide of tendon_xml (m = 1, coef 2) a tendon stiffness of 2500, or a
+// position servo kp = 2500 on the tendon, is k = 1e4 N/m: at h = 50 ms (h w = 5) the explicit
+// spring diverges; the linearised backward Euler step (A = m + h^2 k, A a = -k q - h k v,
+// v+ = v + h a, q+ = q + h v+) is followed exactly. Across two branches the spring stays explicit.
+TEST(ActuatorImplicit, TendonSpringsAndTendonPositionServosAreBackwardEuler) {
+  for (const bool servo : {false, true}) {
+    SCOPED_TRACE(servo ? "position servo on the tendon" : "tendon spring");
+    auto s = load_scene_string(
+        tendon_xml(servo ? "" : R"(stiffness="2500")", servo ? R"(<actuator><position tendon="t" kp="2500"/></actuator>)" : ""),
+        kPath);
+    const double h = 0.05, k = 1e4;
+    s->m->opt.timestep = h;
+    SceneData sd(*s);
+    sd.d->qpos[0] = 0.01;
+    double q = 0.01, v = 0.0;
+    for (int n = 0; n < 40; ++n) {
+      ASSERT_EQ(step(*s, sd, Integrator::Implicit), Status::Ok) << "step " << n;
+      v += h * -(k * q + h * k * v) / (1.0 + h * h * k);
+      q += h * v;
+      ASSERT_NEAR(sd.d->qpos[0], q, 1e-12) << "step " << n;
+      ASSERT_NEAR(sd.d->qvel[0], v, 1e-12) << "step " << n;
+    }
+    EXPECT_LT(std::abs(q), 1e-3);  // backward Euler damps it
+  }
+  // across two branches: explicit, and h w = 5 diverges
+  auto s = load_scene_string(tendon_xml(R"(stiffness="2500")", "", true), kPath);
+  s->m->opt.timestep = 0.05;
+  SceneData sd(*s);
+  sd.d->qpos[0] = 0.01;
+  Status st = Status::Ok;
+  for (int n = 0; n < 200 && st == Status::Ok; ++n) st = step(*s, sd, Integrator::Implicit);
+  EXPECT_TRUE(st == Status::Diverged || std::abs(sd.d->qpos[0]) > 1e3);
+}
 }  // namespace
 
 namespace {

@@ -153,18 +153,26 @@ TEST(Rosenbrock, StiffUndampedRodAtLargeStepsGainsNoEnergy) {
 // explicit, and its energy grew by a factor 1 + O((h w)^4) per step at every step (0.5 J to 0.70 J
 // over 3 s at 4 ms, to 10 J at 8 ms, 45 kJ at 12 ms). With the spring in W the linear oscillation
 // is integrated by the L-stable method itself: the energy may only fall, at every step size; the
-// same for a position servo (kp = 1e4, the same frequency), whose energy is counted by hand.
-TEST(Rosenbrock, JointSpringsAndPositionServosGainNoEnergy) {
-  auto xml = [](bool servo) {
+// same for a position servo (kp = 1e4, the same frequency), whose energy is counted by hand, and
+// (twenty-fourth session) for a tendon's spring and a position servo on a tendon (a fixed tendon
+// 2 s: k = 2500 gives the same 1e4 N/m on the slide), which had stayed explicit.
+TEST(Rosenbrock, JointAndTendonSpringsAndPositionServosGainNoEnergy) {
+  enum Kind { JointSpring, JointServo, TendonSpring, TendonServo };
+  auto xml = [](Kind kind) {
     return std::string(R"(<mujoco><option gravity="0 0 0"/><worldbody><body name="b">
-      <joint name="s" type="slide" axis="1 0 0" )") + (servo ? "" : R"(stiffness="10000")") +
+      <joint name="s" type="slide" axis="1 0 0" )") + (kind == JointSpring ? R"(stiffness="10000")" : "") +
            R"(/><geom type="sphere" size="0.05" mass="1" contype="0" conaffinity="0"/></body></worldbody>)" +
-           (servo ? R"(<actuator><position joint="s" kp="10000"/></actuator>)" : "") + "</mujoco>";
+           (kind >= TendonSpring ? std::string(R"(<tendon><fixed name="t" )") + (kind == TendonSpring ? R"(stiffness="2500")" : "") +
+                                       R"(><joint joint="s" coef="2"/></fixed></tendon>)"
+                                 : "") +
+           (kind == JointServo ? R"(<actuator><position joint="s" kp="10000"/></actuator>)" : "") +
+           (kind == TendonServo ? R"(<actuator><position tendon="t" kp="2500"/></actuator>)" : "") + "</mujoco>";
   };
-  for (const bool servo : {false, true})
+  const char* names[] = {"joint spring", "joint servo", "tendon spring", "tendon servo"};
+  for (const Kind kind : {JointSpring, JointServo, TendonSpring, TendonServo})
     for (const double h : {1e-3, 4e-3, 8e-3, 12e-3, 16e-3}) {
-      SCOPED_TRACE((servo ? "servo, h = " : "spring, h = ") + std::to_string(h));
-      auto s = load_scene_string(xml(servo), kPath);
+      SCOPED_TRACE(std::string(names[kind]) + ", h = " + std::to_string(h));
+      auto s = load_scene_string(xml(kind), kPath);
       s->m->opt.timestep = h;
       SceneData sd(*s);
       sd.d->qpos[0] = 0.01;
