@@ -195,6 +195,11 @@ int render_command(int argc, char** argv) {
       if (ext != ".mp4" && ext != ".mkv" && ext != ".webm" && ext != ".mov" && ext != ".avi" && ext != ".gif" && ext != ".m4v")
         fail("--video: " + video + ": ffmpeg takes the video's format from its extension; use .mp4, .mkv, .webm, .mov, "
              ".avi, .m4v or .gif");
+      try {
+        rd::check_video_encoder(video);
+      } catch (const std::exception& e) {
+        fail(std::string("--video: ") + e.what());
+      }
     }
     check_writable("--video", video);
 

@@ -13,9 +13,13 @@ int remove_frames(const std::string& dir);
 // Full path of `program` found in $PATH (as `command -v` does), or "" when it is not there.
 std::string find_program(const std::string& program);
 
-// Encodes DIR/frame_00000.png ... at `fps` into `output` (H.264 in MP4, yuv420p, with libx264 when
-// ffmpeg has it, else MPEG-4 part 2). Throws std::runtime_error when ffmpeg is not installed or
-// fails (with its last message).
+// Encodes DIR/frame_00000.png ... at `fps` into `output`, the container from its extension: .gif
+// with ffmpeg's gif encoder (one palette for the clip), .webm with VP9 (else VP8), any other with
+// H.264 (libx264 when ffmpeg has it, else MPEG-4 part 2), yuv420p. Throws std::runtime_error when
+// ffmpeg is not installed, has no encoder for the container, or fails (with its last message; no
+// partial file is left).
 void encode_video(const std::string& dir, double fps, const std::string& output);
+// The checks of encode_video that need no frames: ffmpeg installed, an encoder for the container.
+void check_video_encoder(const std::string& output);
 
 }  // namespace cosserat::render
