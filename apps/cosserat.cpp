@@ -52,11 +52,22 @@ using json = nlohmann::ordered_json;
 // MuJoCo's warnings go to the run's report instead of the console and MUJOCO_LOG.TXT; its errors
 // are thrown: inside a step they end the run as a divergence (its outputs cover the run up to the
 // last good step), elsewhere the program with a one-line reason.
+// `compare` points g_warning_sink at the messages of the simulation it is stepping (MuJoCo's
+// callback is global), so that each warning is reported for the model that raised it.
 std::vector<std::string> g_mujoco_warnings;
+std::vector<std::string>* g_warning_sink = &g_mujoco_warnings;
 void on_mujoco_warning(const char* msg) {
-  if (std::find(g_mujoco_warnings.begin(), g_mujoco_warnings.end(), msg) == g_mujoco_warnings.end())
-    g_mujoco_warnings.emplace_back(msg);
+  std::vector<std::string>& w = *g_warning_sink;
+  if (std::find(w.begin(), w.end(), msg) == w.end()) w.emplace_back(msg);
 }
+// Sends MuJoCo's warnings to `sink` for its lifetime.
+struct WarningSink {
+  std::vector<std::string>* saved;
+  explicit WarningSink(std::vector<std::string>& sink) : saved(g_warning_sink) { g_warning_sink = &sink; }
+  ~WarningSink() { g_warning_sink = saved; }
+  WarningSink(const WarningSink&) = delete;
+  WarningSink& operator=(const WarningSink&) = delete;
+};
 struct MujocoError : std::runtime_error {
   using std::runtime_error::runtime_error;
 };
@@ -146,7 +157,8 @@ void print_positions(const Outputs& o, const mj::SceneData& sd) {
 }
 
 // Warnings MuJoCo counted in mjData (too many contacts, bad numbers, ...), plus its messages.
-std::vector<std::string> collect_warnings(const mj::Scene& sc, const mj::SceneData& sd) {
+std::vector<std::string> collect_warnings(const mj::Scene& sc, const mj::SceneData& sd,
+                                          const std::vector<std::string>& messages = g_mujoco_warnings) {
   const mjData* d = sd.d;
   std::vector<std::string> w;
   if (const std::string c = mj::collapse_warning(sc, sd); !c.empty()) w.push_back(c);
@@ -154,7 +166,7 @@ std::vector<std::string> collect_warnings(const mj::Scene& sc, const mj::SceneDa
     if (d->warning[i].number > 0)
       w.push_back(std::string(mju_warningText(i, d->warning[i].lastinfo)) + " (" + std::to_string(d->warning[i].number) +
                   " times)");
-  w.insert(w.end(), g_mujoco_warnings.begin(), g_mujoco_warnings.end());
+  w.insert(w.end(), messages.begin(), messages.end());
   w.insert(w.end(), sc.load_warnings.begin(), sc.load_warnings.end());
   for (const auto& f : sc.fluid.warnings) w.push_back("fluid: " + f);
   return w;
@@ -693,11 +705,16 @@ int cmd_linearize(int argc, char** argv) {
 // Position samples of one simulation at requested times, linearly interpolated between steps.
 class Sampler {
  public:
-  Sampler(const std::string& path, const SimOptions& o, const StateOptions& state) : sim(path, o, state) {
+  // (the comma expression keeps the sink set while the model loads: a temporary lives to the end
+  // of its member initializer)
+  Sampler(const std::string& path, const SimOptions& o, const StateOptions& state)
+      : sim((WarningSink(messages), path), o, state) {
+    WarningSink sink(messages);
     sim.observe();
     t0_ = prev_t_ = cur_t_ = sim.time();
     prev_ = cur_ = positions();
   }
+  std::vector<std::string> messages;  // MuJoCo's warnings raised by this simulation
   Simulation sim;
   bool diverged = false;
 
@@ -706,6 +723,7 @@ class Sampler {
   std::vector<Vec3> at(double t_since_start) {
     const double t = t0_ + t_since_start;
     const double tol = 1e-9 * sim.timestep();
+    WarningSink sink(messages);
     while (!diverged && cur_t_ < t - tol) {
       if (!sim.step() || !sim.observe()) {
         diverged = true;
@@ -759,7 +777,8 @@ int cmd_compare(int argc, char** argv) {
       "Positions are sampled every max(h_A, h_B) (linear interpolation between steps); deviations are\n"
       "|p_A - p_B|. The swimming speed of a free body is |mean velocity of its position| over the\n"
       "second half of the run. Both models step with one integrator: --integrator, else implicit when\n"
-      "either has rods (euler when neither has). Exit status 1 when either simulation diverges.\n";
+      "either has rods (euler when neither has). Exit status 1 when either simulation diverges; the\n"
+      "deviations are then those of the samples both reached (JSON: samples, compared_until).\n";
   const auto pos = cl.parse(argc, argv);
   if (!pos) return 0;
   check_writable("--json", json_path);
@@ -815,10 +834,15 @@ int cmd_compare(int argc, char** argv) {
   }
   std::vector<Vec3> half_a, half_b, pa, pb;
   Progress progress("compare", n);
-  for (long k = 0; k <= n && !a.diverged && !b.diverged; ++k) {
+  long samples = 0;  // compared: up to the last time both simulations reached
+  double until = 0.0;
+  for (long k = 0; k <= n; ++k) {
     const double t = k * sim.duration / n;
     pa = a.at(t);
     pb = b.at(t);
+    if (a.diverged || b.diverged) break;
+    ++samples;
+    until = t;
     for (auto& p : pairs) {
       const double d = (pa[p.ia] - pb[p.ib]).norm();
       p.max = std::max(p.max, d);
@@ -841,24 +865,28 @@ int cmd_compare(int argc, char** argv) {
   j["duration"] = sim.duration;
   j["integrator"] = integrator_name(a.sim.integrator());
   j["timestep"] = {a.sim.timestep(), b.sim.timestep()};
-  j["samples"] = n + 1;
+  j["samples"] = samples;
   j["sample_interval"] = sim.duration / n;
+  if (diverged) j["compared_until"] = until;
   j["sites"] = json::object();
   j["bodies"] = json::object();
-  for (const auto& p : pairs) j[p.site ? "sites" : "bodies"][p.name] = {{"max", p.max}, {"rms", std::sqrt(p.sum2 / (n + 1))}};
+  for (const auto& p : pairs) j[p.site ? "sites" : "bodies"][p.name] = {{"max", p.max}, {"rms", std::sqrt(p.sum2 / samples)}};
   j["swimming_speed"] = {{"a", speeds(a, fa, half_a, pa)}, {"b", speeds(b, fb, half_b, pb)}};
   j["unmatched"] = unmatched;
   j["diverged"] = diverged;
-  for (const auto& w : collect_warnings(a.sim.scene(), a.sim.data())) warnings.push_back("A: " + w);
-  for (const auto& w : collect_warnings(b.sim.scene(), b.sim.data())) warnings.push_back("B: " + w);
+  for (const auto& w : collect_warnings(a.sim.scene(), a.sim.data(), a.messages)) warnings.push_back("A: " + w);
+  for (const auto& w : collect_warnings(b.sim.scene(), b.sim.data(), b.messages)) warnings.push_back("B: " + w);
   j["warnings"] = warnings;
   if (!json_path.empty()) write_json(json_path, j);
   if (json_path != "-") {
     std::printf("integrator: %s (both models), time steps %g s (A) and %g s (B)\n", integrator_name(a.sim.integrator()),
                 a.sim.timestep(), b.sim.timestep());
+    if (diverged)
+      std::printf("compared up to t = %g s (%ld of %ld samples), where %s diverged\n", until, samples, n + 1,
+                  a.diverged ? "A" : "B");
     std::printf("%-8s %-28s %14s %14s\n", "kind", "name", "max dev [m]", "rms dev [m]");
     for (const auto& p : pairs)
-      std::printf("%-8s %-28s %14.6g %14.6g\n", p.site ? "site" : "body", p.name.c_str(), p.max, std::sqrt(p.sum2 / (n + 1)));
+      std::printf("%-8s %-28s %14.6g %14.6g\n", p.site ? "site" : "body", p.name.c_str(), p.max, std::sqrt(p.sum2 / samples));
     for (const char* k : {"a", "b"})
       for (const auto& [name, v] : j["swimming_speed"][k].items())
         std::printf("swimming speed (%s) %s: %s m/s\n", k, name.c_str(), v.dump().c_str());

@@ -354,6 +354,34 @@ TEST_F(Cli, CompareModelWithItselfHasZeroDeviation) {
   EXPECT_TRUE(j["swimming_speed"]["a"].empty());  // no free bodies
 }
 
+// B diverges early (the cantilever at 4 ms under rk4, at t = 0.008 s): the deviations are over the
+// samples both simulations reached (outside probe U: the rms divided three samples' squares by the
+// 251 planned), and MuJoCo's warnings raised while B stepped are B's (they were reported as A's).
+TEST_F(Cli, CompareAfterADivergenceCountsTheSamplesComparedAndNamesTheModelWarned) {
+  std::string xml = read_text(kCantilever);
+  const size_t at = xml.find(R"(timestep="0.001")");
+  ASSERT_NE(at, std::string::npos);
+  const fs::path a = scratch() / "a.xml", b = scratch() / "b.xml", out = scratch() / "c.json";
+  std::ofstream(a) << std::string(xml).replace(at, 16, R"(timestep="0.0001")");
+  std::ofstream(b) << std::string(xml).replace(at, 16, R"(timestep="0.004")");
+  const Result r = cosserat("compare '" + a.string() + "' '" + b.string() + "' --integrator rk4 --duration 1 --json '" +
+                            out.string() + "'");
+  ASSERT_EQ(r.status, 1) << r.err;
+  EXPECT_NE(r.err.find("simulation of B diverged"), std::string::npos) << r.err;
+  const json j = json::parse(read_text(out));
+  EXPECT_TRUE(j["diverged"].get<bool>());
+  const long samples = j["samples"].get<long>();
+  const double until = j["compared_until"].get<double>();
+  EXPECT_GE(samples, 2);
+  EXPECT_LT(samples, 10);
+  EXPECT_NEAR(until, (samples - 1) * j["sample_interval"].get<double>(), 1e-12);
+  const double max = j["sites"]["beam/tip"]["max"].get<double>(), rms = j["sites"]["beam/tip"]["rms"].get<double>();
+  EXPECT_GT(max, 0.0);
+  EXPECT_LE(rms, max);
+  EXPECT_GE(rms, max / std::sqrt(static_cast<double>(samples)));  // the largest deviation is one of the samples
+  for (const auto& w : j["warnings"]) EXPECT_NE(w.get<std::string>().rfind("A: ", 0), 0u) << w;
+}
+
 // A keyframe that starts the run at t = 1 s: compare samples from the start, not from t = 0 (found by
 // fuzzing: it compared the two initial states and reported 0 deviation). Nothing here depends on
 // the absolute time, so the deviations are those of a start at t = 0.
