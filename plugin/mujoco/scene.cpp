@@ -821,6 +821,83 @@ bool riding_frame(const Scene& s, int b, int& rod, int& section, double& X) {
 
 // Load-time tables of widen_contact_margins: the explicit pairs with a sagging capsule and their own
 // margins and gaps, and whether two sagging capsules of different bodies can meet.
+// MuJoCo's <exclude> signatures, sorted (geoms_may_touch).
+std::vector<int> sorted_exclusions(const mjModel* m) {
+  std::vector<int> excluded(m->exclude_signature, m->exclude_signature + m->nexclude);
+  std::sort(excluded.begin(), excluded.end());
+  return excluded;
+}
+
+// MuJoCo's filters of a geom pair (mj_collision): the bodies' weld groups differ and are not parent
+// and child (unless that filter is off), no <exclude> names the bodies, contype meets conaffinity.
+bool geoms_may_touch(const mjModel* m, const std::vector<int>& excluded, int g1, int g2) {
+  const int b1 = m->geom_bodyid[g1], b2 = m->geom_bodyid[g2];
+  const int w1 = m->body_weldid[b1], w2 = m->body_weldid[b2];
+  if (w1 == w2) return false;
+  const int p1 = m->body_weldid[m->body_parentid[w1]], p2 = m->body_weldid[m->body_parentid[w2]];
+  if (!(m->opt.disableflags & mjDSBL_FILTERPARENT) && w1 && w2 && (w1 == p2 || w2 == p1)) return false;
+  const int signature = ((std::min(b1, b2) + 1) << 16) + std::max(b1, b2) + 1;
+  if (std::binary_search(excluded.begin(), excluded.end(), signature)) return false;
+  return (m->geom_contype[g1] & m->geom_conaffinity[g2]) || (m->geom_contype[g2] & m->geom_conaffinity[g1]);
+}
+
+// Distance between the segments [a0, a1] and [b0, b1] (clamped closest points).
+double segment_distance(const Vec3& a0, const Vec3& a1, const Vec3& b0, const Vec3& b1) {
+  const Vec3 u = a1 - a0, v = b1 - b0, w = a0 - b0;
+  const double a = u.dot(u), b = u.dot(v), c = v.dot(v), d = u.dot(w), e = v.dot(w);
+  const double den = a * c - b * b;
+  double sc = den > 1e-14 * a * c ? std::clamp((b * e - c * d) / den, 0.0, 1.0) : 0.0;
+  double tc = c > 0 ? std::clamp((b * sc + e) / c, 0.0, 1.0) : 0.0;
+  sc = a > 0 ? std::clamp((b * tc - d) / a, 0.0, 1.0) : 0.0;  // back-projection after clamping t
+  return (w + sc * u - tc * v).norm();
+}
+
+// A load warning for two rods whose capsules overlap in the model's reference configuration where
+// MuJoCo would collide them: rods mounted at one point of one body (or of the world) overlap at
+// their bases, which the proxies' exclusions (parent body, tip bodies) do not cover, and push each
+// other apart from the first step. (Outside probe U: two branches from one hub.)
+void warn_overlapping_rods(Scene& s) {
+  const mjModel* m = s.m;
+  if (s.rods.size() < 2 || !s.may_collide) return;
+  SceneData sd(s);
+  fwd_position(s, sd);
+  const std::vector<int> excluded = sorted_exclusions(m);
+  auto ends = [&](int g, Vec3& p0, Vec3& p1) {
+    const Vec3 c(sd.d->geom_xpos[3 * g], sd.d->geom_xpos[3 * g + 1], sd.d->geom_xpos[3 * g + 2]);
+    const Vec3 z(sd.d->geom_xmat[9 * g + 2], sd.d->geom_xmat[9 * g + 5], sd.d->geom_xmat[9 * g + 8]);
+    p0 = c - m->geom_size[3 * g + 1] * z;
+    p1 = c + m->geom_size[3 * g + 1] * z;
+  };
+  for (size_t r1 = 0; r1 < s.rods.size(); ++r1)
+    for (size_t r2 = r1 + 1; r2 < s.rods.size(); ++r2) {
+      std::vector<std::string> pairs;
+      for (const int g1 : s.rods[r1].geom_id)
+        for (const int g2 : s.rods[r2].geom_id) {
+          if (!geoms_may_touch(m, excluded, g1, g2)) continue;
+          Vec3 a0, a1, b0, b1;
+          ends(g1, a0, a1);
+          ends(g2, b0, b1);
+          const double depth = m->geom_size[3 * g1] + m->geom_size[3 * g2] - segment_distance(a0, a1, b0, b1);
+          if (depth > 1e-9 * (m->geom_size[3 * g1] + m->geom_size[3 * g2]))
+            pairs.push_back(std::string("<exclude body1=\"") + mj_id2name(m, mjOBJ_BODY, m->geom_bodyid[g1]) +
+                            "\" body2=\"" + mj_id2name(m, mjOBJ_BODY, m->geom_bodyid[g2]) + "\"/>");
+        }
+      if (pairs.empty()) continue;
+      std::sort(pairs.begin(), pairs.end());
+      pairs.erase(std::unique(pairs.begin(), pairs.end()), pairs.end());
+      const RodDecl& a = s.rods[r1].decl;
+      const RodDecl& b = s.rods[r2].decl;
+      std::string list;
+      for (size_t k = 0; k < pairs.size() && k < 6; ++k) list += (k ? " " : "") + pairs[k];
+      if (pairs.size() > 6) list += " ... (" + std::to_string(pairs.size()) + " pairs)";
+      s.load_warnings.push_back(b.file + ":" + std::to_string(b.line) + ": <cosserat name=\"" + b.name +
+                                "\">: its capsules overlap those of rod '" + a.name + "' (" + a.file + ":" +
+                                std::to_string(a.line) + ") in the model's initial configuration, where they " +
+                                "collide: the contacts push the rods apart from the first step. If they are " +
+                                "mounted together, exclude the pairs in <contact>: " + list);
+    }
+}
+
 void setup_sagging_contacts(Scene& s) {
   const mjModel* m = s.m;
   std::vector<char> sagging(m->ngeom, 0);
@@ -832,20 +909,8 @@ void setup_sagging_contacts(Scene& s) {
     if (sagging[g1] || sagging[g2]) s.sagging_pairs.push_back(p);
     if (sagging[g1] && sagging[g2]) s.sagging_capsules_meet = true;
   }
-  // MuJoCo's filters of a geom pair (mj_collision): the bodies' weld groups differ and are not parent
-  // and child (unless that filter is off), no <exclude> names the bodies, contype meets conaffinity
-  std::vector<int> excluded(m->exclude_signature, m->exclude_signature + m->nexclude);
-  std::sort(excluded.begin(), excluded.end());
-  const auto may_touch = [&](int g1, int g2) {
-    const int b1 = m->geom_bodyid[g1], b2 = m->geom_bodyid[g2];
-    const int w1 = m->body_weldid[b1], w2 = m->body_weldid[b2];
-    if (w1 == w2) return false;
-    const int p1 = m->body_weldid[m->body_parentid[w1]], p2 = m->body_weldid[m->body_parentid[w2]];
-    if (!(m->opt.disableflags & mjDSBL_FILTERPARENT) && w1 && w2 && (w1 == p2 || w2 == p1)) return false;
-    const int signature = ((std::min(b1, b2) + 1) << 16) + std::max(b1, b2) + 1;
-    if (std::binary_search(excluded.begin(), excluded.end(), signature)) return false;
-    return (m->geom_contype[g1] & m->geom_conaffinity[g2]) || (m->geom_contype[g2] & m->geom_conaffinity[g1]);
-  };
+  const std::vector<int> excluded = sorted_exclusions(m);
+  const auto may_touch = [&](int g1, int g2) { return geoms_may_touch(m, excluded, g1, g2); };
   const std::vector<int>& g = s.sagging_geoms;
   for (size_t i = 0; i < g.size() && !s.sagging_capsules_meet; ++i)
     for (size_t j = i + 1; j < g.size() && !s.sagging_capsules_meet; ++j) s.sagging_capsules_meet = may_touch(g[i], g[j]);
@@ -1714,6 +1779,7 @@ std::unique_ptr<Scene> compile(const Preprocessed& pre) {
   if (!s->rods.empty()) {
     recompute_qpos0_constants(*s);
     check_muscle_lengthranges(pre, *s);
+    warn_overlapping_rods(*s);
   }
   s->integrator = s->rods.empty() ? Integrator::Euler : Integrator::Implicit;
   if (s->m->opt.integrator == mjINT_RK4) s->integrator = Integrator::RK4;

@@ -757,3 +757,28 @@ TEST(MjcfScenes, VfsAssetsResolveAgainstTheLoadName) {
 }
 
 }  // namespace
+
+// Two rods mounted at one point of one body overlap at their bases, where MuJoCo collides them
+// (the proxies are excluded only against the parent body and the tip bodies): a load warning at
+// the second rod's line names the pairs to exclude (outside probe U: two branches from a hub pushed
+// each other apart, and `equilibrium` fell back to relaxation). With those exclusions, or with the
+// rods apart, nothing is said.
+TEST(MjcfErrors, RodsOverlappingAtTheStartAreWarnedAbout) {
+  auto xml = [](const char* pos_v, const char* contact) {
+    return std::string("<mujoco>\n<worldbody>\n<body name=\"hub\" pos=\"0 0 1\">\n"
+                       "<geom type=\"sphere\" size=\"0.02\" contype=\"0\" conaffinity=\"0\"/>\n"
+                       "<cosserat name=\"u\" euler=\"0 -45 0\" length=\"0.4\" sections=\"8\" radius=\"0.01\"/>\n"
+                       "<cosserat name=\"v\" pos=\"") +
+           pos_v + "\" euler=\"0 0 60\" length=\"0.4\" sections=\"8\" radius=\"0.01\"/>\n</body>\n</worldbody>\n" +
+           contact + "</mujoco>";
+  };
+  const auto together = load_scene_string(xml("0 0 0", ""), kInline);
+  ASSERT_EQ(together->load_warnings.size(), 1u);
+  const std::string& w = together->load_warnings[0];
+  EXPECT_EQ(w.rfind(kData + std::string("inline.xml:6: <cosserat name=\"v\">: its capsules overlap those of rod 'u'"), 0), 0u) << w;
+  EXPECT_NE(w.find(R"(<exclude body1="u/s0" body2="v/s0"/>)"), std::string::npos) << w;
+  const auto excluded = load_scene_string(xml("0 0 0", "<contact><exclude body1=\"u/s0\" body2=\"v/s0\"/></contact>\n"), kInline);
+  EXPECT_TRUE(excluded->load_warnings.empty()) << excluded->load_warnings.front();
+  const auto apart = load_scene_string(xml("0 0.05 0", ""), kInline);
+  EXPECT_TRUE(apart->load_warnings.empty()) << apart->load_warnings.front();
+}
