@@ -581,7 +581,10 @@ struct Equilibrium {
   Equilibrium(const std::string& path, const StateOptions& state)
       : scene(load(path)), data(std::make_unique<mj::SceneData>(*scene)) {
     state.apply(*scene, *data);
-    result = mj::equilibrium(*scene, *data);
+    Progress progress("equilibrium", 1);
+    mj::SceneStaticsOptions opt;
+    opt.progress = [&progress](const std::string& where) { progress.note(where); };
+    result = mj::equilibrium(*scene, *data, opt);
   }
   json report() const {
     json j = {{"converged", result.converged}, {"iterations", result.iterations}, {"residual", result.residual},

@@ -43,6 +43,21 @@ class Progress {
                  counted(done).c_str(), t, wall, left);
     std::fflush(stderr);
   }
+  // A phase without a known end (an iteration): `text` says where it is; the same redrawing on a
+  // terminal, and the same line every 10 s of wall time otherwise.
+  void note(const std::string& text) {
+    const double wall = std::chrono::duration<double>(Clock::now() - start_).count();
+    if (tty_) {
+      std::fprintf(stderr, "\r%s: %-70.70s", label_.c_str(), text.c_str());
+      std::fflush(stderr);
+      shown_ = 0;
+      return;
+    }
+    if (wall < next_line_) return;
+    next_line_ = wall + kLineInterval;
+    std::fprintf(stderr, "%s: %s, %.0f s wall\n", label_.c_str(), text.c_str(), wall);
+    std::fflush(stderr);
+  }
   // Erases the bar (before other output).
   void clear() {
     if (tty_ && shown_ >= 0) std::fprintf(stderr, "\r%*s\r", 80, "");

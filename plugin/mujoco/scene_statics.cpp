@@ -275,6 +275,9 @@ bool solve_smooth(StaticProblem& p, const Scene& s, SceneData& sd, const SceneSt
   int halvings = 0;
   while (lam < 1.0) {
     const double target = std::min(1.0, lam + dlam);
+    if (opt.progress)
+      opt.progress("Newton, load step " + std::to_string(res.load_steps + 1) + " to load factor " +
+                   cosserat::load_factor_text(target) + ", " + std::to_string(res.iterations) + " iterations so far");
     double w2 = 0.0;
     if (newton(p, target, opt, res) && (!opt.stable || stable_equilibrium(p, s, sd, target, w2))) {
       lam = target;
@@ -403,6 +406,11 @@ bool relax(const Scene& s, SceneData& sd, const std::vector<mjtNum>& q_start, co
       break;
     }
     ++res.iterations;
+    if (opt.progress && (k & 255) == 0) {
+      char buf[128];
+      std::snprintf(buf, sizeof buf, "dynamic relaxation, t = %.3g s of at most %g s", (k + 1) * h, opt.relaxation_time);
+      opt.progress(buf);
+    }
     const double ke = kinetic_energy(s, sd);
     if (ke < ke_prev || ke == 0.0) {  // past a peak (or at rest): stop, and test for equilibrium
       mju_zero(d->qvel, s.m->nv);

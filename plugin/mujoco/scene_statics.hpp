@@ -17,6 +17,7 @@
 // produced it.
 #pragma once
 
+#include <functional>
 #include <string>
 
 #include <Eigen/Core>
@@ -37,6 +38,9 @@ struct SceneStaticsOptions {
   // negative eigenvalue of Kt x = omega^2 M x); otherwise the increment is halved, and if the
   // continuation stalls, the relaxation (which only settles in stable states) takes over
   bool stable = true;
+  // called now and then with where the solve is (Newton's load step, the relaxation's time): a
+  // long solve's progress line (the cosserat tool's `equilibrium` and `linearize`)
+  std::function<void(const std::string&)> progress;
 };
 
 struct SceneStaticsResult {

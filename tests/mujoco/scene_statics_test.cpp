@@ -209,7 +209,15 @@ TEST(SceneStatics, ContactSceneFallsBackToRelaxation) {
     EXPECT_NE(res.message.find("constraint"), std::string::npos) << res.message;
   }
   SceneData sd(*s);
-  const SceneStaticsResult res = equilibrium(*s, sd);
+  // the progress hook hears both phases (outside probe U: a 384-dof tree's equilibrium ran 76 s
+  // without a word)
+  std::vector<std::string> heard;
+  SceneStaticsOptions opt;
+  opt.progress = [&heard](const std::string& where) { heard.push_back(where); };
+  const SceneStaticsResult res = equilibrium(*s, sd, opt);
+  ASSERT_FALSE(heard.empty());
+  EXPECT_EQ(heard.front().rfind("Newton, load step 1 to load factor 1", 0), 0u) << heard.front();
+  EXPECT_EQ(heard.back().rfind("dynamic relaxation, t = ", 0), 0u) << heard.back();
   ASSERT_TRUE(res.converged) << res.message;
   EXPECT_EQ(res.method, "dynamic relaxation");
   EXPECT_GT(res.constraint_rows, 0);
