@@ -830,6 +830,17 @@ int cmd_compare(int argc, char** argv) {
   const long half = n / 2;
   const std::vector<int> fa = free_bodies(a.sim), fb = free_bodies(b.sim);
   std::vector<std::string> warnings;
+  const mj::Scene &sa = a.sim.scene(), &sb = b.sim.scene();
+  if (a.sim.integrator() == Integrator::Implicit && sa.newton_for(Integrator::Implicit) == 0 &&
+      mj::implicit_is_mujocos(sa) != mj::implicit_is_mujocos(sb)) {
+    const char* ours = mj::implicit_is_mujocos(sa) ? "B" : "A";
+    const char* theirs = mj::implicit_is_mujocos(sa) ? "A" : "B";
+    warnings.push_back(std::string("'implicit' steps the two models by two methods: ") + ours +
+                       " (rods or the fluid) by the linearised backward Euler of the rods (stiffness implicit, Coriolis "
+                       "explicit), " + theirs + " by MuJoCo's own implicit (Coriolis implicit, springs explicit); the "
+                       "deviations include their difference, first order in the step: compare with --integrator euler, "
+                       "rk4 or a second-order scheme");
+  }
   if (pairs.empty()) {
     const std::string none = (*pos)[0] + " and " + (*pos)[1] + " share no named site or body";
     if (fa.empty() && fb.empty()) fail(none + " and have no free body to give a swimming speed: nothing to compare");

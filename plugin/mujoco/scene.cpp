@@ -1797,6 +1797,8 @@ std::unique_ptr<Scene> compile(const Preprocessed& pre) {
 
 std::unique_ptr<Scene> load_scene(const std::string& path) { return compile(preprocess_file(path)); }
 
+bool implicit_is_mujocos(const Scene& s) { return s.rods.empty() && !s.fluid.active; }
+
 std::unique_ptr<Scene> load_scene_string(const std::string& xml, const std::string& path) {
   return compile(preprocess_string(xml, path));
 }
@@ -2402,7 +2404,7 @@ bool single_step(const Scene& s, SceneData& sd, Integrator method) {
   switch (method) {
     case Integrator::Implicit:
       if (n > 0) return newton_step(s, sd, backward_euler(), n) || n == 1;
-      if (s.rods.empty() && !s.fluid.active) {  // MuJoCo's own implicit integrator (mj_step's)
+      if (implicit_is_mujocos(s)) {  // MuJoCo's own implicit integrator (mj_step's)
         forward(s, sd);
         mj_implicit(s.m, sd.d);
         return true;

@@ -353,6 +353,12 @@ std::unique_ptr<Scene> load_scene_string(const std::string& xml, const std::stri
 //     the rods' M) is not assembled either, constraints or not (SceneData::forces_only).
 enum class Need { Acceleration, Forces, StaticForces };
 
+// Whether Integrator::Implicit (without Newton corrections) steps `s` with MuJoCo's own mj_implicit,
+// bit for bit mj_step's (a scene without rods and without the plugin's fluid: Coriolis implicit,
+// joint springs and servos' position gains explicit), rather than the rods' linearised backward
+// Euler (implicit_step: stiffness implicit, Coriolis explicit).
+bool implicit_is_mujocos(const Scene& s);
+
 // Staged MuJoCo pipeline with the rod patches: position, velocity, actuation, acceleration,
 // constraint solve. With Need::Acceleration it leaves d->qacc as MuJoCo's forward would. MuJoCo's
 // control callback (mjcb_control) is called before the actuation, as mj_forward calls it.
