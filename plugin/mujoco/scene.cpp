@@ -898,6 +898,57 @@ void warn_overlapping_rods(Scene& s) {
     }
 }
 
+// Load warnings for the damping and springs the implicit step's matrix cannot hold (factor_implicit):
+// a tendon's, or an actuator's velocity or position gain, whose dofs lie on two branches of the
+// kinematic tree (at the initial configuration) stays explicit under every implicit scheme, and
+// a large one needs a small step. (Outside probe V: two rods tied tip to tip by a damped tendon
+// gained energy, and diverged at a damping of 10 N s/m, with nothing said.)
+void warn_cross_branch_terms(Scene& s) {
+  const mjModel* m = s.m;
+  bool any = false;
+  for (int t = 0; t < m->ntendon; ++t) any = any || m->tendon_damping[t] > 0 || m->tendon_stiffness[t] > 0;
+  for (int a = 0; a < m->nu; ++a)
+    any = any || (m->actuator_trntype[a] != mjTRN_JOINT && m->actuator_trntype[a] != mjTRN_JOINTINPARENT);
+  if (!any) return;
+  SceneData sd(s);
+  fwd_position(s, sd);
+  const int nv = m->nv;
+  auto one_branch = [&](const mjtNum* u) {  // every two of u's dofs: one is the other's ancestor
+    std::vector<int> nz;
+    for (int i = 0; i < nv; ++i)
+      if (u[i] != 0.0) nz.push_back(i);
+    for (size_t a = 1; a < nz.size(); ++a)
+      for (size_t b = 0; b < a; ++b) {
+        int k = nz[a];
+        while (k > nz[b]) k = m->dof_parentid[k];
+        if (k != nz[b]) return false;
+      }
+    return true;
+  };
+  const char* where = "two branches of the kinematic tree, which the implicit step's matrix (MuJoCo's mass-matrix "
+                      "pattern) cannot couple: it stays explicit under implicit and rosenbrock, and the Newton "
+                      "iterations of trapezoidal, genalpha, midpoint and implicit --newton do not have it in their "
+                      "matrix (they converge slowly or split the steps); a large one needs a small step";
+  for (int t = 0; t < m->ntendon; ++t) {
+    if (!(m->tendon_damping[t] > 0 || m->tendon_stiffness[t] > 0) || one_branch(sd.d->ten_J + t * nv)) continue;
+    const char* name = mj_id2name(m, mjOBJ_TENDON, t);
+    s.load_warnings.push_back(std::string("tendon '") + (name ? name : std::to_string(t).c_str()) + "': its " +
+                              (m->tendon_damping[t] > 0 ? "damping" : "spring") + " pulls on dofs on " + where);
+  }
+  std::vector<mjtNum> moment(nv);
+  for (int a = 0; a < m->nu; ++a) {
+    const int tt = m->actuator_trntype[a];
+    if (tt == mjTRN_JOINT || tt == mjTRN_JOINTINPARENT) continue;
+    // gains on velocity or length: the affine bias's terms, or a position or velocity servo's gain
+    const bool gains = m->actuator_biastype[a] == mjBIAS_AFFINE &&
+                       (m->actuator_biasprm[mjNBIAS * a + 1] != 0 || m->actuator_biasprm[mjNBIAS * a + 2] != 0);
+    if (!gains || one_branch(sd.d->actuator_moment + a * nv)) continue;
+    const char* name = mj_id2name(m, mjOBJ_ACTUATOR, a);
+    s.load_warnings.push_back(std::string("actuator '") + (name ? name : std::to_string(a).c_str()) +
+                              "': its position or velocity gain acts on dofs on " + where);
+  }
+}
+
 void setup_sagging_contacts(Scene& s) {
   const mjModel* m = s.m;
   std::vector<char> sagging(m->ngeom, 0);
@@ -1780,6 +1831,7 @@ std::unique_ptr<Scene> compile(const Preprocessed& pre) {
     recompute_qpos0_constants(*s);
     check_muscle_lengthranges(pre, *s);
     warn_overlapping_rods(*s);
+    warn_cross_branch_terms(*s);
   }
   s->integrator = s->rods.empty() ? Integrator::Euler : Integrator::Implicit;
   if (s->m->opt.integrator == mjINT_RK4) s->integrator = Integrator::RK4;

@@ -149,7 +149,18 @@ TEST(ActuatorImplicit, TendonDampingAndTendonVelocityServosAreBackwardEuler) {
     EXPECT_NEAR(sd.d->qpos[0], q, 1e-12);
     EXPECT_NEAR(sd.d->qvel[0], rn, 1e-12);
   }
-  // a tendon across two branches stays explicit: h d / m = 10 diverges
+  // a tendon across two branches stays explicit: h d / m = 10 diverges; loading says so (outside
+  // probe V: nothing was said)
+  for (const bool branches : {false, true}) {
+    const auto t = load_scene_string(tendon_xml(R"(damping="1250")", "", branches), kPath);
+    const auto& w = t->load_warnings;
+    if (!branches) {
+      EXPECT_TRUE(w.empty()) << w.front();
+      continue;
+    }
+    ASSERT_EQ(w.size(), 1u);
+    EXPECT_EQ(w[0].rfind("tendon 't': its damping pulls on dofs on two branches", 0), 0u) << w[0];
+  }
   auto s = load_scene_string(tendon_xml(R"(damping="1250")", "", true), kPath);
   SceneData sd(*s);
   sd.d->qvel[0] = 1.0;
