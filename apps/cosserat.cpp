@@ -777,7 +777,8 @@ int cmd_compare(int argc, char** argv) {
   state.add_to(cl);
   cl.options.push_back(text_option("--json", "F", "write {sites, bodies: {name: {max, rms}}, swimming_speed, ...} ('-': stdout)", json_path));
   cl.details =
-      "Positions are sampled every max(h_A, h_B) (linear interpolation between steps); deviations are\n"
+      "Positions are sampled every max(h_A, h_B) (linear interpolation between steps: a model whose\n"
+      "step does not divide the duration is simulated one step past it); deviations are\n"
       "|p_A - p_B|. The swimming speed of a free body is |mean velocity of its position| over the\n"
       "second half of the run. Both models step with one integrator: --integrator, else implicit when\n"
       "either has rods (euler when neither has). Exit status 1 when either simulation diverges; the\n"
