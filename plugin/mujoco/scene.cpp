@@ -1413,7 +1413,8 @@ void fwd_inertia(const Scene& s, SceneData& sd, bool mass) {
 void fwd_position(const Scene& s, SceneData& sd, Need need) {
   const mjModel* m = s.m;
   mjData* d = sd.d;
-  fwd_inertia(s, sd, need != Need::StaticForces);
+  const bool static_forces = need == Need::StaticForces || need == Need::SmoothStaticForces;
+  fwd_inertia(s, sd, !static_forces);
   mj_camlight(m, d);
   if (!s.com_cameras.empty() || !s.com_lights.empty()) patch_com_tracking(s, sd);
   mj_tendon(m, d);
@@ -1421,7 +1422,7 @@ void fwd_position(const Scene& s, SceneData& sd, Need need) {
   fluid_damping(s, sd);  // fluid hook: damping matrix (scene_fluid.hpp); no-op without the fluid
   // (MuJoCo factorises M before the collisions; nothing up to the constraint projection reads
   // the factor, so it waits until the constraint rows tell whether it is needed)
-  if (s.may_collide) {
+  if (s.may_collide && need != Need::SmoothStaticForces) {
     if (!s.sagging_geoms.empty()) widen_contact_margins(s, sd);
     mj_collision(m, d);
   }
@@ -1432,7 +1433,7 @@ void fwd_position(const Scene& s, SceneData& sd, Need need) {
   if (d->ncon && !s.rods.empty()) patch_contacts(s, sd);
   mj_transmission(m, d);
   if (!s.rod_site_actuators.empty()) patch_site_transmissions(s, sd);
-  sd.forces_only = need == Need::StaticForces ||
+  sd.forces_only = static_forces ||
                    (need == Need::Forces && d->nefc == 0 && (sd.step_sensors_done || !has_acceleration_sensors(m)));
   if (sd.forces_only) return;
   mj_factorM(m, d);

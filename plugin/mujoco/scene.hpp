@@ -351,7 +351,11 @@ std::unique_ptr<Scene> load_scene_string(const std::string& xml, const std::stri
 //   StaticForces: the static solver's finite differences need qfrc_smooth at rest only, after
 //     fwd_position, fwd_velocity, mj_fwdActuation and smooth_forces: the mass matrix (d->qM, d->crb,
 //     the rods' M) is not assembled either, constraints or not (SceneData::forces_only).
-enum class Need { Acceleration, Forces, StaticForces };
+//   SmoothStaticForces: StaticForces without collision detection (d->ncon = 0): qfrc_smooth does not
+//     depend on the contacts, and the smooth static problem ignores them (its tangent stiffness
+//     takes 2 nv of these evaluations; a 384-dof tree with 60 contact rows spent most of its
+//     equilibrium in mj_collision and the contact rows).
+enum class Need { Acceleration, Forces, StaticForces, SmoothStaticForces };
 
 // Whether Integrator::Implicit (without Newton corrections) steps `s` with MuJoCo's own mj_implicit,
 // bit for bit mj_step's (a scene without rods and without the plugin's fluid: Coriolis implicit,

@@ -56,12 +56,12 @@ class StaticProblem {
   }
 
   // f = qfrc_smooth at the current qpos, at rest, under load factor lambda. Returns the scale.
-  // Without `mass` the mass matrix is left stale (Need::StaticForces); M's factorisation, O(nv^3)
+  // Without `mass` the mass matrix is left stale (Need::SmoothStaticForces, which skips the collisions too); M's factorisation, O(nv^3)
   // for one long rod (whose dofs all share one branch), is skipped whenever no constraint acts.
   double force(double lambda, VectorXd& f, bool mass = true) {
     set_loads(lambda);
     mju_zero(d_->qvel, m_->nv);
-    fwd_position(s_, sd_, mass ? Need::Forces : Need::StaticForces);
+    fwd_position(s_, sd_, mass ? Need::Forces : Need::SmoothStaticForces);
     fwd_velocity(s_, sd_);
     mj_fwdActuation(m_, d_);
     if (sd_.forces_only)
