@@ -1947,7 +1947,8 @@ void add_stiffness_row(SceneData& sd, const mjModel* m, mjtNum* A, const mjtNum*
 //   A = M + cD h D + cK h^2 K,
 // D = joint damping + rods' Kelvin-Voigt damping + tendon damping J' d J + actuators' -d force/d
 // velocity moment moment' + fluid damping D_f, K = the rods' stiffness + the springs of hinge and
-// slide joints + actuators' -gear^2 d force/d length (position servos) on them + tendon springs
+// slide joints (and k I for those of ball and free joints) + actuators' -gear^2 d force/d length
+// (position servos) on hinges and slides + tendon springs
 // k J' J + actuators' -d force/d length moment moment' on tendons (rods = false: joint damping +
 // D_f, K = 0: MuJoCo's Euler with the fluid added to its implicit damping). The tendon and
 // actuator terms count only when `rods` (velocity servos such as a flagellar motor are stiff
@@ -1955,9 +1956,10 @@ void add_stiffness_row(SceneData& sd, const mjModel* m, mjtNum* A, const mjtNum*
 // on different branches of the tree (which qM's pattern cannot couple) stays explicit, and so do
 // negative springs and dampers (a negative joint stiffness, positive feedback of an actuator: in
 // A they would make it indefinite, and its factorisation fails at steps of h^2 |K| ~ M), a
-// stretched spatial tendon's geometric stiffness k (L - L0) d2L/dq2 (indefinite too), position
-// gains on other transmissions than hinge and slide joints and tendons, and the springs of ball
-// and free joints. (MuJoCo's own implicit integrator, which a rod-free scene runs, takes the
+// stretched spatial tendon's geometric stiffness k (L - L0) d2L/dq2 (indefinite too), and position
+// gains on other transmissions than hinge and slide joints and tendons. Ball and free joints'
+// springs enter as k I on their dofs (the rotational part's derivative at the rest orientation).
+// (MuJoCo's own implicit integrator, which a rod-free scene runs, takes the
 // velocity terms whatever their pattern, and no position terms.) K's diagonal outside the rods
 // is kept in sd.joint_K, its outer products in sd.K_rows (subtract_stiffness). Assembled in MuJoCo's sparse qM (K
 // and D live inside each section's dof chain, D_f in the kinematic tree's pattern), after
@@ -1974,9 +1976,14 @@ void factor_implicit(const Scene& s, SceneData& sd, bool rods, double cD, double
   std::fill(sd.joint_K.begin(), sd.joint_K.end(), 0.0);
   sd.K_nrows = 0;
   if (rods && !(m->opt.disableflags & mjDSBL_PASSIVE))  // mj_passive's joint springs
-    for (int j = 0; j < m->njnt; ++j)
-      if ((m->jnt_type[j] == mjJNT_HINGE || m->jnt_type[j] == mjJNT_SLIDE) && m->jnt_stiffness[j] > 0)
-        sd.joint_K[m->jnt_dofadr[j]] += m->jnt_stiffness[j];
+    for (int j = 0; j < m->njnt; ++j) {
+      if (!(m->jnt_stiffness[j] > 0)) continue;
+      // a ball's (and a free joint's rotational) spring pulls by k times the rotation vector from
+      // its rest orientation, whose derivative is the identity there (exact for rotations about a
+      // fixed axis); a free joint's translational spring is k times the displacement
+      const int n = m->jnt_type[j] == mjJNT_FREE ? 6 : m->jnt_type[j] == mjJNT_BALL ? 3 : 1;
+      for (int k = 0; k < n; ++k) sd.joint_K[m->jnt_dofadr[j] + k] += m->jnt_stiffness[j];
+    }
   if (rods && !(m->opt.disableflags & mjDSBL_ACTUATION))
     for (int a = 0; a < m->nu; ++a) {
       const int tt = m->actuator_trntype[a];

@@ -204,3 +204,71 @@ TEST(Rosenbrock, ModelChoosesIt) {
 }
 
 }  // namespace
+
+namespace {
+
+// The springs of ball and free joints are in the matrix too (k I on their dofs; twenty-fourth
+// session: they had stayed explicit). A sphere of isotropic inertia 1 on a ball joint turned about
+// a fixed axis, and a free body displaced along x, are linear oscillators of w = 100 rad/s
+// (k = 1e4): under rosenbrock their energy falls by the stability function, as a slide's, and
+// under implicit they follow backward Euler's recurrence (at h w = 5, where explicit springs
+// diverge).
+TEST(Rosenbrock, BallAndFreeJointSpringsAreInTheMatrix) {
+  for (const bool ball : {true, false}) {
+    const std::string xml = std::string(R"(<mujoco><option gravity="0 0 0"/><worldbody><body name="b" pos="0 0 1">
+      <joint name="j" type=")") + (ball ? "ball" : "free") + R"(" stiffness="10000"/>
+      <geom type="sphere" size="0.05" contype="0" conaffinity="0"/>
+      <inertial pos="0 0 0" mass="1" diaginertia="1 1 1"/></body>
+      <cosserat name="apart" pos="1 0 0" length="0.1" contype="0" conaffinity="0"/></worldbody></mujoco>)";
+    // the displacement x and its rate v: the turn about x (ball), or the shift along x (free)
+    auto state = [&](const mjData* d, double& x, double& v) {
+      if (ball) {
+        x = 2.0 * std::atan2(d->qpos[1], d->qpos[0]);
+        v = d->qvel[0];
+      } else {
+        x = d->qpos[0];
+        v = d->qvel[0];
+      }
+    };
+    auto start = [&](mjData* d) {
+      if (ball) {
+        d->qpos[0] = std::cos(0.005);
+        d->qpos[1] = std::sin(0.005);  // 0.01 rad about x
+      } else {
+        d->qpos[0] = 0.01;
+      }
+    };
+    for (const double h : {1e-3, 4e-3, 16e-3}) {
+      SCOPED_TRACE(std::string(ball ? "ball" : "free") + ", rosenbrock, h = " + std::to_string(h));
+      auto s = load_scene_string(xml, kPath);
+      s->m->opt.timestep = h;
+      SceneData sd(*s);
+      start(sd.d);
+      double x, v;
+      state(sd.d, x, v);
+      const double e0 = 0.5 * v * v + 0.5 * 1e4 * x * x;
+      const int n = static_cast<int>(std::lround(1.0 / h));
+      for (int k = 0; k < n; ++k) ASSERT_EQ(step(*s, sd, Integrator::Rosenbrock), Status::Ok);
+      state(sd.d, x, v);
+      const double R = stability_function_modulus(h * 100.0);
+      EXPECT_NEAR(0.5 * v * v + 0.5 * 1e4 * x * x, e0 * std::pow(R, 2 * n), 1e-9 * e0);
+    }
+    SCOPED_TRACE(std::string(ball ? "ball" : "free") + ", implicit, h = 50 ms");
+    auto s = load_scene_string(xml, kPath);
+    const double h = 0.05, k = 1e4;
+    s->m->opt.timestep = h;
+    SceneData sd(*s);
+    start(sd.d);
+    double x = 0.01, v = 0.0, xs, vs;
+    for (int n = 0; n < 40; ++n) {
+      ASSERT_EQ(step(*s, sd, Integrator::Implicit), Status::Ok) << "step " << n;
+      v += h * -(k * x + h * k * v) / (1.0 + h * h * k);
+      x += h * v;
+      state(sd.d, xs, vs);
+      ASSERT_NEAR(xs, x, 1e-12) << "step " << n;
+      ASSERT_NEAR(vs, v, 1e-12) << "step " << n;
+    }
+  }
+}
+
+}  // namespace
