@@ -898,57 +898,6 @@ void warn_overlapping_rods(Scene& s) {
     }
 }
 
-// Load warnings for the damping and springs the implicit step's matrix cannot hold (factor_implicit):
-// a tendon's, or an actuator's velocity or position gain, whose dofs lie on two branches of the
-// kinematic tree (at the initial configuration) stays explicit under every implicit scheme, and
-// a large one needs a small step. (Outside probe V: two rods tied tip to tip by a damped tendon
-// gained energy, and diverged at a damping of 10 N s/m, with nothing said.)
-void warn_cross_branch_terms(Scene& s) {
-  const mjModel* m = s.m;
-  bool any = false;
-  for (int t = 0; t < m->ntendon; ++t) any = any || m->tendon_damping[t] > 0 || m->tendon_stiffness[t] > 0;
-  for (int a = 0; a < m->nu; ++a)
-    any = any || (m->actuator_trntype[a] != mjTRN_JOINT && m->actuator_trntype[a] != mjTRN_JOINTINPARENT);
-  if (!any) return;
-  SceneData sd(s);
-  fwd_position(s, sd);
-  const int nv = m->nv;
-  auto one_branch = [&](const mjtNum* u) {  // every two of u's dofs: one is the other's ancestor
-    std::vector<int> nz;
-    for (int i = 0; i < nv; ++i)
-      if (u[i] != 0.0) nz.push_back(i);
-    for (size_t a = 1; a < nz.size(); ++a)
-      for (size_t b = 0; b < a; ++b) {
-        int k = nz[a];
-        while (k > nz[b]) k = m->dof_parentid[k];
-        if (k != nz[b]) return false;
-      }
-    return true;
-  };
-  const char* where = "two branches of the kinematic tree, which the implicit step's matrix (MuJoCo's mass-matrix "
-                      "pattern) cannot couple: it stays explicit under implicit and rosenbrock, and the Newton "
-                      "iterations of trapezoidal, genalpha, midpoint and implicit --newton do not have it in their "
-                      "matrix (they converge slowly or split the steps); a large one needs a small step";
-  for (int t = 0; t < m->ntendon; ++t) {
-    if (!(m->tendon_damping[t] > 0 || m->tendon_stiffness[t] > 0) || one_branch(sd.d->ten_J + t * nv)) continue;
-    const char* name = mj_id2name(m, mjOBJ_TENDON, t);
-    s.load_warnings.push_back(std::string("tendon '") + (name ? name : std::to_string(t).c_str()) + "': its " +
-                              (m->tendon_damping[t] > 0 ? "damping" : "spring") + " pulls on dofs on " + where);
-  }
-  std::vector<mjtNum> moment(nv);
-  for (int a = 0; a < m->nu; ++a) {
-    const int tt = m->actuator_trntype[a];
-    if (tt == mjTRN_JOINT || tt == mjTRN_JOINTINPARENT) continue;
-    // gains on velocity or length: the affine bias's terms, or a position or velocity servo's gain
-    const bool gains = m->actuator_biastype[a] == mjBIAS_AFFINE &&
-                       (m->actuator_biasprm[mjNBIAS * a + 1] != 0 || m->actuator_biasprm[mjNBIAS * a + 2] != 0);
-    if (!gains || one_branch(sd.d->actuator_moment + a * nv)) continue;
-    const char* name = mj_id2name(m, mjOBJ_ACTUATOR, a);
-    s.load_warnings.push_back(std::string("actuator '") + (name ? name : std::to_string(a).c_str()) +
-                              "': its position or velocity gain acts on dofs on " + where);
-  }
-}
-
 void setup_sagging_contacts(Scene& s) {
   const mjModel* m = s.m;
   std::vector<char> sagging(m->ngeom, 0);
@@ -1297,6 +1246,14 @@ SceneData::SceneData(const Scene& s) {
   joint_K.assign(nv, 0);
   K_rows.assign(static_cast<size_t>(s.m->ntendon + s.m->nu) * nv, 0);
   K_row_coef.assign(s.m->ntendon + s.m->nu, 0);
+  {
+    const size_t r = static_cast<size_t>(s.m->ntendon + s.m->nu);
+    W_rows.assign(r * nv, 0);
+    W_Z.assign(r * nv, 0);
+    W_coef.assign(r, 0);
+    W_S.assign(r * r, 0);
+    W_t.assign(r, 0);
+  }
   tree_nz.assign(nv, 0);
   newton.size(s.m);
   for (auto* v : {&newton.f0, &newton.A0, &newton.A, &newton.r, &newton.y, &newton.delta, &newton.v_end})
@@ -1832,7 +1789,6 @@ std::unique_ptr<Scene> compile(const Preprocessed& pre) {
     recompute_qpos0_constants(*s);
     check_muscle_lengthranges(pre, *s);
     warn_overlapping_rods(*s);
-    warn_cross_branch_terms(*s);
   }
   s->integrator = s->rods.empty() ? Integrator::Euler : Integrator::Implicit;
   if (s->m->opt.integrator == mjINT_RK4) s->integrator = Integrator::RK4;
@@ -1935,12 +1891,49 @@ bool add_outer_in_tree(const mjModel* m, mjtNum* A, const mjtNum* u, double c, s
   return true;
 }
 
-// A += hK k u u' (a tendon's spring, or a tendon actuator's position gain) where u's dofs lie on
-// one branch of the tree, the row kept for subtract_stiffness.
+// A += c u u' (c > 0): in qM's tree pattern where u's dofs lie on one branch, else kept as a row of
+// the low-rank correction solve_implicit applies (sd.W_rows).
+void add_outer(SceneData& sd, const mjModel* m, mjtNum* A, const mjtNum* u, double c) {
+  if (add_outer_in_tree(m, A, u, c, sd.tree_nz) || !(c > 0)) return;
+  std::copy(u, u + m->nv, sd.W_rows.begin() + static_cast<size_t>(sd.W_nrows) * m->nv);
+  sd.W_coef[sd.W_nrows++] = c;
+}
+
+// A += hK k u u' (a tendon's spring, or a tendon actuator's position gain), the row kept for
+// subtract_stiffness.
 void add_stiffness_row(SceneData& sd, const mjModel* m, mjtNum* A, const mjtNum* u, double k, double hK) {
-  if (!add_outer_in_tree(m, A, u, hK * k, sd.tree_nz)) return;
+  add_outer(sd, m, A, u, hK * k);
   std::copy(u, u + m->nv, sd.K_rows.begin() + static_cast<size_t>(sd.K_nrows) * m->nv);
   sd.K_row_coef[sd.K_nrows++] = k;
+}
+
+// After A_tree's factorisation: Z = A_tree^-1 U and the Cholesky factor (lower, in place) of
+// S = C^-1 + U' Z, symmetric positive definite (C > 0, A_tree positive definite). Should a pivot
+// not be positive (round-off on a term far below A's scale) the correction is dropped: those
+// terms are then explicit, as before they were taken at all.
+void factor_woodbury(const mjModel* m, SceneData& sd) {
+  const int nv = m->nv, r = sd.W_nrows;
+  if (r == 0) return;
+  for (int i = 0; i < r; ++i)
+    solve_ldl(m, sd.A_LD.data(), sd.A_LDiagInv.data(), sd.W_Z.data() + i * nv, sd.W_rows.data() + i * nv);
+  mjtNum* S = sd.W_S.data();
+  for (int i = 0; i < r; ++i)
+    for (int j = 0; j <= i; ++j)
+      S[i * r + j] = mju_dot(sd.W_rows.data() + i * nv, sd.W_Z.data() + j * nv, nv) + (i == j ? 1.0 / sd.W_coef[i] : 0.0);
+  for (int j = 0; j < r; ++j) {  // S = L L' (L in the lower triangle)
+    double pivot = S[j * r + j];
+    for (int k = 0; k < j; ++k) pivot -= S[j * r + k] * S[j * r + k];
+    if (!(pivot > 0)) {
+      sd.W_nrows = 0;
+      return;
+    }
+    S[j * r + j] = std::sqrt(pivot);
+    for (int i = j + 1; i < r; ++i) {
+      double v = S[i * r + j];
+      for (int k = 0; k < j; ++k) v -= S[i * r + k] * S[j * r + k];
+      S[i * r + j] = v / S[j * r + j];
+    }
+  }
 }
 
 // The implicit step's matrix
@@ -1952,9 +1945,10 @@ void add_stiffness_row(SceneData& sd, const mjModel* m, mjtNum* A, const mjtNum*
 // k J' J + actuators' -d force/d length moment moment' on tendons (rods = false: joint damping +
 // D_f, K = 0: MuJoCo's Euler with the fluid added to its implicit damping). The tendon and
 // actuator terms count only when `rods` (velocity servos such as a flagellar motor are stiff
-// dampers, position servos and elastic cables stiff springs); a tendon or actuator whose dofs lie
-// on different branches of the tree (which qM's pattern cannot couple) stays explicit, and so do
-// negative springs and dampers (a negative joint stiffness, positive feedback of an actuator: in
+// dampers, position servos and elastic cables stiff springs); a tendon's or actuator's term whose
+// dofs lie on different branches of the tree (which qM's pattern cannot couple) is kept out of
+// the tree factor and added by a low-rank (Woodbury) correction (sd.W_rows, solve_implicit).
+// Explicit stay negative springs and dampers (a negative joint stiffness, positive feedback of an actuator: in
 // A they would make it indefinite, and its factorisation fails at steps of h^2 |K| ~ M), a
 // stretched spatial tendon's geometric stiffness k (L - L0) d2L/dq2 (indefinite too), and position
 // gains on other transmissions than hinge and slide joints and tendons. Ball and free joints'
@@ -1975,6 +1969,7 @@ void factor_implicit(const Scene& s, SceneData& sd, bool rods, double cD, double
   for (int i = 0; i < nv; ++i) A[m->dof_Madr[i]] += hD * m->dof_damping[i];
   std::fill(sd.joint_K.begin(), sd.joint_K.end(), 0.0);
   sd.K_nrows = 0;
+  sd.W_nrows = 0;
   if (rods && !(m->opt.disableflags & mjDSBL_PASSIVE))  // mj_passive's joint springs
     for (int j = 0; j < m->njnt; ++j) {
       if (!(m->jnt_stiffness[j] > 0)) continue;
@@ -1996,7 +1991,7 @@ void factor_implicit(const Scene& s, SceneData& sd, bool rods, double cD, double
       if ((tt != mjTRN_JOINT && tt != mjTRN_JOINTINPARENT) ||
           (m->jnt_type[j] != mjJNT_HINGE && m->jnt_type[j] != mjJNT_SLIDE)) {
         // other transmissions: velocity = moment' qvel (MuJoCo's actuator_velocity)
-        if (df.velocity < 0.0) add_outer_in_tree(m, A, d->actuator_moment + a * nv, -hD * df.velocity, sd.tree_nz);
+        if (df.velocity < 0.0) add_outer(sd, m, A, d->actuator_moment + a * nv, -hD * df.velocity);
         // a tendon's length is moment' q to first order (a site transmission has no length)
         if (tt == mjTRN_TENDON && df.length < 0.0) add_stiffness_row(sd, m, A, d->actuator_moment + a * nv, -df.length, hK);
         continue;
@@ -2008,7 +2003,7 @@ void factor_implicit(const Scene& s, SceneData& sd, bool rods, double cD, double
     }
   if (rods && !(m->opt.disableflags & mjDSBL_PASSIVE))  // mj_passive's tendon damping and springs
     for (int t = 0; t < m->ntendon; ++t) {
-      if (m->tendon_damping[t] > 0) add_outer_in_tree(m, A, d->ten_J + t * nv, hD * m->tendon_damping[t], sd.tree_nz);
+      if (m->tendon_damping[t] > 0) add_outer(sd, m, A, d->ten_J + t * nv, hD * m->tendon_damping[t]);
       if (m->tendon_stiffness[t] > 0) add_stiffness_row(sd, m, A, d->ten_J + t * nv, m->tendon_stiffness[t], hK);
     }
   for (int i = 0; i < nv; ++i) A[m->dof_Madr[i]] += hK * sd.joint_K[i];
@@ -2021,11 +2016,28 @@ void factor_implicit(const Scene& s, SceneData& sd, bool rods, double cD, double
         }
   add_fluid_damping(s, sd, hD, A);  // fluid hook: + cD h D_f (no-op without the fluid)
   factor_ldl(m, d, A, A, sd.A_LDiagInv.data());
+  factor_woodbury(m, sd);
 }
 
-// x = A^-1 y with the factor of factor_implicit.
+// x = A^-1 y with the factor of factor_implicit: x = A_tree^-1 y - Z S^-1 U' A_tree^-1 y with the
+// terms across branches (Woodbury).
 void solve_implicit(const Scene& s, SceneData& sd, mjtNum* x, const mjtNum* y) {
   solve_ldl(s.m, sd.A_LD.data(), sd.A_LDiagInv.data(), x, y);
+  const int nv = s.m->nv, r = sd.W_nrows;
+  if (r == 0) return;
+  const mjtNum* L = sd.W_S.data();
+  mjtNum* t = sd.W_t.data();
+  for (int i = 0; i < r; ++i) {  // t = L^-1 U' x
+    double v = mju_dot(sd.W_rows.data() + i * nv, x, nv);
+    for (int k = 0; k < i; ++k) v -= L[i * r + k] * t[k];
+    t[i] = v / L[i * r + i];
+  }
+  for (int i = r - 1; i >= 0; --i) {  // t = L'^-1 t
+    double v = t[i];
+    for (int k = i + 1; k < r; ++k) v -= L[k * r + i] * t[k];
+    t[i] = v / L[i * r + i];
+  }
+  for (int i = 0; i < r; ++i) mju_addToScl(x, sd.W_Z.data() + i * nv, -t[i], nv);
 }
 
 // The state update q+ = q + h (v + h aq), v+ = v + h av, act+ = act + h act_dot, time + h, with aq

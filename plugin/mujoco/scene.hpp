@@ -293,6 +293,12 @@ struct SceneData {
   // (nv) at the factorisation with its coefficient (K_nrows of at most ntendon + nu)
   std::vector<mjtNum> K_rows, K_row_coef;
   int K_nrows = 0;
+  // A's terms c u u' whose dofs lie on two branches of the tree (a tendon tying two arms), which
+  // qM's pattern cannot hold: A = A_tree + U C U', solved by the Woodbury identity with
+  // Z = A_tree^-1 U and the Cholesky factor of S = C^-1 + U' Z (W_nrows rows of nv, at most
+  // ntendon + nu; solve_implicit)
+  std::vector<mjtNum> W_rows, W_coef, W_Z, W_S, W_t;
+  int W_nrows = 0;
   std::vector<int> tree_nz;  // scratch of add_outer_in_tree (nv)
   struct NewtonScratch : SavedState {  // the step's start state, and:
     std::vector<mjtNum> f0, A0, A, r, y, delta;
