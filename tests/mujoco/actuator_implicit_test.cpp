@@ -185,7 +185,6 @@ TEST(ActuatorImplicit, TendonDampingAndTendonVelocityServosAreBackwardEuler) {
   });
 }
 
-
 // Tendon springs and position servos on tendons are in K too (twenty-fourth session; they had
 // stayed explicit). On the slide of tendon_xml (m = 1, coef 2) a tendon stiffness of 2500, or a
 // position servo kp = 2500 on the tendon, is k = 1e4 N/m: at h = 50 ms (h w = 5) the explicit
