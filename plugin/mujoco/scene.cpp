@@ -2077,26 +2077,46 @@ void subtract_stiffness(const Scene& s, SceneData& sd, double c, const mjtNum* x
   }
 }
 
-// The activations of `filter` actuators (act' = (ctrl - act) / tau, linear) by the theta rule
-//   act+ = act0 + h ((1 - theta) act_dot0 + theta (ctrl - act+) / tau)
-// from the step's start (act0, act_dot0), solved exactly, instead of the Euler update advance()
-// made: theta = 1 is backward Euler (L-stable for any h / tau), 1/2 the trapezoidal rule (second
-// order). The control is held over the step, clamped as MuJoCo's actuation clamps it, and the
-// activation clamped to its range as mj_Euler clamps it. `integrator` dynamics (act' = ctrl) are
-// exact under Euler's update already; muscle and user dynamics keep it (first order).
+// The activations of `filter` and `muscle` actuators by the theta rule
+//   act+ = act0 + h ((1 - theta) act_dot0 + theta f(ctrl, act+))
+// from the step's start (act0, act_dot0), instead of the Euler update advance() made: theta = 1 is
+// backward Euler (L-stable), 1/2 the trapezoidal rule (second order). A filter's f = (ctrl - act) /
+// tau is linear: solved in closed form. A muscle's (mju_muscleDynamics: the time constant depends
+// on act and on the sign of ctrl - act) decreases strictly in act, so the equation has one root:
+// found by bisection to round-off. The control is held over the step, clamped as MuJoCo's
+// actuation clamps it, and the activation clamped to its range as mj_Euler clamps it.
+// `integrator` dynamics (act' = ctrl) are exact under Euler's update already; user dynamics
+// (mjcb_act_dyn, of unknown form) keep it (first order).
 void filter_activations(const Scene& s, SceneData& sd, const mjtNum* act0, const mjtNum* act_dot0, double theta) {
   const mjModel* m = s.m;
   mjData* d = sd.d;
   const double h = m->opt.timestep;
   if (m->opt.disableflags & mjDSBL_ACTUATION) return;  // (MuJoCo's act_dot is not computed then)
   for (int a = m->nu - m->na; a < m->nu; ++a) {
-    if (m->actuator_dyntype[a] != mjDYN_FILTER) continue;
+    const int type = m->actuator_dyntype[a];
+    if (type != mjDYN_FILTER && type != mjDYN_MUSCLE) continue;
     const int j = a - (m->nu - m->na);
     double ctrl = d->ctrl[a];
     if (m->actuator_ctrllimited[a] && !(m->opt.disableflags & mjDSBL_CLAMPCTRL))
       ctrl = mju_clip(ctrl, m->actuator_ctrlrange[2 * a], m->actuator_ctrlrange[2 * a + 1]);
-    const double tau = std::max(mjMINVAL, m->actuator_dynprm[mjNDYN * a]);
-    double act = (act0[j] + h * (1.0 - theta) * act_dot0[j] + h * theta * ctrl / tau) / (1.0 + h * theta / tau);
+    const mjtNum* prm = m->actuator_dynprm + mjNDYN * a;
+    const double rest = act0[j] + h * (1.0 - theta) * act_dot0[j];  // act+ = rest + h theta f(act+)
+    double act;
+    if (type == mjDYN_FILTER) {
+      const double tau = std::max(mjMINVAL, prm[0]);
+      act = (rest + h * theta * ctrl / tau) / (1.0 + h * theta / tau);
+    } else {
+      auto g = [&](double x) { return x - rest - h * theta * mju_muscleDynamics(ctrl, x, prm); };  // increasing
+      double lo = std::min(rest, 0.0) - 1.0, hi = std::max(rest, 1.0) + 1.0;
+      while (g(lo) > 0) lo -= 2.0 * (hi - lo);
+      while (g(hi) < 0) hi += 2.0 * (hi - lo);
+      for (int it = 0; it < 200 && hi - lo > 1e-16 * (1.0 + std::abs(lo)); ++it) {
+        const double mid = 0.5 * (lo + hi);
+        if (mid <= lo || mid >= hi) break;
+        (g(mid) < 0 ? lo : hi) = mid;
+      }
+      act = std::abs(g(lo)) <= std::abs(g(hi)) ? lo : hi;
+    }
     if (m->actuator_actlimited[a]) act = mju_clip(act, m->actuator_actrange[2 * a], m->actuator_actrange[2 * a + 1]);
     d->act[j] = act;
   }

@@ -291,4 +291,56 @@ TEST(ActuatorImplicit, FilterActivationsFollowTheScheme) {
   }
 }
 
+// Muscle activations too (twenty-fourth session; they had kept Euler's rule): MuJoCo's muscle
+// dynamics f(ctrl, act) (time constants depending on act and on the sign of ctrl - act) by
+// backward Euler under implicit, act+ = act0 + h f(act+), and by the trapezoidal rule under
+// trapezoidal, act+ = act0 + h/2 (f(act0) + f(act+)), each step's equation met to 1e-12 (f from
+// mju_muscleDynamics, MuJoCo's own); the trapezoidal rule's error against a fine RK4 integration
+// of the scalar equation falls fourfold per halved step, through an activation and a release.
+TEST(ActuatorImplicit, MuscleActivationsFollowTheScheme) {
+  const char* xml = R"(<mujoco><option gravity="0 0 0"/><worldbody>
+    <body name="b"><joint name="h" type="hinge" axis="0 0 1" damping="0.1"/>
+      <geom type="box" size="0.1 0.02 0.02" mass="0.5" contype="0" conaffinity="0"/></body>
+    <cosserat name="apart" pos="1 0 0" length="0.1" contype="0" conaffinity="0"/></worldbody>
+    <actuator><muscle joint="h" lengthrange="-1 1" timeconst="0.01 0.04" force="0.01"/></actuator></mujoco>)";
+  const double T = 0.1;
+  auto ctrl_at = [](double t) { return t < 0.05 ? 0.8 : 0.1; };  // activate, then release
+  auto f = [](const mjModel* m, double ctrl, double act) { return mju_muscleDynamics(ctrl, act, m->actuator_dynprm); };
+  double previous = 0.0;
+  for (const double h : {2e-3, 1e-3, 5e-4}) {
+    for (const Integrator it : {Integrator::Implicit, Integrator::Trapezoidal}) {
+      SCOPED_TRACE(std::string(integrator_name(it)) + " at h = " + std::to_string(h));
+      auto s = load_scene_string(xml, kPath);
+      ASSERT_EQ(s->m->na, 1);
+      s->m->opt.timestep = h;
+      SceneData sd(*s);
+      sd.d->act[0] = 0.05;
+      const int n = static_cast<int>(std::lround(T / h));
+      for (int k = 0; k < n; ++k) {
+        const double a0 = sd.d->act[0], c = ctrl_at(k * h);
+        sd.d->ctrl[0] = c;
+        ASSERT_EQ(step(*s, sd, it), Status::Ok);
+        const double a1 = sd.d->act[0];
+        const double residual = it == Integrator::Implicit ? a1 - a0 - h * f(s->m, c, a1)
+                                                           : a1 - a0 - 0.5 * h * (f(s->m, c, a0) + f(s->m, c, a1));
+        ASSERT_NEAR(residual, 0.0, 1e-12) << "step " << k;
+      }
+      if (it == Integrator::Trapezoidal) {
+        double a = 0.05;  // the scalar equation by RK4 at h / 100, the control switching on the grid
+        const double dt = h / 100;
+        for (int k = 0; k < 100 * n; ++k) {
+          const double c = ctrl_at((k / 100) * h);
+          const double k1 = f(s->m, c, a), k2 = f(s->m, c, a + dt / 2 * k1), k3 = f(s->m, c, a + dt / 2 * k2),
+                       k4 = f(s->m, c, a + dt * k3);
+          a += dt / 6 * (k1 + 2 * k2 + 2 * k3 + k4);
+        }
+        const double err = std::abs(sd.d->act[0] - a);
+        if (previous > 0) EXPECT_NEAR(previous / err, 4.0, 0.4) << previous << " " << err;
+        std::printf("trapezoidal muscle activation at h = %g: error %.3e\n", h, err);
+        previous = err;
+      }
+    }
+  }
+}
+
 }  // namespace
