@@ -262,13 +262,30 @@ void rod_jacobian(const Model& m, const Data& d, int r, double X, MatX& J) {
 }
 
 namespace {
+// Scratch of the point Jacobians below, kept between calls per thread (only their first ndof
+// columns are used: they grow when a section with more dofs comes along). Sized for a model's
+// largest section when a Data is made (reserve_kinematics_scratch), so that the first contact or
+// site read of a step does not allocate, nor register their destructors, in that thread.
+struct KinematicsScratch {
+  Mat6X S, Sdot, AJ;           // section_jacobian_from
+  Mat6X G_jac, G_motion, G_pose;  // partial_step's G of section_jacobian, point_motion_at_rest_acceleration,
+                                  // rod_pose_and_jacobian (which may call section_jacobian: distinct)
+};
+thread_local KinematicsScratch tl_scratch;
+}  // namespace
+
+void reserve_kinematics_scratch(int ndof) {
+  KinematicsScratch& k = tl_scratch;
+  for (Mat6X* x : {&k.S, &k.Sdot, &k.AJ, &k.G_jac, &k.G_motion, &k.G_pose})
+    if (x->cols() < ndof) x->resize(6, ndof);
+}
+
+namespace {
 // section_jacobian from its partial step ps and G = dOmega/dq (partial_step's), with E = exp(ps.Om)
 // when the caller has it (nullptr: computed here; unused when ps.full).
 int section_jacobian_from(const Model& m, const Data& d, const PartialStep& ps, const Mat6X& G, Mat6X& J,
                           Mat6X* Jdot, SE3* gX, const SE3* E) {
-  // scratch kept between calls (only their first ndof columns are used: reallocated only when a
-  // section with more dofs comes along)
-  thread_local Mat6X S, Sdot, AJ;
+  Mat6X &S = tl_scratch.S, &Sdot = tl_scratch.Sdot, &AJ = tl_scratch.AJ;
   const int si = m.nodes[ps.node].section;
   const Section& sec = m.sections[si];
   const int nd = sec.ndof;
@@ -337,14 +354,14 @@ int section_jacobian_from(const Model& m, const Data& d, const PartialStep& ps, 
 
 int section_jacobian(const Model& m, const Data& d, int r, double X, Mat6X& J, Mat6X* Jdot, SE3* gX,
                      int section) {
-  thread_local Mat6X G;  // scratch, as section_jacobian_from's
+  Mat6X& G = tl_scratch.G_jac;
   PartialStep ps;
   partial_step(m, d, r, X, section, &G, ps, false);
   return section_jacobian_from(m, d, ps, G, J, Jdot, gX, nullptr);
 }
 
 PointMotion point_motion_at_rest_acceleration(const Model& m, const Data& d, int r, double X, int section) {
-  thread_local Mat6X G;  // scratch, as section_jacobian's
+  Mat6X& G = tl_scratch.G_motion;
   PartialStep ps;
   partial_step(m, d, r, X, section, &G, ps, false);
   if (ps.full) return {d.g[ps.node], d.eta[ps.node], d.acc[ps.node]};
@@ -370,7 +387,7 @@ PointMotion point_motion_at_rest_acceleration(const Model& m, const Data& d, int
 }
 
 SE3 rod_pose_and_jacobian(const Model& m, const Data& d, int r, double X, int section, Mat6X& J, SE3* g_start_X) {
-  thread_local Mat6X G;
+  Mat6X& G = tl_scratch.G_pose;
   PartialStep ps;
   partial_step(m, d, r, X, -1, &G, ps, false);  // rod_pose's node (the section's, unless X is a boundary)
   if (section >= 0 && m.nodes[ps.node].section != section) {

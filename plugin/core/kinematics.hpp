@@ -22,6 +22,12 @@ void node_jacobian(const Model& m, const Data& d, int node, MatX& J);
 // J-dot v of node i: its body acceleration at qacc = 0 with a fixed base. After fwd_velocity.
 Vec6 node_jdot_v(const Model& m, const Data& d, int node);
 
+// Sizes this thread's scratch of the point Jacobians (section_jacobian, rod_pose_and_jacobian,
+// point_motion_at_rest_acceleration) for sections of up to `ndof` dofs. Data's constructor calls
+// it for its model; a thread that steps a Data made in another one allocates once, at its first
+// such call.
+void reserve_kinematics_scratch(int ndof);
+
 // World pose of the cross-section of rod r at abscissa X in [0, L]. After fwd_position.
 // Exact for PCS; one 4th-order Magnus step from the previous node for GVS.
 SE3 rod_pose(const Model& m, const Data& d, int rod, double X);

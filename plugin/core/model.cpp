@@ -3,6 +3,7 @@
 
 #include "kinematics.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 
@@ -384,6 +385,9 @@ int Model::rod_node_at(int r, double X) const {
 
 Data::Data(const Model& m) {
   if (!m.finalized) throw std::invalid_argument("Data(model): model not finalized");
+  int max_ndof = 0;
+  for (const Section& sec : m.sections) max_ndof = std::max(max_ndof, sec.ndof);
+  reserve_kinematics_scratch(max_ndof);  // the point Jacobians' scratch: no allocation in a step
   const int n = m.nv, nn = static_cast<int>(m.nodes.size());
   q = VecX::Zero(n);
   v = VecX::Zero(n);

@@ -1246,8 +1246,8 @@ SceneData::SceneData(const Scene& s) {
   joint_K.assign(nv, 0);
   K_rows.assign(static_cast<size_t>(s.m->ntendon + s.m->nu) * nv, 0);
   K_row_coef.assign(s.m->ntendon + s.m->nu, 0);
-  {
-    const size_t r = static_cast<size_t>(s.m->ntendon + s.m->nu);
+  {  // a tendon's damping and spring, an actuator's velocity and position gains: two rows each
+    const size_t r = 2 * static_cast<size_t>(s.m->ntendon + s.m->nu);
     W_rows.assign(r * nv, 0);
     W_Z.assign(r * nv, 0);
     W_coef.assign(r, 0);

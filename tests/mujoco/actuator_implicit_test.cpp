@@ -137,9 +137,9 @@ using Vec2 = Eigen::Vector2d;
 // The scene of tendon_xml with its tendon across two branches, started at q = (0.01, 0), v =
 // (1, 0), stepped 40 times by Implicit at h and compared with `recurrence` to 1e-12.
 template <class Recurrence>
-void cross_branch_recurrence(const char* tendon_attr, double h, Recurrence recurrence) {
-  SCOPED_TRACE(std::string("across two branches: ") + tendon_attr);
-  auto s = load_scene_string(tendon_xml(tendon_attr, "", true), kPath);
+void cross_branch_recurrence(const char* tendon_attr, double h, Recurrence recurrence, const char* actuator = "") {
+  SCOPED_TRACE(std::string("across two branches: ") + tendon_attr + actuator);
+  auto s = load_scene_string(tendon_xml(tendon_attr, actuator, true), kPath);
   s->m->opt.timestep = h;
   SceneData sd(*s);
   Vec2 q(0.01, 0.0), v(1.0, 0.0);
@@ -210,6 +210,19 @@ TEST(ActuatorImplicit, TendonSpringsAndTendonPositionServosAreBackwardEuler) {
     }
     EXPECT_LT(std::abs(q), 1e-3);  // backward Euler damps it
   }
+  // a spring and a damper on one tendon across two branches, and a servo with both gains on it: two
+  // rows of the correction each (outside probe W: they overflowed its buffer, sized one per
+  // tendon and actuator, and the tool crashed); A = I + (h d + h^2 k) u u'
+  for (const bool servo : {false, true})
+    cross_branch_recurrence(
+        servo ? "" : R"(stiffness="2500" damping="1250")", 0.01,
+        [](Vec2& q, Vec2& v, double h) {
+          const Vec2 u(2.0, 1.0);
+          const double k = 2500.0, d = 1250.0;
+          v -= h * u * (k * u.dot(q) + (d + h * k) * u.dot(v)) / (1.0 + (h * d + h * h * k) * u.squaredNorm());
+          q += h * v;
+        },
+        servo ? R"(<actuator><general tendon="t" biastype="affine" gainprm="2500" biasprm="0 -2500 -1250"/></actuator>)" : "");
   // across two branches (J = (2, 1) on two unit masses): A = I + h^2 k u u', A a = -k u u.(q + h v)
   cross_branch_recurrence(R"(stiffness="2500")", 0.05, [](Vec2& q, Vec2& v, double h) {
     const Vec2 u(2.0, 1.0);

@@ -116,3 +116,34 @@ TEST(SceneStepAlloc, NoHeapAllocationWithSensorsAndActuatorsOnRodSites) {
 }
 
 }  // namespace
+
+// From the first step on: a soft GVS rod and a PCS rod dropped on a floor, stepped from a fresh
+// SceneData through their first contacts, with no warm-up at all (the core's section-Jacobian
+// scratch had been sized at its first use, the first contact: a one-time allocation).
+TEST(SceneStepAlloc, NoHeapAllocationFromTheFirstStepThroughTheFirstContact) {
+  const char* xml = R"(<mujoco><option timestep="0.001"/><worldbody>
+    <geom type="plane" size="1 1 0.1"/>
+    <body name="a" pos="0 0 0.03"><freejoint/><geom type="sphere" size="0.01" mass="0.01"/>
+      <cosserat name="gvs" length="0.3" sections="2" order="2" strain="kl" radius="0.01" young="1e6"/></body>
+    <body name="b" pos="0 0.2 0.03"><freejoint/><geom type="sphere" size="0.01" mass="0.01"/>
+      <cosserat name="pcs" length="0.3" sections="6" strain="kl" radius="0.01" young="1e6"/></body>
+  </worldbody></mujoco>)";
+  for (Integrator it : {Integrator::Implicit, Integrator::Trapezoidal, Integrator::Rosenbrock}) {
+    SCOPED_TRACE(integrator_name(it));
+    auto s = load_scene_string(xml, "/tmp/cosserat_first_contact_alloc.xml");
+    SceneData sd(*s);
+    int first_contact = -1;
+    alloc_probe::arm();
+    Status st = Status::Ok;
+    for (int k = 0; k < 200 && st == Status::Ok; ++k) {
+      st = step(*s, sd, it);
+      if (first_contact < 0 && sd.d->ncon > 0) first_contact = k;
+    }
+    alloc_probe::disarm();
+    EXPECT_EQ(st, Status::Ok);
+    EXPECT_GE(first_contact, 1) << "the rods should land within the run, not start on the floor";
+    EXPECT_EQ(alloc_probe::g_malloc_calls, 0) << "heap allocations in 200 steps from the start";
+    EXPECT_EQ(alloc_probe::g_new_calls, 0);
+    if (alloc_probe::g_malloc_calls > 0 || alloc_probe::g_new_calls > 0) alloc_probe::print_first_allocation();
+  }
+}
