@@ -2800,12 +2800,33 @@ SceneEnergy energy(const Scene& s, SceneData& sd) {
   SceneEnergy e;
   kinetic_and_gravity(s, sd, e);
   for (size_t r = 0; r < s.rods.size(); ++r) e.elastic += cosserat::energy(s.rods[r].model, sd.rod[r]).elastic;
-  // MuJoCo's springs: hinge and slide joints, tendons (ball and free joint springs are not counted)
+  // MuJoCo's springs, as mj_energyPos counts them: joints (a free joint's displacement, a ball's or
+  // free joint's rotation vector from its rest orientation, mj_passive's mju_subQuat) and tendons
+  // (outside probe W: ball and free joint springs had been left out)
   for (int j = 0; j < m->njnt; ++j) {
-    const int t = m->jnt_type[j], a = m->jnt_qposadr[j];
-    if (m->jnt_stiffness[j] > 0 && (t == mjJNT_HINGE || t == mjJNT_SLIDE)) {
-      const double dq = d->qpos[a] - m->qpos_spring[a];
-      e.elastic += 0.5 * m->jnt_stiffness[j] * dq * dq;
+    const double k = m->jnt_stiffness[j];
+    if (!(k > 0)) continue;
+    int a = m->jnt_qposadr[j];
+    switch (m->jnt_type[j]) {
+      case mjJNT_FREE: {
+        mjtNum dif[3];
+        mju_sub3(dif, d->qpos + a, m->qpos_spring + a);
+        e.elastic += 0.5 * k * mju_dot3(dif, dif);
+        a += 3;
+      }
+        [[fallthrough]];
+      case mjJNT_BALL: {
+        mjtNum quat[4], dif[3];
+        mju_copy4(quat, d->qpos + a);
+        mju_normalize4(quat);
+        mju_subQuat(dif, quat, m->qpos_spring + a);
+        e.elastic += 0.5 * k * mju_dot3(dif, dif);
+        break;
+      }
+      default: {
+        const double dq = d->qpos[a] - m->qpos_spring[a];
+        e.elastic += 0.5 * k * dq * dq;
+      }
     }
   }
   for (int t = 0; t < m->ntendon; ++t)

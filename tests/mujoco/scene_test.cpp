@@ -746,6 +746,27 @@ TEST(Scene, EnergyFlagFillsMujocosEnergyWithTheRods) {
   EXPECT_GT(e.elastic, 1e-6);
 }
 
+// The springs of ball and free joints are in energy() as in MuJoCo's mj_energyPos (outside probe W:
+// they had been left out, and a conservative scene read "drift 1.00"): a rod-free scene, whose
+// forward is MuJoCo's, turned and shifted from the springs' rest, against d->energy.
+TEST(Scene, EnergyCountsBallAndFreeJointSpringsAsMujocoDoes) {
+  const char* xml = R"(<mujoco><option><flag energy="enable"/></option><worldbody>
+    <body name="a" pos="0 0 1"><joint type="ball" stiffness="300"/><geom type="capsule" fromto="0 0 0 0.2 0 0" size="0.02"/></body>
+    <body name="b" pos="1 0 1"><freejoint/><geom type="box" size="0.05 0.04 0.03"/></body>
+    <body name="c" pos="2 0 1"><joint type="free" stiffness="200"/><geom type="sphere" size="0.05"/></body>
+  </worldbody></mujoco>)";
+  auto s = load_scene_string(xml, kPath);
+  SceneData sd(*s);
+  const mjtNum turn[4] = {std::cos(0.3), 0.3 * std::sin(0.3), -0.8 * std::sin(0.3), 0.52 * std::sin(0.3)};
+  mju_copy4(sd.d->qpos, turn);                // ball: 0.6 rad about an oblique axis
+  sd.d->qpos[11] += 0.1;                      // c: shifted
+  mju_copy4(sd.d->qpos + 14, turn);           // and turned
+  forward(*s, sd);
+  const SceneEnergy e = energy(*s, sd);
+  EXPECT_GT(e.elastic, 0.5 * 300 * 0.36 * 0.99);
+  EXPECT_NEAR(e.gravity + e.elastic, sd.d->energy[0], 1e-12 * std::abs(sd.d->energy[0]));
+}
+
 // Conservation: no gravity, no damping, RK4: the whole scene's energy stays put.
 TEST(Scene, EnergyConservedUndampedRK4) {
   std::string x = replace_all(arm_xml("kl", 3, 0, 0.0), "gravity=\"0 0 -9.81\"", "gravity=\"0 0 0\"");
