@@ -858,7 +858,7 @@ double segment_distance(const Vec3& a0, const Vec3& a1, const Vec3& b0, const Ve
 // other apart from the first step. (Outside probe U: two branches from one hub.)
 void warn_overlapping_rods(Scene& s) {
   const mjModel* m = s.m;
-  if (s.rods.size() < 2 || !s.may_collide) return;
+  if (!s.may_collide) return;
   SceneData sd(s);
   fwd_position(s, sd);
   const std::vector<int> excluded = sorted_exclusions(m);
@@ -869,11 +869,11 @@ void warn_overlapping_rods(Scene& s) {
     p1 = c + m->geom_size[3 * g + 1] * z;
   };
   for (size_t r1 = 0; r1 < s.rods.size(); ++r1)
-    for (size_t r2 = r1 + 1; r2 < s.rods.size(); ++r2) {
+    for (size_t r2 = r1; r2 < s.rods.size(); ++r2) {  // r2 = r1: a selfcollide rod's own sections
       std::vector<std::string> pairs;
       for (const int g1 : s.rods[r1].geom_id)
         for (const int g2 : s.rods[r2].geom_id) {
-          if (!geoms_may_touch(m, excluded, g1, g2)) continue;
+          if ((r1 == r2 && g2 <= g1) || !geoms_may_touch(m, excluded, g1, g2)) continue;
           Vec3 a0, a1, b0, b1;
           ends(g1, a0, a1);
           ends(g2, b0, b1);
@@ -890,11 +890,17 @@ void warn_overlapping_rods(Scene& s) {
       std::string list;
       for (size_t k = 0; k < pairs.size() && k < 6; ++k) list += (k ? " " : "") + pairs[k];
       if (pairs.size() > 6) list += " ... (" + std::to_string(pairs.size()) + " pairs)";
-      s.load_warnings.push_back(b.file + ":" + std::to_string(b.line) + ": <cosserat name=\"" + b.name +
-                                "\">: its capsules overlap those of rod '" + a.name + "' (" + a.file + ":" +
-                                std::to_string(a.line) + ") in the model's initial configuration, where they " +
-                                "collide: the contacts push the rods apart from the first step. If they are " +
-                                "mounted together, exclude the pairs in <contact>: " + list);
+      const std::string where = b.file + ":" + std::to_string(b.line) + ": <cosserat name=\"" + b.name + "\">: ";
+      if (r1 == r2)
+        s.load_warnings.push_back(where + "with selfcollide=\"true\" its own capsules overlap in the model's initial " +
+                                  "configuration, where they collide: the contacts push its sections apart from the " +
+                                  "first step (sections shorter than the rod's diameter overlap their neighbours' " +
+                                  "neighbours). Use fewer sections, or exclude the pairs in <contact>: " + list);
+      else
+        s.load_warnings.push_back(where + "its capsules overlap those of rod '" + a.name + "' (" + a.file + ":" +
+                                  std::to_string(a.line) + ") in the model's initial configuration, where they " +
+                                  "collide: the contacts push the rods apart from the first step. If they are " +
+                                  "mounted together, exclude the pairs in <contact>: " + list);
     }
 }
 
