@@ -670,11 +670,13 @@ TEST_F(Cli, MujocoErrorsEndARunAsADivergenceWithItsOutputs) {
   const std::string bad = COSSERAT_SOURCE_DIR "/tests/mujoco/data/mujoco_error_at_load.xml";
   const Result c = cosserat("check '" + bad + "'");
   EXPECT_EQ(c.status, 1);
-  // the loader's warning about the rod (1 cm long, 2 cm thick), then the error
+  // the loader's warnings about the rod (1 cm long, 2 cm thick; selfcollide, so its sections
+  // overlap each other), then the error
   const std::vector<std::string> err = lines(c.err);
-  ASSERT_EQ(err.size(), 2u) << c.err;
+  ASSERT_EQ(err.size(), 3u) << c.err;
   EXPECT_EQ(err[0].rfind("warning: " + bad + ":3: <cosserat>: the rod is thicker than it is long", 0), 0u) << c.err;
-  EXPECT_EQ(err[1].rfind(bad + ":0: MuJoCo error: ", 0), 0u) << c.err;
+  EXPECT_EQ(err[1].rfind("warning: " + bad + ":3: <cosserat name=\"arm\">: with selfcollide=\"true\" its own capsules overlap", 0), 0u) << c.err;
+  EXPECT_EQ(err[2].rfind(bad + ":0: MuJoCo error: ", 0), 0u) << c.err;
 }
 
 // --newton-refresh reaches Scene::newton_refresh: on the undamped cantilever of the Newton tests
