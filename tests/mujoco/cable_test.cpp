@@ -212,3 +212,35 @@ TEST(Cable, TendonWithAPulleyThroughRodSitesMatchesLengthDifferences) {
 }
 
 }  // namespace
+
+namespace {
+
+// Two cable-driven arms on separate bodies: 64 dofs, where MuJoCo 2.2.2's jacobian="auto" stores
+// the tendon Jacobian compressed, which the coupling reads and patches as dense rows. Outside probe
+// X: arm B's cable then pulled with the wrong forces (its tip 11 mm, 5.5% of the arm, from where
+// the same arm alone ends up) and a two-arm grasp blew up. A scene with rods and tendons now uses
+// dense Jacobians: both rows match length differences, and arm B under its cable ends where the
+// lone arm B does, to round-off.
+TEST(Cable, TwoArmsWithCablesBeyondSixtyDofsMatchTheLoneArm) {
+  const std::string data = std::string(COSSERAT_SOURCE_DIR) + "/tests/mujoco/data/";
+  auto two = load_scene(data + "two_arms_cables.xml");
+  ASSERT_GE(two->m->nv, 60);
+  EXPECT_EQ(two->m->opt.jacobian, mjJAC_DENSE);
+  {
+    SceneData sd(*two);
+    expect_tendon_rows_match_length_differences(*two, sd);
+  }
+  auto one = load_scene(data + "one_arm_cable.xml");
+  SceneData sd2(*two), sd1(*one);
+  sd2.d->ctrl[1] = 1.0;  // arm B's cable only
+  sd1.d->ctrl[0] = 1.0;
+  for (int k = 0; k < 300; ++k) {
+    ASSERT_EQ(step(*two, sd2), Status::Ok);
+    ASSERT_EQ(step(*one, sd1), Status::Ok);
+  }
+  const int tip2 = mj_name2id(two->m, mjOBJ_SITE, "B/tip"), tip1 = mj_name2id(one->m, mjOBJ_SITE, "B/tip");
+  for (int e = 0; e < 3; ++e) EXPECT_NEAR(sd2.d->site_xpos[3 * tip2 + e], sd1.d->site_xpos[3 * tip1 + e], 1e-12) << e;
+  EXPECT_GT(std::abs(sd1.d->site_xpos[3 * tip1 + 1] - 0.1), 1e-3);  // the cable did bend it
+}
+
+}  // namespace
