@@ -1055,6 +1055,16 @@ Preprocessed Preprocessor::run(const std::string& text, const std::string& path)
 
   std::vector<std::string> stack{canonical_key(file)};
   expand_includes(root, doc, stack);
+  // MuJoCo 2.2.2 counts a trailing space in a <key>'s arrays as one more number ("invalid qpos
+  // size, expected length N" for N numbers: outside probe X), where its other attributes allow it
+  for (XMLElement* kf = root->FirstChildElement("keyframe"); kf; kf = kf->NextSiblingElement("keyframe"))
+    for (XMLElement* k = kf->FirstChildElement("key"); k; k = k->NextSiblingElement("key"))
+      for (const char* name : {"qpos", "qvel", "act", "ctrl", "mpos", "mquat"})
+        if (const char* v = k->Attribute(name)) {
+          std::string t(v);
+          const size_t b = t.find_first_not_of(" \t\r\n"), e = t.find_last_not_of(" \t\r\n");
+          k->SetAttribute(name, b == std::string::npos ? "" : t.substr(b, e - b + 1).c_str());
+        }
   collect_names(root);
   check_custom_fields(root);
   check_options(root);

@@ -798,3 +798,17 @@ TEST(MjcfErrors, RodsOverlappingAtTheStartAreWarnedAbout) {
     EXPECT_NE(rod->load_warnings[0].find(R"(<exclude body1="u/s0" body2="u/s2"/>)"), std::string::npos);
   }
 }
+
+// A <key>'s arrays with spaces around the numbers load as the numbers (MuJoCo 2.2.2 counts a
+// trailing space as one more number: "invalid qpos size, expected length 11" for 11 numbers,
+// outside probe X).
+TEST(MjcfErrors, KeyframeArraysWithSurroundingSpacesLoad) {
+  const auto s = load_scene_string(R"(<mujoco><worldbody><body name="b" pos="0 0 1"><freejoint/>
+      <geom type="sphere" size="0.1"/></body>
+      <cosserat name="r" pos="1 0 0" length="0.1" contype="0" conaffinity="0"/></worldbody>
+    <keyframe><key name="k" qpos=" 0 0 2 1 0 0 0 0 0 0 0 "/></keyframe></mujoco>)",
+                                   kInline);
+  ASSERT_EQ(s->m->nkey, 1);
+  EXPECT_EQ(s->m->nq, 11);
+  EXPECT_EQ(s->m->key_qpos[2], 2.0);
+}
