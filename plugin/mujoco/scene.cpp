@@ -1757,12 +1757,8 @@ std::unique_ptr<Scene> compile(const Preprocessed& pre) {
   // stores it compressed when its Jacobians are sparse (jacobian="auto" from nv = 60 on). Outside
   // probe X: a second cable-driven arm's cable pulled with the wrong forces there, and a two-arm
   // grasp blew up. (Constraint rows are patched in either layout: efc_add.)
-  if (!s->rods.empty() && s->m->ntendon > 0 && s->m->opt.jacobian != mjJAC_DENSE) {
-    if (s->m->opt.jacobian == mjJAC_SPARSE)
-      s->load_warnings.push_back(pre.path + ": <option jacobian=\"sparse\">: a scene with rods and tendons uses dense "
-                                 "Jacobians (the rods' tendon patches work on dense rows)");
-    s->m->opt.jacobian = mjJAC_DENSE;
-  }
+  // (an explicit jacobian="sparse" is warned about by the preprocessor, at its line)
+  if (!s->rods.empty() && s->m->ntendon > 0) s->m->opt.jacobian = mjJAC_DENSE;
   s->may_collide = scene_may_collide(s->m);
   // explicit pairs, once: which geoms they name, and the table patch_contact_distances searches
   std::vector<char> in_pair(s->m->ngeom, 0);

@@ -12,6 +12,7 @@
 #include "scene.hpp"
 #include "statics.hpp"
 #include "support/bent_motion.hpp"
+#include "support/text_file.hpp"
 
 using namespace cosserat;
 using namespace cosserat::mj;
@@ -241,6 +242,14 @@ TEST(Cable, TwoArmsWithCablesBeyondSixtyDofsMatchTheLoneArm) {
   const int tip2 = mj_name2id(two->m, mjOBJ_SITE, "B/tip"), tip1 = mj_name2id(one->m, mjOBJ_SITE, "B/tip");
   for (int e = 0; e < 3; ++e) EXPECT_NEAR(sd2.d->site_xpos[3 * tip2 + e], sd1.d->site_xpos[3 * tip1 + e], 1e-12) << e;
   EXPECT_GT(std::abs(sd1.d->site_xpos[3 * tip1 + 1] - 0.1), 1e-3);  // the cable did bend it
+  // a model asking for sparse Jacobians is told, at its <option>'s line
+  std::string xml = cosserat::testing::read_text(data + "two_arms_cables.xml");
+  xml.replace(xml.find("<worldbody>"), 11, "\n<option jacobian=\"sparse\"/>\n<worldbody>");
+  const auto sparse = load_scene_string(xml, data + "sparse.xml");
+  EXPECT_EQ(sparse->m->opt.jacobian, mjJAC_DENSE);
+  ASSERT_EQ(sparse->load_warnings.size(), 1u);
+  EXPECT_EQ(sparse->load_warnings[0].rfind(data + "sparse.xml:2: <option>: jacobian=\"sparse\": a scene with rods and "
+                                           "tendons uses dense Jacobians", 0), 0u) << sparse->load_warnings[0];
 }
 
 }  // namespace
