@@ -1252,8 +1252,8 @@ SceneData::SceneData(const Scene& s) {
   joint_K.assign(nv, 0);
   K_rows.assign(static_cast<size_t>(s.m->ntendon + s.m->nu) * nv, 0);
   K_row_coef.assign(s.m->ntendon + s.m->nu, 0);
-  {  // a tendon's damping and spring, an actuator's velocity and position gains: two rows each
-    const size_t r = 2 * static_cast<size_t>(s.m->ntendon + s.m->nu);
+  {  // one row per tendon and actuator (its damping and spring together: add_row_terms)
+    const size_t r = static_cast<size_t>(s.m->ntendon + s.m->nu);
     W_rows.assign(r * nv, 0);
     W_Z.assign(r * nv, 0);
     W_coef.assign(r, 0);
@@ -1904,20 +1904,22 @@ bool add_outer_in_tree(const mjModel* m, mjtNum* A, const mjtNum* u, double c, s
   return true;
 }
 
-// A += c u u' (c > 0): in qM's tree pattern where u's dofs lie on one branch, else kept as a row of
-// the low-rank correction solve_implicit applies (sd.W_rows).
-void add_outer(SceneData& sd, const mjModel* m, mjtNum* A, const mjtNum* u, double c) {
-  if (add_outer_in_tree(m, A, u, c, sd.tree_nz) || !(c > 0)) return;
-  std::copy(u, u + m->nv, sd.W_rows.begin() + static_cast<size_t>(sd.W_nrows) * m->nv);
-  sd.W_coef[sd.W_nrows++] = c;
-}
-
-// A += hK k u u' (a tendon's spring, or a tendon actuator's position gain), the row kept for
-// subtract_stiffness.
-void add_stiffness_row(SceneData& sd, const mjModel* m, mjtNum* A, const mjtNum* u, double k, double hK) {
-  add_outer(sd, m, A, u, hK * k);
-  std::copy(u, u + m->nv, sd.K_rows.begin() + static_cast<size_t>(sd.K_nrows) * m->nv);
-  sd.K_row_coef[sd.K_nrows++] = k;
+// A += (hD d + hK k) u u' for a row u of size nv (a tendon's Jacobian, an actuator's moment) with
+// damping d >= 0 and stiffness k >= 0: in qM's tree pattern where u's dofs lie on one branch, else
+// as one row of the low-rank correction solve_implicit applies (sd.W_rows); u is also kept with k
+// for subtract_stiffness (sd.K_rows).
+void add_row_terms(SceneData& sd, const mjModel* m, mjtNum* A, const mjtNum* u, double d, double k, double hD,
+                   double hK) {
+  const int nv = m->nv;
+  const double c = hD * d + hK * k;
+  if (c > 0 && !add_outer_in_tree(m, A, u, c, sd.tree_nz)) {
+    std::copy(u, u + nv, sd.W_rows.begin() + static_cast<size_t>(sd.W_nrows) * nv);
+    sd.W_coef[sd.W_nrows++] = c;
+  }
+  if (k > 0) {
+    std::copy(u, u + nv, sd.K_rows.begin() + static_cast<size_t>(sd.K_nrows) * nv);
+    sd.K_row_coef[sd.K_nrows++] = k;
+  }
 }
 
 // After A_tree's factorisation: Z = A_tree^-1 U and the Cholesky factor (lower, in place) of
@@ -2003,10 +2005,11 @@ void factor_implicit(const Scene& s, SceneData& sd, bool rods, double cD, double
       const int j = m->actuator_trnid[2 * a];
       if ((tt != mjTRN_JOINT && tt != mjTRN_JOINTINPARENT) ||
           (m->jnt_type[j] != mjJNT_HINGE && m->jnt_type[j] != mjJNT_SLIDE)) {
-        // other transmissions: velocity = moment' qvel (MuJoCo's actuator_velocity)
-        if (df.velocity < 0.0) add_outer(sd, m, A, d->actuator_moment + a * nv, -hD * df.velocity);
-        // a tendon's length is moment' q to first order (a site transmission has no length)
-        if (tt == mjTRN_TENDON && df.length < 0.0) add_stiffness_row(sd, m, A, d->actuator_moment + a * nv, -df.length, hK);
+        // other transmissions: velocity = moment' qvel (MuJoCo's actuator_velocity), and a
+        // tendon's length is moment' q to first order (a site transmission has no length)
+        const double damping = df.velocity < 0.0 ? -df.velocity : 0.0;
+        const double stiffness = tt == mjTRN_TENDON && df.length < 0.0 ? -df.length : 0.0;
+        add_row_terms(sd, m, A, d->actuator_moment + a * nv, damping, stiffness, hD, hK);
         continue;
       }
       const double g = m->actuator_gear[6 * a];
@@ -2015,10 +2018,9 @@ void factor_implicit(const Scene& s, SceneData& sd, bool rods, double cD, double
       if (df.length < 0.0) sd.joint_K[dof] -= g * g * df.length;
     }
   if (rods && !(m->opt.disableflags & mjDSBL_PASSIVE))  // mj_passive's tendon damping and springs
-    for (int t = 0; t < m->ntendon; ++t) {
-      if (m->tendon_damping[t] > 0) add_outer(sd, m, A, d->ten_J + t * nv, hD * m->tendon_damping[t]);
-      if (m->tendon_stiffness[t] > 0) add_stiffness_row(sd, m, A, d->ten_J + t * nv, m->tendon_stiffness[t], hK);
-    }
+    for (int t = 0; t < m->ntendon; ++t)
+      add_row_terms(sd, m, A, d->ten_J + t * nv, std::max(0.0, m->tendon_damping[t]),
+                    std::max(0.0, m->tendon_stiffness[t]), hD, hK);
   for (int i = 0; i < nv; ++i) A[m->dof_Madr[i]] += hK * sd.joint_K[i];
   if (rods)
     for (const auto& rb : s.rods)

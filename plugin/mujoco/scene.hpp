@@ -296,7 +296,7 @@ struct SceneData {
   // A's terms c u u' whose dofs lie on two branches of the tree (a tendon tying two arms), which
   // qM's pattern cannot hold: A = A_tree + U C U', solved by the Woodbury identity with
   // Z = A_tree^-1 U and the Cholesky factor of S = C^-1 + U' Z (W_nrows rows of nv, at most
-  // 2 (ntendon + nu): a damping and a spring each; solve_implicit)
+  // ntendon + nu: a tendon's or actuator's damping and spring in one row; solve_implicit)
   std::vector<mjtNum> W_rows, W_coef, W_Z, W_S, W_t;
   int W_nrows = 0;
   std::vector<int> tree_nz;  // scratch of add_outer_in_tree (nv)

@@ -210,9 +210,10 @@ TEST(ActuatorImplicit, TendonSpringsAndTendonPositionServosAreBackwardEuler) {
     }
     EXPECT_LT(std::abs(q), 1e-3);  // backward Euler damps it
   }
-  // a spring and a damper on one tendon across two branches, and a servo with both gains on it: two
-  // rows of the correction each (outside probe W: they overflowed its buffer, sized one per
-  // tendon and actuator, and the tool crashed); A = I + (h d + h^2 k) u u'
+  // a spring and a damper on one tendon across two branches, and a servo with both gains on it:
+  // one row of the correction each, their coefficients summed (outside probe W: added as two rows,
+  // they overflowed its buffer, sized one per tendon and actuator, and the tool crashed);
+  // A = I + (h d + h^2 k) u u'
   for (const bool servo : {false, true})
     cross_branch_recurrence(
         servo ? "" : R"(stiffness="2500" damping="1250")", 0.01,
