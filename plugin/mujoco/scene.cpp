@@ -855,12 +855,11 @@ double segment_distance(const Vec3& a0, const Vec3& a1, const Vec3& b0, const Ve
 // A load warning for two rods whose capsules overlap in the model's reference configuration where
 // MuJoCo would collide them: rods mounted at one point of one body (or of the world) overlap at
 // their bases, which the proxies' exclusions (parent body, tip bodies) do not cover, and push each
-// other apart from the first step. (Outside probe U: two branches from one hub.)
-void warn_overlapping_rods(Scene& s) {
+// other apart from the first step. (Outside probe U: two branches from one hub.) `sd`: positions
+// evaluated at qpos0 (recompute_qpos0_constants leaves them so).
+void warn_overlapping_rods(Scene& s, const SceneData& sd) {
   const mjModel* m = s.m;
   if (!s.may_collide) return;
-  SceneData sd(s);
-  fwd_position(s, sd);
   const std::vector<int> excluded = sorted_exclusions(m);
   auto ends = [&](int g, Vec3& p0, Vec3& p1) {
     const Vec3 c(sd.d->geom_xpos[3 * g], sd.d->geom_xpos[3 * g + 1], sd.d->geom_xpos[3 * g + 2]);
@@ -1462,8 +1461,12 @@ void forward(const Scene& s, SceneData& sd, Need need) {
 // --------------------------------------------------------------------------- load / reset --
 
 void recompute_qpos0_constants(Scene& s) {
-  mjModel* m = s.m;
   SceneData sd(s);
+  recompute_qpos0_constants(s, sd);
+}
+
+void recompute_qpos0_constants(Scene& s, SceneData& sd) {
+  mjModel* m = s.m;
   mju_copy(sd.d->qpos, m->qpos0, m->nq);
   fwd_position(s, sd);
   // camera and light offsets for tracking modes (as mj_setConst computes them, which it did with
@@ -1799,9 +1802,10 @@ std::unique_ptr<Scene> compile(const Preprocessed& pre) {
   setup_site_readers(pre, *s);  // sensors, transmissions, tracking that read rods (scene_sites.hpp)
   setup_fluid(*s);  // fluid hook: may switch MuJoCo's own fluid off (scene_fluid.hpp)
   if (!s->rods.empty()) {
-    recompute_qpos0_constants(*s);
+    SceneData at_qpos0(*s);
+    recompute_qpos0_constants(*s, at_qpos0);
+    warn_overlapping_rods(*s, at_qpos0);  // (before anything else moves the rod capsules' sizes)
     check_muscle_lengthranges(pre, *s);
-    warn_overlapping_rods(*s);
   }
   s->integrator = s->rods.empty() ? Integrator::Euler : Integrator::Implicit;
   if (s->m->opt.integrator == mjINT_RK4) s->integrator = Integrator::RK4;

@@ -425,6 +425,8 @@ Vec6 rod_strain(const Scene& s, const SceneData& sd, int rod, double X);
 // section (rod_inertia), not the dynamics' mass rule, whose few points leave nearly massless modes
 // that inflated a short rod's inverse weights (and so its contacts' softness) many times over.
 void recompute_qpos0_constants(Scene& s);
+// The same with the caller's SceneData, left with the positions evaluated at qpos0.
+void recompute_qpos0_constants(Scene& s, SceneData& sd);
 constexpr int kConstantsQuadrature = 8;
 
 // The kinetic-energy metric (nv x nv, MuJoCo's dofs) of rod r's cross-sections after fwd_position:
