@@ -2669,10 +2669,11 @@ void rk4_step(const Scene& s, SceneData& sd) {
 // One step of the Rosenbrock-W method ROS34PW2 (cosserat::ros34pw2, integrators.hpp) on
 // y = (q, v, act) with F = (v, qacc, act_dot) (our forward, constraints included) and
 // W = [0 I 0; -M0^-1 K  -M0^-1 D  0; 0 0 0]: M0 the mass matrix at the step's start, K and D the
-// implicit step's stiffness and damping (factor_implicit: the rods', the hinge and slide joints'
-// springs and damping, the position and velocity gains of actuators on them, the fluid's damping).
-// What W leaves out (gravity, Coriolis, geometric stiffness, cables and other tendons, contacts,
-// activation dynamics) is integrated as by an explicit method: there an undamped oscillation of
+// implicit step's stiffness and damping (factor_implicit: the rods', the joints' springs and
+// damping, tendon springs and damping, the position and velocity gains of servos, the fluid's
+// damping). What W leaves out (gravity, Coriolis, geometric stiffness, a stretched cable's turning,
+// tendon forces set by controls, contacts, activation dynamics) is integrated as by an explicit
+// method: there an undamped oscillation of
 // frequency w gains energy by a factor 1 + O((h w)^4) per step (outside probe S), and the step
 // limit is about RK4's. Eliminating u_q, each stage solves the implicit step's matrix A = M0 + gamma h D +
 // gamma^2 h^2 K (factorised once per step):
