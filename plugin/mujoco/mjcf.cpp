@@ -1071,14 +1071,6 @@ Preprocessed Preprocessor::run(const std::string& text, const std::string& path)
   rewrite(root);
   check_helper_references(root);
   check_finite(root);  // after the checks with messages of their own (options, rods)
-  // rods and tendons run with dense Jacobians (compile's rule): say so where the model asks otherwise
-  if (!rods_.empty())
-    for (const XMLElement* t = root->FirstChildElement("tendon"); t; t = t->NextSiblingElement("tendon"))
-      if (t->FirstChildElement())
-        for (const XMLElement* o = root->FirstChildElement("option"); o; o = o->NextSiblingElement("option"))
-          if (const char* j = o->Attribute("jacobian"); j && std::string_view(j) == "sparse")
-            warnings_.push_back(where(reader(o)) + "jacobian=\"sparse\": a scene with rods and tendons uses dense "
-                                "Jacobians (the coupling patches the tendon Jacobian as dense rows)");
   check_compiler(root);
   emit_excludes(doc, root);
   check_depth(root);

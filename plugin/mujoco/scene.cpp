@@ -1086,16 +1086,49 @@ void tendon_site_points(const mjModel* m, const mjData* d, int t, Visit&& visit)
 // start or end at a wrapping geom's tangent point where the cable wraps one: the wrapped length is
 // stationary in the tangent points; divisor: that of the last pulley before it, as mj_tendon counts
 // the branch's length).
+// Where MuJoCo keeps ten_J compressed (rows packed one after the other, ascending columns), the
+// rows are unpacked into sd.ten_J_rows, corrected there and packed back on the union of MuJoCo's
+// pattern and the corrected columns (a site's section dofs are in its body's chain, so the union
+// is MuJoCo's pattern; the union keeps that an assumption nothing rests on). ten_J has room for
+// ntendon x nv values.
 void patch_tendons(const Scene& s, SceneData& sd) {
   const mjModel* m = s.m;
   mjData* d = sd.d;
+  const int nv = m->nv;
+  const bool sparse = mj_isSparse(m);
+  mjtNum* J = sparse ? sd.ten_J_rows.data() : d->ten_J;
+  char* mark = sd.ten_J_mark.data();
+  if (sparse) {
+    mju_zero(J, m->ntendon * nv);
+    std::fill(sd.ten_J_mark.begin(), sd.ten_J_mark.end(), 0);
+    for (int t = 0; t < m->ntendon; ++t)
+      for (int k = d->ten_J_rowadr[t]; k < d->ten_J_rowadr[t] + d->ten_J_rownnz[t]; ++k) {
+        J[t * nv + d->ten_J_colind[k]] = d->ten_J[k];
+        mark[t * nv + d->ten_J_colind[k]] = 1;
+      }
+  }
+  if (s.rods.empty()) return;  // (sparse without rods: the unpacked rows only)
   thread_local SectionCols dJ;  // scratch: no heap memory
   for (int t = 0; t < m->ntendon; ++t)
     tendon_site_points(m, d, t, [&](int site, const Vec3& p, const Vec3& grad) {
       if (s.site_rod[site] < 0) return;
       const int col0 = site_correction(s, sd, site, p, dJ);
-      for (int c = 0; c < dJ.cols(); ++c) d->ten_J[t * m->nv + col0 + c] += grad.dot(dJ.col(c).head<3>());
+      for (int c = 0; c < dJ.cols(); ++c) {
+        J[t * nv + col0 + c] += grad.dot(dJ.col(c).head<3>());
+        mark[t * nv + col0 + c] = 1;
+      }
     });
+  if (!sparse) return;
+  int adr = 0;
+  for (int t = 0; t < m->ntendon; ++t) {
+    d->ten_J_rowadr[t] = adr;
+    for (int c = 0; c < nv; ++c)
+      if (mark[t * nv + c]) {
+        d->ten_J_colind[adr] = c;
+        d->ten_J[adr++] = J[t * nv + c];
+      }
+    d->ten_J_rownnz[t] = adr - d->ten_J_rowadr[t];
+  }
 }
 
 // The velocity product of tendon t's length from its site path points riding with soft rods: sum of
@@ -1260,6 +1293,10 @@ SceneData::SceneData(const Scene& s) {
     W_t.assign(r, 0);
   }
   tree_nz.assign(nv, 0);
+  if (s.m->ntendon) {
+    ten_J_rows.assign(static_cast<size_t>(s.m->ntendon) * nv, 0);
+    ten_J_mark.assign(static_cast<size_t>(s.m->ntendon) * nv, 0);
+  }
   newton.size(s.m);
   for (auto* v : {&newton.f0, &newton.A0, &newton.A, &newton.r, &newton.y, &newton.delta, &newton.v_end})
     v->assign(nv, 0);
@@ -1380,7 +1417,7 @@ void fwd_position(const Scene& s, SceneData& sd, Need need) {
   mj_camlight(m, d);
   if (!s.com_cameras.empty() || !s.com_lights.empty()) patch_com_tracking(s, sd);
   mj_tendon(m, d);
-  if (m->ntendon && !s.rods.empty()) patch_tendons(s, sd);
+  if (m->ntendon && (!s.rods.empty() || mj_isSparse(m))) patch_tendons(s, sd);
   fluid_damping(s, sd);  // fluid hook: damping matrix (scene_fluid.hpp); no-op without the fluid
   // (MuJoCo factorises M before the collisions; nothing up to the constraint projection reads
   // the factor, so it waits until the constraint rows tell whether it is needed)
@@ -1402,10 +1439,34 @@ void fwd_position(const Scene& s, SceneData& sd, Need need) {
   mj_projectConstraint(m, d);
 }
 
+namespace {
+
+// d->ten_velocity = ten_J qvel in either layout of ten_J, summed as MuJoCo 2.2.2's mj_fwdVelocity
+// sums: mju_dot on dense rows, a compressed row's entries in order (mju_dotSparse as packaged,
+// without AVX)
+void tendon_velocities(const mjModel* m, mjData* d) {
+  if (!mj_isSparse(m)) {
+    mju_mulMatVec(d->ten_velocity, d->ten_J, d->qvel, m->ntendon, m->nv);
+    return;
+  }
+  for (int t = 0; t < m->ntendon; ++t) {
+    mjtNum v = 0.0;
+    for (int k = d->ten_J_rowadr[t]; k < d->ten_J_rowadr[t] + d->ten_J_rownnz[t]; ++k)
+      v += d->ten_J[k] * d->qvel[d->ten_J_colind[k]];
+    d->ten_velocity[t] = v;
+  }
+}
+
+}  // namespace
+
+const mjtNum* tendon_jacobian_row(const Scene& s, const SceneData& sd, int t) {
+  return (mj_isSparse(s.m) ? sd.ten_J_rows.data() : sd.d->ten_J) + static_cast<size_t>(t) * s.m->nv;
+}
+
 void fwd_velocity(const Scene& s, SceneData& sd) {
   const mjModel* m = s.m;
   mjData* d = sd.d;
-  if (m->ntendon) mju_mulMatVec(d->ten_velocity, d->ten_J, d->qvel, m->ntendon, m->nv);
+  if (m->ntendon) tendon_velocities(m, d);
   if (m->nu) mju_mulMatVec(d->actuator_velocity, d->actuator_moment, d->qvel, m->nu, m->nv);
   com_velocity_except(m, d, s.velocity_skip.data());
   for (size_t r = 0; r < s.rods.size(); ++r) {
@@ -1592,8 +1653,9 @@ void recompute_qpos0_constants(Scene& s, SceneData& sd) {
     m->body_invweight0[2 * b + 1] = tr[1] / 3.0;
   }
   for (int t = 0; t < m->ntendon; ++t) {
-    mj_solveM(m, sd.d, x.data(), sd.d->ten_J + t * nv, 1);
-    m->tendon_invweight0[t] = mju_dot(sd.d->ten_J + t * nv, x.data(), nv);
+    const mjtNum* Jt = tendon_jacobian_row(s, sd, t);
+    mj_solveM(m, sd.d, x.data(), Jt, 1);
+    m->tendon_invweight0[t] = mju_dot(Jt, x.data(), nv);
   }
   // actuator_acc0 = |M^-1 moment| at qpos0: a muscle without a force (force="-1") pulls with
   // F0 = scale / acc0 (mju_muscleGain, at run time)
@@ -1755,13 +1817,6 @@ std::unique_ptr<Scene> compile(const Preprocessed& pre) {
       s->geom_rod[s->rods[r].geom_id[k]] = static_cast<int>(r);
       s->geom_index[s->rods[r].geom_id[k]] = static_cast<int>(k);
     }
-  // Tendons with rods: dense Jacobians. The coupling reads and patches ten_J as a dense ntendon x nv
-  // array (rod-site corrections, tendon velocities, the implicit matrix's rows); MuJoCo 2.2.2
-  // stores it compressed when its Jacobians are sparse (jacobian="auto" from nv = 60 on). Outside
-  // probe X: a second cable-driven arm's cable pulled with the wrong forces there, and a two-arm
-  // grasp blew up. (Constraint rows are patched in either layout: efc_add.)
-  // (an explicit jacobian="sparse" is warned about by the preprocessor, at its line)
-  if (!s->rods.empty() && s->m->ntendon > 0) s->m->opt.jacobian = mjJAC_DENSE;
   s->may_collide = scene_may_collide(s->m);
   // explicit pairs, once: which geoms they name, and the table patch_contact_distances searches
   std::vector<char> in_pair(s->m->ngeom, 0);
@@ -2023,7 +2078,7 @@ void factor_implicit(const Scene& s, SceneData& sd, bool rods, double cD, double
     }
   if (rods && !(m->opt.disableflags & mjDSBL_PASSIVE))  // mj_passive's tendon damping and springs
     for (int t = 0; t < m->ntendon; ++t)
-      add_row_terms(sd, m, A, d->ten_J + t * nv, std::max(0.0, m->tendon_damping[t]),
+      add_row_terms(sd, m, A, tendon_jacobian_row(s, sd, t), std::max(0.0, m->tendon_damping[t]),
                     std::max(0.0, m->tendon_stiffness[t]), hD, hK);
   for (int i = 0; i < nv; ++i) A[m->dof_Madr[i]] += hK * sd.joint_K[i];
   if (rods)

@@ -300,6 +300,11 @@ struct SceneData {
   std::vector<mjtNum> W_rows, W_coef, W_Z, W_S, W_t;
   int W_nrows = 0;
   std::vector<int> tree_nz;  // scratch of add_outer_in_tree (nv)
+  // The tendon Jacobian in rows of nv (ntendon x nv) where MuJoCo keeps ten_J compressed (sparse
+  // Jacobians: jacobian="sparse", or "auto" from nv = 60 on), as patch_tendons leaves it: the
+  // coupling's dense reads go through tendon_jacobian_row(). ten_J_mark: scratch, the pattern.
+  std::vector<mjtNum> ten_J_rows;
+  std::vector<char> ten_J_mark;
   struct NewtonScratch : SavedState {  // the step's start state, and:
     std::vector<mjtNum> f0, A0, A, r, y, delta;
     // generalized alpha: the end acceleration A0 carries over to the next step if it starts from
@@ -368,6 +373,11 @@ enum class Need { Acceleration, Forces, StaticForces, SmoothStaticForces };
 // joint springs and servos' position gains explicit), rather than the rods' linearised backward
 // Euler (implicit_step: stiffness implicit, Coriolis explicit).
 bool implicit_is_mujocos(const Scene& s);
+
+// Row t of the tendon Jacobian dL_t/dq (nv values, the rod-site corrections included) after
+// forward(), in either of MuJoCo's layouts of d->ten_J (dense rows, or compressed where its
+// Jacobians are sparse).
+const mjtNum* tendon_jacobian_row(const Scene& s, const SceneData& sd, int t);
 
 // Staged MuJoCo pipeline with the rod patches: position, velocity, actuation, acceleration,
 // constraint solve. With Need::Acceleration it leaves d->qacc as MuJoCo's forward would. MuJoCo's

@@ -104,9 +104,10 @@ void expect_tendon_rows_match_length_differences(const Scene& s, SceneData& sd) 
   for (int t = 0; t < m->ntendon; ++t) {
     const double fd = (lp[t] - lm[t]) / (2 * eps);
     double Jv = 0.0, scale = 0.0;
+    const mjtNum* J = tendon_jacobian_row(s, sd, t);
     for (int i = 0; i < m->nv; ++i) {
-      Jv += sd.d->ten_J[t * m->nv + i] * v[i];
-      scale += std::abs(sd.d->ten_J[t * m->nv + i] * v[i]);
+      Jv += J[i] * v[i];
+      scale += std::abs(J[i] * v[i]);
     }
     EXPECT_GT(scale, 1e-3) << "tendon " << t;
     EXPECT_NEAR(Jv, fd, 1e-7 * scale) << "tendon " << t;
@@ -222,14 +223,24 @@ namespace {
 // the same arm alone ends up) and a two-arm grasp blew up. A scene with rods and tendons now uses
 // dense Jacobians: both rows match length differences, and arm B under its cable ends where the
 // lone arm B does, to round-off.
+// MuJoCo 2.2.2 keeps the tendon Jacobian compressed where its Jacobians are sparse (jacobian="auto"
+// from nv = 60 on): the rod-site corrections go into those rows (outside probe X: as dense rows
+// they had given a second cable-driven arm the wrong cable forces, and a two-arm grasp blew up).
 TEST(Cable, TwoArmsWithCablesBeyondSixtyDofsMatchTheLoneArm) {
   const std::string data = std::string(COSSERAT_SOURCE_DIR) + "/tests/mujoco/data/";
   auto two = load_scene(data + "two_arms_cables.xml");
   ASSERT_GE(two->m->nv, 60);
-  EXPECT_EQ(two->m->opt.jacobian, mjJAC_DENSE);
+  ASSERT_TRUE(mj_isSparse(two->m));
   {
     SceneData sd(*two);
     expect_tendon_rows_match_length_differences(*two, sd);
+    // MuJoCo's compressed rows carry the corrected values: the actuators' moments it computes
+    // from them (gear -1) are the rows
+    const mjModel* m = two->m;
+    for (int a = 0; a < m->nu; ++a) {
+      const mjtNum* J = tendon_jacobian_row(*two, sd, m->actuator_trnid[2 * a]);
+      for (int i = 0; i < m->nv; ++i) ASSERT_EQ(sd.d->actuator_moment[a * m->nv + i], -J[i]) << a << " " << i;
+    }
   }
   auto one = load_scene(data + "one_arm_cable.xml");
   SceneData sd2(*two), sd1(*one);
@@ -242,14 +253,51 @@ TEST(Cable, TwoArmsWithCablesBeyondSixtyDofsMatchTheLoneArm) {
   const int tip2 = mj_name2id(two->m, mjOBJ_SITE, "B/tip"), tip1 = mj_name2id(one->m, mjOBJ_SITE, "B/tip");
   for (int e = 0; e < 3; ++e) EXPECT_NEAR(sd2.d->site_xpos[3 * tip2 + e], sd1.d->site_xpos[3 * tip1 + e], 1e-12) << e;
   EXPECT_GT(std::abs(sd1.d->site_xpos[3 * tip1 + 1] - 0.1), 1e-3);  // the cable did bend it
-  // a model asking for sparse Jacobians is told, at its <option>'s line
+}
+
+// The same two-arm scene with sparse and with dense Jacobians, with what reads the tendon rows:
+// tendon damping and springs (mj_passive, from the tendon velocities; the implicit matrix's
+// rows), a tendon limit that engages (a constraint row MuJoCo copies from the tendon row) and the
+// cables' motors, under four integrators (2 ms steps: implicit ones and rosenbrock): the same motion to round-off.
+TEST(Cable, SparseAndDenseTendonJacobiansGiveTheSameMotion) {
+  const std::string data = std::string(COSSERAT_SOURCE_DIR) + "/tests/mujoco/data/";
   std::string xml = cosserat::testing::read_text(data + "two_arms_cables.xml");
-  xml.replace(xml.find("<worldbody>"), 11, "\n<option jacobian=\"sparse\"/>\n<worldbody>");
+  xml.replace(xml.find("<spatial name=\"A_r\""), 20, "<spatial name=\"A_r\" damping=\"0.2\" limited=\"true\" range=\"0 LMAX\"");
+  xml.replace(xml.find("<spatial name=\"B_l\""), 20, "<spatial name=\"B_l\" damping=\"0.5\" stiffness=\"30\"");
+  {  // the limit: 1 mm longer than A's cable at rest (its motor pushes, and the arm bent by it
+     // would stretch the cable by 2.6 mm)
+    std::string probe = xml;
+    probe.replace(probe.find("LMAX"), 4, "1");
+    const auto s = load_scene_string(probe, data + "limit.xml");
+    SceneData sd(*s);
+    forward(*s, sd);
+    xml.replace(xml.find("LMAX"), 4, std::to_string(sd.d->ten_length[0] + 0.001));
+  }
+  std::string dense_xml = xml;
+  dense_xml.replace(dense_xml.find("<worldbody>"), 11, "<option jacobian=\"dense\"/><worldbody>");
   const auto sparse = load_scene_string(xml, data + "sparse.xml");
-  EXPECT_EQ(sparse->m->opt.jacobian, mjJAC_DENSE);
-  ASSERT_EQ(sparse->load_warnings.size(), 1u);
-  EXPECT_EQ(sparse->load_warnings[0].rfind(data + "sparse.xml:2: <option>: jacobian=\"sparse\": a scene with rods and "
-                                           "tendons uses dense Jacobians", 0), 0u) << sparse->load_warnings[0];
+  const auto dense = load_scene_string(dense_xml, data + "dense.xml");
+  ASSERT_TRUE(mj_isSparse(sparse->m));
+  ASSERT_FALSE(mj_isSparse(dense->m));
+  EXPECT_TRUE(sparse->load_warnings.empty());
+  for (const Integrator method : {Integrator::Implicit, Integrator::Trapezoidal, Integrator::Midpoint, Integrator::Rosenbrock}) {
+    SceneData a(*sparse), b(*dense);
+    for (SceneData* sd : {&a, &b}) {
+      sd->d->ctrl[0] = -0.5;  // A's cable pushed: its arm bends the other way, stretching the cable
+      sd->d->ctrl[1] = 1.0;
+    }
+    int limit_rows = 0;
+    for (int k = 0; k < 200; ++k) {
+      ASSERT_EQ(step(*sparse, a, method), Status::Ok) << k;
+      ASSERT_EQ(step(*dense, b, method), Status::Ok) << k;
+      for (int r = 0; r < a.d->nefc; ++r) limit_rows += a.d->efc_type[r] == mjCNSTR_LIMIT_TENDON;
+    }
+    EXPECT_GT(limit_rows, 0) << static_cast<int>(method);  // the limit did engage
+    for (int i = 0; i < sparse->m->nq; ++i) EXPECT_NEAR(a.d->qpos[i], b.d->qpos[i], 1e-11) << static_cast<int>(method) << " " << i;
+    for (int t = 0; t < sparse->m->ntendon; ++t)
+      EXPECT_NEAR(a.d->ten_velocity[t], b.d->ten_velocity[t], 1e-9) << static_cast<int>(method) << " " << t;
+    EXPECT_GT(std::abs(a.d->ten_velocity[0]) + std::abs(a.d->ten_velocity[1]), 1e-4);
+  }
 }
 
 }  // namespace

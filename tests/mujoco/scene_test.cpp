@@ -60,7 +60,7 @@ const char* kRigidScene = R"(<mujoco>
       <geom type="box" size="0.02 0.02 0.02" pos="0.01 0 0" contype="0" conaffinity="0"/></body>
   </worldbody>
   <tendon><spatial name="t" stiffness="5"><site site="s1"/><site site="s2"/></spatial>
-    <spatial name="pull" stiffness="3"><site site="s2"/><site site="s3"/></spatial></tendon>
+    <spatial name="pull" stiffness="3" damping="0.4"><site site="s2"/><site site="s3"/></spatial></tendon>
   <actuator><motor name="m0" joint="h" gear="1"/></actuator>
   <sensor><accelerometer site="s1"/><framepos objtype="site" objname="s2"/><touch site="s1"/><jointpos joint="h"/>
     <actuatorfrc actuator="m0"/></sensor>
@@ -108,6 +108,7 @@ void expect_mj_step_bit_for_bit(const std::string& option, Integrator expected, 
   EXPECT_EQ(std::memcmp(d->geom_xmat, sd.d->geom_xmat, sizeof(mjtNum) * 9 * m->ngeom), 0);
   EXPECT_EQ(std::memcmp(d->site_xpos, sd.d->site_xpos, sizeof(mjtNum) * 3 * m->nsite), 0);
   EXPECT_EQ(std::memcmp(d->mocap_quat, sd.d->mocap_quat, sizeof(mjtNum) * 4 * m->nmocap), 0);
+  EXPECT_EQ(std::memcmp(d->ten_velocity, sd.d->ten_velocity, sizeof(mjtNum) * m->ntendon), 0);
   // the sensors of the last step's start state (mj_step's forward)
   EXPECT_EQ(std::memcmp(d->sensordata, sd.d->sensordata, sizeof(mjtNum) * m->nsensordata), 0);
   mj_deleteData(d);
@@ -115,6 +116,14 @@ void expect_mj_step_bit_for_bit(const std::string& option, Integrator expected, 
 }
 
 TEST(Scene, StagedPipelineReproducesMjStepBitForBit) { expect_mj_step_bit_for_bit("", Integrator::Euler); }
+
+// MuJoCo keeps the tendon Jacobian compressed where its Jacobians are sparse (jacobian="auto" from
+// nv = 60 on): the tendon velocities (tendon damping, tendonvel sensors) had been read from it as
+// dense rows, wrong from the second tendon on
+TEST(Scene, StagedPipelineReproducesMjStepBitForBitWithSparseJacobians) {
+  expect_mj_step_bit_for_bit("jacobian=\"sparse\"", Integrator::Euler);
+  expect_mj_step_bit_for_bit("jacobian=\"sparse\" integrator=\"implicit\"", Integrator::Implicit);
+}
 
 // <option integrator="implicit"> on a rod-free scene is MuJoCo's implicit integrator (it had been
 // run as Euler, silently)
