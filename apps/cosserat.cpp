@@ -397,6 +397,13 @@ std::string divergence_hint(Simulation& s) {
     hint = "try a smaller --timestep, or more --newton corrections";
   if (!collapse.empty())
     hint += "; a rod section also collapsed on the way, as under any unstable explicit step: " + collapse;
+  // MuJoCo 2.2.2's sparse Newton solver stops at a pivot below 1e-15 (the loader moves scenes whose
+  // rods' inertias lie there at qpos0 to dense Jacobians, with a warning; a blowing-up state gets
+  // there too)
+  if (s.data().warning.find("Rank-defficient Hessian") != std::string::npos)
+    hint = "MuJoCo's sparse Newton constraint solver stops where a pivot of the inertia falls below 1e-15 (a thin, "
+           "short rod section in SI units, or a state already blowing up): <option jacobian=\"dense\"/> or "
+           "solver=\"CG\" does not stop there; else " + hint;
   // contacts or constraint rows dropped for want of room come first: bodies then pass through each other
   const mjData* d = s.data().d;
   const mjModel* m = s.scene().m;
@@ -589,7 +596,11 @@ struct Equilibrium {
     Progress progress("equilibrium", 1);
     mj::SceneStaticsOptions opt;
     opt.progress = [&progress](const std::string& where) { progress.note(where); };
-    result = mj::equilibrium(*scene, *data, opt);
+    try {
+      result = mj::equilibrium(*scene, *data, opt);
+    } catch (const MujocoError& e) {
+      throw mj::LoadError(path, 0, std::string(e.what()) + ", raised while computing the static equilibrium");
+    }
   }
   json report() const {
     json j = {{"converged", result.converged}, {"iterations", result.iterations}, {"residual", result.residual},
@@ -659,7 +670,13 @@ int cmd_linearize(int argc, char** argv) {
   check_writable("--json", json_path);
   const Equilibrium eq(pos->front(), state);
   if (!eq.result.converged) fail("no static equilibrium to linearise about: " + eq.result.message);
-  const mj::SceneLinearization lin = mj::linearize(*eq.scene, *eq.data);
+  const mj::SceneLinearization lin = [&] {
+    try {
+      return mj::linearize(*eq.scene, *eq.data);
+    } catch (const MujocoError& e) {
+      throw mj::LoadError(pos->front(), 0, std::string(e.what()) + ", raised while linearising at the equilibrium");
+    }
+  }();
   const mjModel* m = eq.scene->m;
   // the linearisation is of the smooth dynamics: constraints that carry load at the equilibrium
   // (a welded tip, a floor) are left out, and the frequencies are the unconstrained system's

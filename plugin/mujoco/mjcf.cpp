@@ -44,7 +44,7 @@
 namespace cosserat::mj {
 
 LoadError::LoadError(const std::string& file_, int line_, const std::string& msg)
-    : std::runtime_error(file_ + ":" + std::to_string(line_) + ": " + msg),
+    : std::runtime_error(file_ + (line_ > 0 ? ":" + std::to_string(line_) : std::string()) + ": " + msg),
       file(file_),
       line(line_),
       message(msg) {}

@@ -33,6 +33,7 @@ namespace cosserat::mj {
 constexpr double kCollapsedStretch = 0.1;
 
 // A load error that knows where it comes from: what() is "file:line: message".
+// "file:line: message" ("file: message" where the line is 0: an error of the whole model)
 class LoadError : public std::runtime_error {
  public:
   LoadError(const std::string& file, int line, const std::string& msg);

@@ -857,6 +857,48 @@ double segment_distance(const Vec3& a0, const Vec3& a1, const Vec3& b0, const Ve
 // their bases, which the proxies' exclusions (parent body, tip bodies) do not cover, and push each
 // other apart from the first step. (Outside probe U: two branches from one hub.) `sd`: positions
 // evaluated at qpos0 (recompute_qpos0_constants leaves them so).
+// MuJoCo 2.2.2's Newton constraint solver with sparse Jacobians stops the program ("Rank-defficient
+// Hessian in HessianDirect") where a pivot of M + J'DJ falls below mjMINVAL (1e-15); with dense
+// ones it raises such a pivot to mjMINVAL and goes on, as its factorisation of M does. Strain
+// coordinates have their units (1/m): in SI a thin, short section's twist inertia lies there
+// (outside probe Z: 1.3e-16 kg m^4 for a 6 mm section of a 1 mm wire on a floor, a crash at the
+// first contact). Where a strain pivot of M at qpos0 is below kSmallPivot (a margin for other
+// configurations; J'DJ, positive semi-definite, only raises the pivots, the Schur complements),
+// a Newton scene that would run sparse by MuJoCo's rule (jacobian="auto") gets dense Jacobians,
+// with a warning; one that asks for sparse ones keeps them, with a warning that it may stop.
+constexpr double kSmallPivot = 100 * mjMINVAL;
+
+void avoid_sparse_newton_on_small_pivots(Scene& s, SceneData& sd) {
+  mjModel* m = s.m;
+  if (m->opt.solver != mjSOL_NEWTON || !mj_isSparse(m)) return;
+  mju_copy(sd.d->qpos, m->qpos0, m->nq);
+  fwd_inertia(s, sd, true);
+  std::vector<mjtNum> LD(m->nM), diag_inv(m->nv);
+  factor_ldl(m, sd.d, sd.d->qM, LD.data(), diag_inv.data(), s.dof_strain.data());
+  int small = -1;
+  for (int i = 0; i < m->nv; ++i)
+    if (s.dof_strain[i] && LD[m->dof_Madr[i]] < kSmallPivot && (small < 0 || LD[m->dof_Madr[i]] < LD[m->dof_Madr[small]]))
+      small = i;
+  if (small < 0) return;
+  const bool asked = m->opt.jacobian == mjJAC_SPARSE;
+  if (!asked) m->opt.jacobian = mjJAC_DENSE;
+  const RodBinding* rod = nullptr;
+  for (const RodBinding& rb : s.rods)
+    if (small >= rb.dof0 && small < rb.dof0 + rb.model.nv) rod = &rb;
+  char pivot[32];
+  std::snprintf(pivot, sizeof pivot, "%.2g", LD[m->dof_Madr[small]]);
+  const char* joint = mj_id2name(m, mjOBJ_JOINT, m->dof_jntid[small]);
+  s.load_warnings.push_back(rod->decl.file + ":" + std::to_string(rod->decl.line) + ": <cosserat name=\"" +
+                            rod->decl.name + "\">: the inertia of strain coordinate '" + (joint ? joint : "?") +
+                            "' is " + pivot + " (SI), near MuJoCo's numerical floor of 1e-15, where MuJoCo 2.2.2's "
+                            "sparse Newton constraint solver stops (\"Rank-defficient Hessian\"): " +
+                            (asked ? "the model asks for sparse Jacobians and keeps them; jacobian=\"auto\" or \"dense\" "
+                                     "avoids the stop"
+                                   : "the scene runs with dense Jacobians (jacobian=\"dense\"") +
+                            "; solver=\"CG\" also avoids it, and longer sections or smaller units, e.g. mm and g, "
+                            "raise the inertia" + (asked ? "" : ")"));
+}
+
 void warn_overlapping_rods(Scene& s, const SceneData& sd) {
   const mjModel* m = s.m;
   if (!s.may_collide) return;
@@ -1409,6 +1451,26 @@ void fwd_inertia(const Scene& s, SceneData& sd, bool mass) {
   for (size_t r = 0; r < s.rods.size(); ++r) patch_qM(s, sd, static_cast<int>(r));
 }
 
+namespace {
+
+// d->qLD, d->qLDiagInv and d->qLDiagSqrtInv from d->qM, as mj_factorM computes them, but for the
+// rods' strain dofs, whose pivots are not raised to mjMINVAL (1e-15): in SI units a thin, short
+// section's twist inertia lies below it (outside probe Z: 1.3e-16 kg m^4 for a 6 mm section of
+// a 1 mm wire), and the raised pivot made M^-1 wrong there, in the constraint solver's unconstrained
+// accelerations and its inverse weights.
+void factor_mass(const Scene& s, SceneData& sd) {
+  const mjModel* m = s.m;
+  mjData* d = sd.d;
+  if (s.rods.empty()) {
+    mj_factorM(m, d);
+    return;
+  }
+  factor_ldl(m, d, d->qM, d->qLD, d->qLDiagInv, s.dof_strain.data());
+  for (int i = 0; i < m->nv; ++i) d->qLDiagSqrtInv[i] = std::sqrt(d->qLDiagInv[i]);
+}
+
+}  // namespace
+
 void fwd_position(const Scene& s, SceneData& sd, Need need) {
   const mjModel* m = s.m;
   mjData* d = sd.d;
@@ -1435,7 +1497,7 @@ void fwd_position(const Scene& s, SceneData& sd, Need need) {
   sd.forces_only = static_forces ||
                    (need == Need::Forces && d->nefc == 0 && (sd.step_sensors_done || !has_acceleration_sensors(m)));
   if (sd.forces_only) return;
-  mj_factorM(m, d);
+  factor_mass(s, sd);
   mj_projectConstraint(m, d);
 }
 
@@ -1578,7 +1640,7 @@ void recompute_qpos0_constants(Scene& s, SceneData& sd) {
     add_rod_inertia_sparse(s, sd, static_cast<int>(r), points, 1.0, sd.d->qM);
     add_rod_inertia_sparse(s, sd, static_cast<int>(r), 0, -1.0, sd.d->qM);
   }
-  mj_factorM(m, sd.d);
+  factor_mass(s, sd);
   std::vector<mjtNum> e(nv, 0.0), x(nv);
   auto Minv_diag = [&](int a) {  // (M^-1)(a, a)
     e[a] = 1.0;
@@ -1611,46 +1673,77 @@ void recompute_qpos0_constants(Scene& s, SceneData& sd) {
       proxy_sec[s.rods[r].proxy_body[i]] = static_cast<int>(i);
     }
   std::vector<mjtNum> jp(3 * nv), jr(3 * nv), jx(3 * nv);
-  for (int b = 1; b < m->nbody; ++b) {
-    if (proxy_rod[b] >= 0) {
-      const cosserat::Model& rm = s.rods[proxy_rod[b]].model;
-      const cosserat::Data& rd = sd.rod[proxy_rod[b]];
-      const Section& sec = rm.sections[proxy_sec[b]];
-      // the section's own mass points: its nodes' lumped cross-sections, the end points of a
-      // Gauss-Lobatto section (shared with the neighbours) with this section's weight only
-      const cosserat::Rod& rod = rm.rods[sec.rod];
-      auto point_mass = [&](double w, double X) {
-        return w * sec.length * section_inertia_density(sec.material, rod.radius(X))(3);
-      };
-      double mass = 0.0;
-      Vec3 com = Vec3::Zero();
-      for (int i = sec.first_node; i <= sec.end_node; ++i) {
-        const Node& n = rm.nodes[i];
-        const double mi = i == sec.end_node && sec.end_weight > 0 ? point_mass(sec.end_weight, n.X)
-                                                                   : n.inertia(3, 3);
-        if (mi <= 0) continue;
-        mass += mi;
-        com += mi * rd.g[i].u;
-      }
-      if (sec.end_weight > 0) {
-        const double mi = point_mass(sec.end_weight, sec.X0);
-        mass += mi;
-        com += mi * rd.g[sec.start_node].u;
-      }
-      com /= mass;
-      mj_jac(m, sd.d, jp.data(), jr.data(), com.data(), b);
-    } else {
-      mj_jacBodyCom(m, sd.d, jp.data(), jr.data(), b);
-    }
-    // the trace of J M^-1 J^T, translation rows and rotation rows (3 solves each)
-    double tr[2] = {0.0, 0.0};
+  // the trace of J M^-1 J^T / 3, translation rows and rotation rows of jp and jr (3 solves each)
+  auto inverse_weights = [&](double tr[2]) {
     for (int part = 0; part < 2; ++part) {
       const mjtNum* J = part == 0 ? jp.data() : jr.data();
       mj_solveM(m, sd.d, jx.data(), J, 3);
-      tr[part] = mju_dot(J, jx.data(), 3 * nv);
+      tr[part] = mju_dot(J, jx.data(), 3 * nv) / 3.0;
     }
-    m->body_invweight0[2 * b] = tr[0] / 3.0;
-    m->body_invweight0[2 * b + 1] = tr[1] / 3.0;
+  };
+  SectionCols dJ;
+  for (int b = 1; b < m->nbody; ++b) {
+    double tr[2] = {0.0, 0.0};
+    if (proxy_rod[b] >= 0) {
+      const int r = proxy_rod[b], si = proxy_sec[b];
+      const cosserat::Model& rm = s.rods[r].model;
+      const cosserat::Data& rd = sd.rod[r];
+      const Section& sec = rm.sections[si];
+      const cosserat::Rod& rod = rm.rods[sec.rod];
+      // the section's own mass points, visit(mass, node): its nodes' lumped cross-sections, the end
+      // points of a Gauss-Lobatto section (shared with the neighbours) with this section's weight only
+      auto mass_points = [&](auto&& visit) {
+        auto point_mass = [&](double w, double X) {
+          return w * sec.length * section_inertia_density(sec.material, rod.radius(X))(3);
+        };
+        for (int i = sec.first_node; i <= sec.end_node; ++i) {
+          const double mi = i == sec.end_node && sec.end_weight > 0 ? point_mass(sec.end_weight, rm.nodes[i].X)
+                                                                     : rm.nodes[i].inertia(3, 3);
+          if (mi > 0) visit(mi, i);
+        }
+        if (sec.end_weight > 0) visit(point_mass(sec.end_weight, sec.X0), sec.start_node);
+      };
+      double mass = 0.0;
+      if (sec.ndof == 0) {  // a rigid section: MuJoCo's rule at its centre of mass, as for its native equivalent
+        Vec3 com = Vec3::Zero();
+        mass_points([&](double mi, int node) {
+          mass += mi;
+          com += mi * rd.g[node].u;
+        });
+        com /= mass;
+        mj_jac(m, sd.d, jp.data(), jr.data(), com.data(), b);
+        inverse_weights(tr);
+      } else {
+        // a soft section is not rigid: the mass-weighted mean of its mass points' inverse weights,
+        // each from the true Jacobian of the point riding with its cross-section (point_correction).
+        // Its centre of mass as if rigid with the proxy (the section end), used before, is far off
+        // on a long section: outside probe Z's clamped one-section GVS rod got 9x its tip's inverse
+        // weight, and MuJoCo's contact regulariser, which grows with it, let the rod sink 5.7 radii
+        // into a floor.
+        mass_points([&](double mi, int node) {
+          const Vec3& p = rd.g[node].u;
+          mj_jac(m, sd.d, jp.data(), jr.data(), p.data(), b);
+          const int c0 = point_correction(s, sd, r, si, rm.nodes[node].X, p, dJ);
+          for (int e = 0; e < 3; ++e)
+            for (int k = 0; k < dJ.cols(); ++k) {
+              jp[e * nv + c0 + k] += dJ(e, k);
+              jr[e * nv + c0 + k] += dJ(3 + e, k);
+            }
+          double t[2];
+          inverse_weights(t);
+          mass += mi;
+          tr[0] += mi * t[0];
+          tr[1] += mi * t[1];
+        });
+        tr[0] /= mass;
+        tr[1] /= mass;
+      }
+    } else {
+      mj_jacBodyCom(m, sd.d, jp.data(), jr.data(), b);
+      inverse_weights(tr);
+    }
+    m->body_invweight0[2 * b] = tr[0];
+    m->body_invweight0[2 * b + 1] = tr[1];
   }
   for (int t = 0; t < m->ntendon; ++t) {
     const mjtNum* Jt = tendon_jacobian_row(s, sd, t);
@@ -1781,6 +1874,8 @@ std::unique_ptr<Scene> compile(const Preprocessed& pre) {
   s->site_rod.assign(s->m->nsite, -1);
   s->site_index.assign(s->m->nsite, -1);
   s->site_section.assign(s->m->nsite, -1);
+  s->dof_strain.assign(s->m->nv, 0);
+  for (const RodBinding& rb : s->rods) std::fill_n(s->dof_strain.begin() + rb.dof0, rb.model.nv, 1);
   for (size_t r = 0; r < s->rods.size(); ++r)
     for (size_t k = 0; k < s->rods[r].site_id.size(); ++k) {
       // the section whose proxy (or helper: none carry sites) holds the site. A site on the rod's
@@ -1860,6 +1955,7 @@ std::unique_ptr<Scene> compile(const Preprocessed& pre) {
     SceneData at_qpos0(*s);
     recompute_qpos0_constants(*s, at_qpos0);
     warn_overlapping_rods(*s, at_qpos0);  // (before anything else moves the rod capsules' sizes)
+    avoid_sparse_newton_on_small_pivots(*s, at_qpos0);
     check_muscle_lengthranges(pre, *s);
   }
   s->integrator = s->rods.empty() ? Integrator::Euler : Integrator::Implicit;

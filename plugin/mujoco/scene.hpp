@@ -90,6 +90,8 @@ struct Scene {
   std::vector<int> site_rod;
   std::vector<int> site_index;    // per MuJoCo site: index into that rod's sites
   std::vector<int> site_section;  // per MuJoCo site: section (proxy) of the rod carrying it
+  // per MuJoCo dof: 1 for a rod's strain dofs, whose pivots factor_mass keeps below mjMINVAL
+  std::vector<char> dof_strain;
   // per MuJoCo body: 1 for the bodies a rod places (its proxies and helpers, and the bodies below
   // it), which the step's kinematics leaves to the rod's patch instead of computing them twice
   std::vector<char> body_by_rod;

@@ -4,14 +4,14 @@
 
 namespace cosserat::mj {
 
-void factor_ldl(const mjModel* m, mjData* d, const mjtNum* M, mjtNum* LD, mjtNum* diag_inv) {
+void factor_ldl(const mjModel* m, mjData* d, const mjtNum* M, mjtNum* LD, mjtNum* diag_inv, const char* exact) {
   const int nv = m->nv;
   const int* adr = m->dof_Madr;
   const int* parent = m->dof_parentid;
   if (LD != M) std::copy(M, M + m->nM, LD);
   for (int k = nv - 1; k >= 0; --k) {
     const int kk = adr[k];
-    if (LD[kk] < mjMINVAL) {
+    if (exact && exact[k] ? !(LD[kk] > 0) : LD[kk] < mjMINVAL) {
       mj_warning(d, mjWARN_INERTIA, k);
       LD[kk] = mjMINVAL;
     }

@@ -14,9 +14,12 @@ namespace cosserat::mj {
 
 // LD (nM) and diag_inv (nv) from M (nM, qM's layout), as mj_factorM computes d->qLD and
 // d->qLDiagInv from d->qM: the same operations in the same order. A diagonal below mjMINVAL is
-// clamped to it with MuJoCo's mjWARN_INERTIA warning, as mj_factorM does. M and LD may be the same
-// array.
-void factor_ldl(const mjModel* m, mjData* d, const mjtNum* M, mjtNum* LD, mjtNum* diag_inv);
+// clamped to it with MuJoCo's mjWARN_INERTIA warning, as mj_factorM does, except on the dofs
+// where `exact` (nv flags, or null) is set, whose pivots are clamped only where not positive (the
+// rods' strain dofs: their inertias fall below mjMINVAL on thin, short sections). M and LD may be
+// the same array.
+void factor_ldl(const mjModel* m, mjData* d, const mjtNum* M, mjtNum* LD, mjtNum* diag_inv,
+                const char* exact = nullptr);
 
 // x = (L^T D L)^-1 y for one vector, as mj_solveM does with d->qLD (x and y may be the same array).
 void solve_ldl(const mjModel* m, const mjtNum* LD, const mjtNum* diag_inv, mjtNum* x, const mjtNum* y);

@@ -652,18 +652,23 @@ TEST_F(Cli, ADivergenceAfterFullContactBuffersNamesThem) {
   EXPECT_NE(r.err.find("else try a smaller --timestep"), std::string::npos) << r.err;
 }
 
-// A MuJoCo error inside a step (its constraint solver's rank-deficient Hessian after a mixed rod's
-// section collapsed) ends the run as a divergence: exit 1 with one line naming the error, the CSV
-// and JSON written up to the last good step; one at load names the file (outside probe,
-// fourteenth session: the run had exited with empty outputs, `check` without the file).
+// A MuJoCo error inside a step (its sparse Newton solver's rank-deficient Hessian after a mixed
+// rod's section collapsed; the models ask for sparse Jacobians, which the loader keeps, warning
+// that the rods' small inertias may stop that solver) ends the run as a divergence: exit 1 with
+// one line naming the error, the CSV and JSON written up to the last good step; one at load names
+// the file (outside probe, fourteenth session: the run had exited with empty outputs, `check`
+// without the file).
 TEST_F(Cli, MujocoErrorsEndARunAsADivergenceWithItsOutputs) {
   const std::string model = COSSERAT_SOURCE_DIR "/tests/mujoco/data/mujoco_error_midrun.xml";
   const fs::path csv = scratch() / "e.csv", js = scratch() / "e.json";
   const Result r = cosserat("run '" + model + "' --integrator euler --duration 0.1 --csv '" + csv.string() +
                             "' --json '" + js.string() + "'");
   EXPECT_EQ(r.status, 1);
-  EXPECT_EQ(lines(r.err).size(), 1u) << r.err;
-  EXPECT_NE(r.err.find("simulation diverged: MuJoCo error: "), std::string::npos) << r.err;
+  ASSERT_EQ(lines(r.err).size(), 2u) << r.err;
+  EXPECT_NE(lines(r.err)[0].find("the model asks for sparse Jacobians and keeps them"), std::string::npos) << r.err;
+  EXPECT_EQ(lines(r.err)[1].rfind("cosserat: simulation diverged: MuJoCo error: Rank-defficient Hessian", 0), 0u) << r.err;
+  // the hint names the solver's stop first
+  EXPECT_NE(r.err.find("(MuJoCo's sparse Newton constraint solver stops where a pivot"), std::string::npos) << r.err;
   const json j = json::parse(read_text(js));
   EXPECT_TRUE(j["diverged"].get<bool>());
   const long steps = j["steps"].get<long>();
@@ -677,12 +682,13 @@ TEST_F(Cli, MujocoErrorsEndARunAsADivergenceWithItsOutputs) {
   const Result c = cosserat("check '" + bad + "'");
   EXPECT_EQ(c.status, 1);
   // the loader's warnings about the rod (1 cm long, 2 cm thick; selfcollide, so its sections
-  // overlap each other), then the error
+  // overlap each other; its small inertias under the sparse Newton solver), then the error
   const std::vector<std::string> err = lines(c.err);
-  ASSERT_EQ(err.size(), 3u) << c.err;
-  EXPECT_EQ(err[0].rfind("warning: " + bad + ":3: <cosserat>: the rod is thicker than it is long", 0), 0u) << c.err;
-  EXPECT_EQ(err[1].rfind("warning: " + bad + ":3: <cosserat name=\"arm\">: with selfcollide=\"true\" its own capsules overlap", 0), 0u) << c.err;
-  EXPECT_EQ(err[2].rfind(bad + ":0: MuJoCo error: ", 0), 0u) << c.err;
+  ASSERT_EQ(err.size(), 4u) << c.err;
+  EXPECT_EQ(err[0].rfind("warning: " + bad + ":4: <cosserat>: the rod is thicker than it is long", 0), 0u) << c.err;
+  EXPECT_EQ(err[1].rfind("warning: " + bad + ":4: <cosserat name=\"arm\">: with selfcollide=\"true\" its own capsules overlap", 0), 0u) << c.err;
+  EXPECT_EQ(err[2].rfind("warning: " + bad + ":4: <cosserat name=\"arm\">: the inertia of strain coordinate", 0), 0u) << c.err;
+  EXPECT_EQ(err[3].rfind(bad + ": MuJoCo error: ", 0), 0u) << c.err;  // (no line: the whole model's)
 }
 
 // --newton-refresh reaches Scene::newton_refresh: on the undamped cantilever of the Newton tests

@@ -619,4 +619,79 @@ TEST(Contact, RigidRodWithContactBehavesLikeNativeBodies) {
   EXPECT_LT(worst, 1e-9);
 }
 
+// The inverse weight of a long soft section (which scales MuJoCo's contact regulariser) is its
+// mass points' mean, each from the point's true Jacobian. Outside probe Z: a clamped one-section
+// GVS wire (order 2, r = 1 mm) got the section's centre of mass as if rigid with its end: 9x the
+// tip's true J M^-1 J', and the wire sank 5.7 radii into a floor. Reference: the true J M^-1 J' of
+// each contact row (from efc_J and MuJoCo's factor) against the row's diagApprox (the regulariser's
+// scale, 4 body_invweight0 on a pyramid's edges: (1 + mu^2) 2 with mu = 1); and the wire's rest.
+TEST(Contact, LongSoftSectionsRestOnAFloorAsShortOnes) {
+  const double r = 0.001;
+  auto s = load_scene_string(R"(<mujoco><option timestep="0.0005"/><worldbody><geom type="plane" size="1 1 .1"/>
+    <cosserat name="c" pos="0 0 0.0009" length="0.2" sections="1" strain="kl" order="2" radius="0.001"
+      density="1000" young="1e9" poisson="0.3"/></worldbody></mujoco>)",
+                             kPath);
+  SceneData sd(*s);
+  for (int k = 0; k < 2000; ++k) ASSERT_EQ(step(*s, sd), Status::Ok) << k;
+  forward(*s, sd);
+  const mjModel* m = s->m;
+  mjData* d = sd.d;
+  ASSERT_FALSE(mj_isSparse(m));
+  int tip_rows = 0;
+  std::vector<mjtNum> x(m->nv);
+  for (int i = 0; i < d->ncon; ++i) {
+    const int row = d->contact[i].efc_address;
+    if (d->contact[i].pos[0] < 0.15) continue;  // the contacts towards the free end
+    mj_solveM(m, d, x.data(), d->efc_J + row * m->nv, 1);
+    const double A = mju_dot(d->efc_J + row * m->nv, x.data(), m->nv);
+    EXPECT_LT(d->efc_diagApprox[row], 3.0 * A) << i;  // was 35x
+    EXPECT_GT(d->efc_diagApprox[row], A / 30.0) << i;
+    ++tip_rows;
+  }
+  EXPECT_GT(tip_rows, 0);
+  const double tip = d->site_xpos[3 * mj_name2id(m, mjOBJ_SITE, "c/tip") + 2];
+  EXPECT_GT(tip, 0.5 * r);  // rests on the floor, its centre line less than half a radius deep (was -4.7 mm)
+  EXPECT_LT(tip, r);
+}
+
+// Thin, short sections: a 6 mm section of a 1 mm wire has a twist inertia of 1.3e-16 kg m^4 in SI,
+// below MuJoCo's mjMINVAL (1e-15). Outside probe Z: on a floor, MuJoCo 2.2.2's sparse Newton
+// solver stopped the program at the first step ("Rank-defficient Hessian"), and mj_factorM's
+// raised pivot had made M^-1 wrong on those dofs. The loader gives such scenes dense Jacobians
+// (with a warning), the factor keeps the rods' pivots: M (M^-1 e) = e, and the wire rests where
+// the CG solver, which never factorises the Hessian, puts it.
+TEST(Contact, ThinShortSectionsRestOnAFloor) {
+  const std::string xml = R"(<mujoco><size nconmax="400" njmax="3000"/><option SOLVER/><worldbody>
+    <geom type="plane" size="1 1 .1"/>
+    <cosserat name="c" pos="0 0 0.0009" length="0.2" sections="32" strain="kl" radius="0.001" density="1000"
+      young="1e9" poisson="0.3"/></worldbody></mujoco>)";
+  auto newton = load_scene_string(replace_all(xml, "SOLVER", ""), kPath);
+  auto cg = load_scene_string(replace_all(xml, "SOLVER", "solver=\"CG\""), kPath);
+  ASSERT_EQ(newton->load_warnings.size(), 1u);
+  EXPECT_NE(newton->load_warnings[0].find("the inertia of strain coordinate 'c/s31/kx' is 1.3e-16"), std::string::npos)
+      << newton->load_warnings[0];
+  EXPECT_EQ(newton->m->opt.jacobian, mjJAC_DENSE);
+  EXPECT_TRUE(cg->load_warnings.empty());  // CG never stops there: its Jacobians stay as they are
+  EXPECT_TRUE(mj_isSparse(cg->m));
+  SceneData a(*newton), b(*cg);
+  for (int k = 0; k < 100; ++k) {
+    ASSERT_EQ(step(*newton, a), Status::Ok) << k;
+    ASSERT_EQ(step(*cg, b), Status::Ok) << k;
+  }
+  forward(*newton, a);
+  const mjModel* m = newton->m;
+  EXPECT_GT(a.d->ncon, 0);
+  const int dof = m->jnt_dofadr[mj_name2id(m, mjOBJ_JOINT, "c/s31/kx")];
+  std::vector<mjtNum> e(m->nv, 0.0), x(m->nv), y(m->nv);
+  e[dof] = 1.0;
+  mj_solveM(m, a.d, x.data(), e.data(), 1);
+  mj_mulM(m, a.d, y.data(), x.data());
+  for (int i = 0; i < m->nv; ++i) EXPECT_NEAR(y[i], e[i], 1e-9) << i;
+  const int tip = mj_name2id(m, mjOBJ_SITE, "c/tip");
+  // (two solvers, each to its tolerance, on a wire still settling: 4e-9 m measured)
+  for (int k = 0; k < 3; ++k) EXPECT_NEAR(a.d->site_xpos[3 * tip + k], b.d->site_xpos[3 * tip + k], 1e-7) << k;
+  EXPECT_GT(a.d->site_xpos[3 * tip + 2], 0.0);  // on the floor, less than a radius deep
+  EXPECT_LT(a.d->site_xpos[3 * tip + 2], 0.001);
+}
+
 }  // namespace

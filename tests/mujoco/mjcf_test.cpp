@@ -249,7 +249,7 @@ TEST(MjcfErrors, TableOfBadInput) {
       EXPECT_EQ(e.line, c.line) << e.what();
       EXPECT_NE(e.message.find(c.message), std::string::npos) << e.what();
       EXPECT_TRUE(e.file.ends_with(c.file)) << e.what();
-      const std::string prefix = e.file + ":" + std::to_string(e.line) + ": ";
+      const std::string prefix = e.file + (e.line > 0 ? ":" + std::to_string(e.line) : std::string()) + ": ";
       EXPECT_EQ(std::string(e.what()).rfind(prefix, 0), 0u) << e.what();
     }
   }
