@@ -868,9 +868,23 @@ double segment_distance(const Vec3& a0, const Vec3& a1, const Vec3& b0, const Ve
 // with a warning; one that asks for sparse ones keeps them, with a warning that it may stop.
 constexpr double kSmallPivot = 100 * mjMINVAL;
 
+// Whether the scene can ever have constraint rows: contacts, equality constraints, joint or
+// tendon limits, friction loss.
+bool may_constrain(const Scene& s) {
+  const mjModel* m = s.m;
+  if (s.may_collide || m->neq > 0) return true;
+  for (int j = 0; j < m->njnt; ++j)
+    if (m->jnt_limited[j]) return true;
+  for (int t = 0; t < m->ntendon; ++t)
+    if (m->tendon_limited[t] || m->tendon_frictionloss[t] > 0) return true;
+  for (int i = 0; i < m->nv; ++i)
+    if (m->dof_frictionloss[i] > 0) return true;
+  return false;
+}
+
 void avoid_sparse_newton_on_small_pivots(Scene& s, SceneData& sd) {
   mjModel* m = s.m;
-  if (m->opt.solver != mjSOL_NEWTON || !mj_isSparse(m)) return;
+  if (m->opt.solver != mjSOL_NEWTON || !mj_isSparse(m) || !may_constrain(s)) return;
   mju_copy(sd.d->qpos, m->qpos0, m->nq);
   fwd_inertia(s, sd, true);
   std::vector<mjtNum> LD(m->nM), diag_inv(m->nv);
@@ -2185,7 +2199,7 @@ void factor_implicit(const Scene& s, SceneData& sd, bool rods, double cD, double
           if (a != 0.0) A[m->dof_Madr[rb.dof0 + i] + (i - j)] += a;
         }
   add_fluid_damping(s, sd, hD, A);  // fluid hook: + cD h D_f (no-op without the fluid)
-  factor_ldl(m, d, A, A, sd.A_LDiagInv.data());
+  factor_ldl(m, d, A, A, sd.A_LDiagInv.data(), s.dof_strain.data());  // (factor_mass: the rods keep their pivots)
   factor_woodbury(m, sd);
 }
 
