@@ -2269,8 +2269,10 @@ void subtract_stiffness(const Scene& s, SceneData& sd, double c, const mjtNum* x
 // on act and on the sign of ctrl - act) decreases strictly in act, so the equation has one root:
 // found by bisection to round-off. The control is held over the step, clamped as MuJoCo's
 // actuation clamps it, and the activation clamped to its range as mj_Euler clamps it.
-// `integrator` dynamics (act' = ctrl) are exact under Euler's update already; user dynamics
-// (mjcb_act_dyn, of unknown form) keep it (first order).
+// `integrator` dynamics (act' = ctrl) are exact under Euler's update already. User dynamics
+// (mjcb_act_dyn, of unknown form: f(act) reads the activation from d->act, the rest of the state
+// as the step left it) are solved by the secant method from Euler's update, to round-off; where it
+// does not converge in 50 iterations (dynamics that are far from monotone), Euler's update stays.
 void filter_activations(const Scene& s, SceneData& sd, const mjtNum* act0, const mjtNum* act_dot0, double theta) {
   const mjModel* m = s.m;
   mjData* d = sd.d;
@@ -2278,7 +2280,7 @@ void filter_activations(const Scene& s, SceneData& sd, const mjtNum* act0, const
   if (m->opt.disableflags & mjDSBL_ACTUATION) return;  // (MuJoCo's act_dot is not computed then)
   for (int a = m->nu - m->na; a < m->nu; ++a) {
     const int type = m->actuator_dyntype[a];
-    if (type != mjDYN_FILTER && type != mjDYN_MUSCLE) continue;
+    if (type != mjDYN_FILTER && type != mjDYN_MUSCLE && !(type == mjDYN_USER && mjcb_act_dyn)) continue;
     const int j = a - (m->nu - m->na);
     double ctrl = d->ctrl[a];
     if (m->actuator_ctrllimited[a] && !(m->opt.disableflags & mjDSBL_CLAMPCTRL))
@@ -2289,6 +2291,25 @@ void filter_activations(const Scene& s, SceneData& sd, const mjtNum* act0, const
     if (type == mjDYN_FILTER) {
       const double tau = std::max(mjMINVAL, prm[0]);
       act = (rest + h * theta * ctrl / tau) / (1.0 + h * theta / tau);
+    } else if (type == mjDYN_USER) {
+      const double euler = d->act[j];
+      auto g = [&](double x) {
+        d->act[j] = x;
+        return x - rest - h * theta * mjcb_act_dyn(m, d, a);
+      };
+      // from Euler's update x0 and a fixed-point step x1 = x0 - g(x0) = rest + h theta f(x0)
+      double x0 = euler, g0 = g(x0), x1 = x0 - g0;
+      act = euler;
+      for (int it = 0; it < 50 && std::isfinite(x1) && std::isfinite(g0); ++it) {
+        const double g1 = g(x1);
+        if (std::abs(g1) <= 1e-14 * (1.0 + std::abs(x1))) {
+          act = x1;
+          break;
+        }
+        if (g1 == g0) break;
+        const double x2 = x1 - g1 * (x1 - x0) / (g1 - g0);
+        x0 = x1, g0 = g1, x1 = x2;
+      }
     } else {
       auto g = [&](double x) { return x - rest - h * theta * mju_muscleDynamics(ctrl, x, prm); };  // increasing
       double lo = std::min(rest, 0.0) - 1.0, hi = std::max(rest, 1.0) + 1.0;

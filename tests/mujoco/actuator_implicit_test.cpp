@@ -357,4 +357,63 @@ TEST(ActuatorImplicit, MuscleActivationsFollowTheScheme) {
   }
 }
 
+// User activation dynamics (mjcb_act_dyn) follow the scheme too (twenty-fifth session; they had
+// kept Euler's rule, first order under the second-order schemes): a linear callback, act' =
+// (ctrl - act) / tau, gives the filter's exact recurrences to 1e-12 under all four schemes, and a
+// nonlinear one, act' = ctrl - act^3, meets each step's equation (backward Euler's, the
+// trapezoidal rule's) to 1e-12.
+double g_user_tau = 0.05;
+bool g_user_cubic = false;
+mjtNum user_dynamics(const mjModel* m, const mjData* d, int id) {
+  const int j = id - (m->nu - m->na);
+  return g_user_cubic ? d->ctrl[id] - d->act[j] * d->act[j] * d->act[j] : (d->ctrl[id] - d->act[j]) / g_user_tau;
+}
+
+TEST(ActuatorImplicit, UserActivationDynamicsFollowTheScheme) {
+  const char* xml = R"(<mujoco><option gravity="0 0 0"/><worldbody>
+    <body name="b"><joint name="h" type="hinge" axis="0 0 1" damping="0.1"/>
+      <geom type="box" size="0.1 0.02 0.02" mass="0.5" contype="0" conaffinity="0"/></body>
+    <cosserat name="apart" pos="1 0 0" length="0.1" contype="0" conaffinity="0"/></worldbody>
+    <actuator><general joint="h" dyntype="user" gainprm="0.01"/></actuator></mujoco>)";
+  mjcb_act_dyn = user_dynamics;
+  const double tau = g_user_tau, h = 1e-3, T = 0.3;
+  g_user_cubic = false;
+  for (const Integrator it : {Integrator::Implicit, Integrator::Trapezoidal, Integrator::GeneralizedAlpha,
+                              Integrator::Midpoint}) {
+    SCOPED_TRACE(integrator_name(it));
+    auto s = load_scene_string(xml, kPath);
+    ASSERT_EQ(s->m->na, 1);
+    s->m->opt.timestep = h;
+    s->rho_inf = 0.0;  // genalpha's most damping variant (whose cq1 is backward Euler's)
+    SceneData sd(*s);
+    sd.d->act[0] = 0.1;
+    sd.d->ctrl[0] = 0.5;
+    const int n = static_cast<int>(std::lround(T / h));
+    for (int k = 0; k < n; ++k) ASSERT_EQ(step(*s, sd, it), Status::Ok);
+    const double x = h / tau;
+    const double r = it == Integrator::Implicit ? 1.0 / (1.0 + x) : (1.0 - x / 2) / (1.0 + x / 2);
+    EXPECT_NEAR(sd.d->act[0], 0.5 - 0.4 * std::pow(r, n), 1e-12);
+  }
+  g_user_cubic = true;
+  for (const Integrator it : {Integrator::Implicit, Integrator::Trapezoidal}) {
+    SCOPED_TRACE(integrator_name(it));
+    auto s = load_scene_string(xml, kPath);
+    s->m->opt.timestep = 0.05;  // large steps: Euler's update is far from the scheme's
+    SceneData sd(*s);
+    sd.d->act[0] = 2.0;
+    sd.d->ctrl[0] = 1.0;
+    auto f = [](double c, double a) { return c - a * a * a; };
+    for (int k = 0; k < 100; ++k) {
+      const double a0 = sd.d->act[0];
+      ASSERT_EQ(step(*s, sd, it), Status::Ok);
+      const double a1 = sd.d->act[0], hh = 0.05;
+      const double residual = it == Integrator::Implicit ? a1 - a0 - hh * f(1.0, a1)
+                                                         : a1 - a0 - 0.5 * hh * (f(1.0, a0) + f(1.0, a1));
+      ASSERT_NEAR(residual, 0.0, 1e-12) << "step " << k;
+    }
+    EXPECT_NEAR(sd.d->act[0], 1.0, 1e-4);  // settled on the root of ctrl - act^3 (rate 3 1/s, 5 s)
+  }
+  mjcb_act_dyn = nullptr;
+}
+
 }  // namespace
