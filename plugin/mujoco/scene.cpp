@@ -2427,7 +2427,10 @@ bool starts_at_end(const St& st, const mjData* d) {
 void restore_start(SceneData& sd) { restore_state(sd.newton, sd.d); }
 
 // Saves the start state for restore_start.
-void save_start(SceneData& sd, const mjModel* m) { save_state(sd.newton, m, sd.d); }
+void save_start(SceneData& sd, const mjModel* m) {
+  save_state(sd.newton, m, sd.d);
+  sd.newton.saved = true;
+}
 
 // The state (q+, v+) of the scheme for the end acceleration w.A (from the saved start state).
 void set_end_state(const Scene& s, SceneData& sd, const Scheme& sc) {
@@ -2725,9 +2728,23 @@ bool single_step(const Scene& s, SceneData& sd, Integrator method) {
 // correction per step (--newton 1) is a linearly implicit step of the scheme, by choice: it is
 // kept without a convergence test (splitting would chase a tolerance one correction cannot meet,
 // down to h/64 on every step).
+// A MuJoCo error raised inside an iterate (through a throwing mju_user_error handler, as the
+// command line installs; MuJoCo's own handler exits) counts as a failed correction, as a
+// non-finite iterate does: the step is split (outside probe AA: a wild iterate of a violent
+// cable-driven scene stopped MuJoCo 2.2.2's sparse Newton solver, "Rank-defficient Hessian",
+// and ended the run at its first step, where dense Jacobians had split it and run on). An error
+// at the step's start state, or in the finest half steps, is passed on.
 void newton_step_split(const Scene& s, SceneData& sd, Integrator method, int depth = 0) {
   constexpr int kMaxSplit = 6;
-  if (single_step(s, sd, method)) return;
+  sd.newton.saved = false;
+  bool converged = false;
+  try {
+    converged = single_step(s, sd, method);
+  } catch (const std::exception&) {
+    if (depth == kMaxSplit || !sd.newton.saved) throw;
+    sd.d->pstack = 0;  // the unwound MuJoCo frames did not release their stack allocations
+  }
+  if (converged) return;
   if (depth == kMaxSplit) {
     ++sd.newton_stats.unconverged;
     return;
@@ -2736,10 +2753,14 @@ void newton_step_split(const Scene& s, SceneData& sd, Integrator method, int dep
   sd.newton.carry_valid = false;  // the half steps start from A0 = f(q, v)
   ++sd.newton_stats.splits;
   const double h = s.m->opt.timestep;
+  struct KeepTimestep {  // h again however the half steps end
+    mjModel* m;
+    double h;
+    ~KeepTimestep() { m->opt.timestep = h; }
+  } keep{s.m, h};
   s.m->opt.timestep = 0.5 * h;
   newton_step_split(s, sd, method, depth + 1);
   newton_step_split(s, sd, method, depth + 1);
-  s.m->opt.timestep = h;
 }
 
 // A step of m->opt.timestep h as adaptive substeps h / 2^k (Scene::step_tol). Levels only refine

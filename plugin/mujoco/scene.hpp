@@ -312,6 +312,7 @@ struct SceneData {
     // generalized alpha: the end acceleration A0 carries over to the next step if it starts from
     // the state this one ended with
     bool carry_valid = false;
+    bool saved = false;  // the start state is saved (newton_step_split resets it before each step)
     std::vector<mjtNum> q_end, v_end;
     double t_end = 0.0;
     // Anderson acceleration: the previous iterate and correction, and the last differences of

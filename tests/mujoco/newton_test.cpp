@@ -7,10 +7,12 @@
 
 #include <algorithm>
 #include <cmath>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
 #include "scene.hpp"
+#include "support/text_file.hpp"
 #include "support/weighted_cantilever.hpp"
 
 using namespace cosserat;
@@ -531,6 +533,37 @@ TEST(Newton, ThinShortSectionsConvergeInOneCorrection) {
     EXPECT_NEAR(energy(*s, sd).total(), e0, 1e-9 * e0);
     EXPECT_GT(std::abs(sd.d->qvel[0]), 0.0);  // the twist did move
   }
+}
+
+// A MuJoCo error inside a Newton iterate counts as a failed correction: the step splits, as for a
+// non-finite iterate (outside probe AA: with sparse Jacobians a wild iterate of three hard-pulled
+// cable-driven arms under genalpha stopped MuJoCo's sparse Newton solver, "Rank-defficient
+// Hessian", ending the run at its first step; with dense ones it split and ran on). Errors reach
+// the step through a throwing mju_user_error handler, as the command line installs. Reference: the
+// same scene with dense Jacobians, whose solver never stops there.
+void throwing_mujoco_error(const char* msg) { throw std::runtime_error(msg); }
+
+TEST(Newton, AMujocoErrorInAnIterateSplitsTheStep) {
+  const std::string path = std::string(COSSERAT_SOURCE_DIR) + "/tests/mujoco/data/violent_cables_sparse.xml";
+  auto sparse = load_scene(path);
+  std::string xml = cosserat::testing::read_text(path);
+  xml.replace(xml.find("jacobian=\"sparse\""), 17, "jacobian=\"dense\"");
+  auto dense = load_scene_string(xml, path);
+  ASSERT_TRUE(mj_isSparse(sparse->m));
+  ASSERT_FALSE(mj_isSparse(dense->m));
+  void (*previous)(const char*) = mju_user_error;
+  mju_user_error = throwing_mujoco_error;
+  SceneData a(*sparse), b(*dense);
+  const double ctrl[5] = {1.5, 1.95, 2.4, 2.85, 3.3};
+  for (SceneData* sd : {&a, &b}) std::copy(ctrl, ctrl + 5, sd->d->ctrl);
+  for (int k = 0; k < 3; ++k) {
+    EXPECT_EQ(step(*sparse, a, Integrator::GeneralizedAlpha), Status::Ok) << k;
+    EXPECT_EQ(step(*dense, b, Integrator::GeneralizedAlpha), Status::Ok) << k;
+  }
+  mju_user_error = previous;
+  EXPECT_GT(a.newton_stats.splits, 0);
+  EXPECT_EQ(sparse->m->opt.timestep, dense->m->opt.timestep);  // h again after the half steps
+  for (int i = 0; i < sparse->m->nq; ++i) EXPECT_NEAR(a.d->qpos[i], b.d->qpos[i], 1e-8) << i;
 }
 
 }  // namespace
