@@ -218,4 +218,17 @@ void rne_except(const mjModel* m, mjData* d, int flg_acc, mjtNum* result, const 
   d->pstack = mark;  // mjFREESTACK
 }
 
+void tendon_velocities(const mjModel* m, mjData* d) {
+  if (!mj_isSparse(m)) {
+    mju_mulMatVec(d->ten_velocity, d->ten_J, d->qvel, m->ntendon, m->nv);
+    return;
+  }
+  for (int t = 0; t < m->ntendon; ++t) {
+    mjtNum v = 0.0;
+    for (int k = d->ten_J_rowadr[t]; k < d->ten_J_rowadr[t] + d->ten_J_rownnz[t]; ++k)
+      v += d->ten_J[k] * d->qvel[d->ten_J_colind[k]];
+    d->ten_velocity[t] = v;
+  }
+}
+
 }  // namespace cosserat::mj

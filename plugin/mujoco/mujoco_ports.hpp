@@ -29,6 +29,11 @@ void kinematics_except(const mjModel* m, mjData* d, const char* skip);
 // qM are the dof's armature and zeros, as MuJoCo's products with a zero vector leave them.
 void crb_skipping_massless(const mjModel* m, mjData* d);
 
+// mj_fwdVelocity's tendon velocities, d->ten_velocity = ten_J qvel, in either layout of ten_J:
+// mju_mulMatVec on dense rows, a compressed row's entries summed in order (mju_dotSparse as
+// packaged, without AVX; a fused multiply-add had changed their last bits: outside probe AA).
+void tendon_velocities(const mjModel* m, mjData* d);
+
 // mj_comVel (cvel, and cdof_dot = cvel x cdof) for the bodies b with !skip[b] (skip: nbody flags,
 // or nullptr for none); a skipped body's cvel and cdof_dot are left as they are. `skip` must hold
 // whole subtrees: a body below a skipped one is skipped too.

@@ -1515,25 +1515,6 @@ void fwd_position(const Scene& s, SceneData& sd, Need need) {
   mj_projectConstraint(m, d);
 }
 
-namespace {
-
-// d->ten_velocity = ten_J qvel in either layout of ten_J, summed as MuJoCo 2.2.2's mj_fwdVelocity
-// sums: mju_dot on dense rows, a compressed row's entries in order (mju_dotSparse as packaged,
-// without AVX)
-void tendon_velocities(const mjModel* m, mjData* d) {
-  if (!mj_isSparse(m)) {
-    mju_mulMatVec(d->ten_velocity, d->ten_J, d->qvel, m->ntendon, m->nv);
-    return;
-  }
-  for (int t = 0; t < m->ntendon; ++t) {
-    mjtNum v = 0.0;
-    for (int k = d->ten_J_rowadr[t]; k < d->ten_J_rowadr[t] + d->ten_J_rownnz[t]; ++k)
-      v += d->ten_J[k] * d->qvel[d->ten_J_colind[k]];
-    d->ten_velocity[t] = v;
-  }
-}
-
-}  // namespace
 
 const mjtNum* tendon_jacobian_row(const Scene& s, const SceneData& sd, int t) {
   return (mj_isSparse(s.m) ? sd.ten_J_rows.data() : sd.d->ten_J) + static_cast<size_t>(t) * s.m->nv;

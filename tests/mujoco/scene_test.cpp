@@ -125,6 +125,45 @@ TEST(Scene, StagedPipelineReproducesMjStepBitForBitWithSparseJacobians) {
   expect_mj_step_bit_for_bit("jacobian=\"sparse\" integrator=\"implicit\"", Integrator::Implicit);
 }
 
+// The same with long compressed tendon rows: four hinge chains of 16 links (64 dofs, sparse
+// Jacobians), a damped spatial tendon along each (16 dofs a row) and tendonvel sensors. Outside
+// probe AA: the compressed rows' sums had been compiled with fused multiply-adds, and the tendon
+// velocities differed from mj_step's in the last bit (damping carried it into qvel).
+TEST(Scene, ChainsWithLongTendonsReproduceMjStepBitForBitWithSparseJacobians) {
+  std::string xml = "<mujoco><option timestep=\"0.002\"/><worldbody>", tendons, sensors;
+  for (int c = 0; c < 4; ++c) {
+    xml += "<body pos=\"0 " + std::to_string(0.2 * c) + " 0.6\" euler=\"0 20 0\">";
+    tendons += "<spatial name=\"t" + std::to_string(c) + "\" damping=\"0.3\" stiffness=\"2\">";
+    for (int k = 0; k < 16; ++k) {
+      const std::string n = std::to_string(c) + "_" + std::to_string(k);
+      xml += std::string("<body pos=\"") + (k ? "0.03" : "0") + " 0 0\"><joint type=\"hinge\" axis=\"" +
+             (k % 2 ? "0 0 1" : "0 1 0") + "\" damping=\"0.002\"/><geom type=\"capsule\" fromto=\"0 0 0 0.03 0 0\" "
+             "size=\"0.006\"/><site name=\"s" + n + "\" pos=\"0.015 0.008 0\"/>";
+      tendons += "<site site=\"s" + n + "\"/>";
+    }
+    for (int k = 0; k <= 16; ++k) xml += "</body>";
+    tendons += "</spatial>";
+    sensors += "<tendonvel tendon=\"t" + std::to_string(c) + "\"/>";
+  }
+  xml += "</worldbody><tendon>" + tendons + "</tendon><sensor>" + sensors + "</sensor></mujoco>";
+  auto s = load_scene_string(xml, kPath);
+  ASSERT_EQ(s->m->nv, 64);
+  ASSERT_TRUE(mj_isSparse(s->m));
+  SceneData sd(*s);
+  mjModel* m = mj_copyModel(nullptr, s->m);
+  mjData* d = mj_makeData(m);
+  for (int i = 0; i < m->nv; ++i) d->qvel[i] = sd.d->qvel[i] = 0.5 * std::sin(1.3 * i + 0.2);
+  for (int k = 0; k < 100; ++k) {
+    mj_step(m, d);
+    ASSERT_EQ(step(*s, sd, Integrator::Euler), Status::Ok);
+    ASSERT_EQ(std::memcmp(d->sensordata, sd.d->sensordata, sizeof(mjtNum) * m->nsensordata), 0) << k;
+    ASSERT_EQ(std::memcmp(d->qvel, sd.d->qvel, sizeof(mjtNum) * m->nv), 0) << k;
+  }
+  EXPECT_EQ(std::memcmp(d->qpos, sd.d->qpos, sizeof(mjtNum) * m->nq), 0);
+  mj_deleteData(d);
+  mj_deleteModel(m);
+}
+
 // <option integrator="implicit"> on a rod-free scene is MuJoCo's implicit integrator (it had been
 // run as Euler, silently)
 TEST(Scene, RodFreeImplicitIsMujocosImplicitBitForBit) {
