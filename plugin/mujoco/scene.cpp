@@ -1349,6 +1349,15 @@ SceneData::SceneData(const Scene& s) {
     W_t.assign(r, 0);
   }
   tree_nz.assign(nv, 0);
+  {  // room for the frozen constraint rows of most scenes (more grows the vectors)
+    const size_t rows = static_cast<size_t>(s.m->njmax);
+    frozen_D.reserve(rows);
+    frozen_c.reserve(rows);
+    frozen_begin.reserve(rows + 1);
+    frozen_val.reserve(rows * std::min(nv, 64));
+    frozen_dof.reserve(rows * std::min(nv, 64));
+    frozen_row.assign(nv, 0.0);
+  }
   if (s.m->ntendon) {
     ten_J_rows.assign(static_cast<size_t>(s.m->ntendon) * nv, 0);
     ten_J_mark.assign(static_cast<size_t>(s.m->ntendon) * nv, 0);
@@ -2054,6 +2063,98 @@ bool add_outer_in_tree(const mjModel* m, mjtNum* A, const mjtNum* u, double c, s
   return true;
 }
 
+// The Newton schemes' terms of the constraint rows. A row in MuJoCo's quadratic state (equality
+// rows, active limits, pyramidal contact rows) pulls with -D (J a + B J v + K I r): it adds D J'J to
+// the mass the iteration sees, B D J'J to its damping and K I D J'J to its stiffness, so
+//   A += D (1 + hD B + hK K I) J'J   (in qM's tree pattern),
+// and the residual is weighted with M + sum D J'J (add_constraint_mass). The rows are those of the
+// matrix's evaluation, kept with it (SceneData::frozen_*), so that the correction sees the same
+// terms as the matrix while contacts come and go between iterates (taken from each iterate's rows
+// instead, the corrections grew on impacts and split more steps). Taken: the rows acting on a rod's
+// strain dofs, and only where every quadratic row lies on one branch of the tree (a row across two
+// branches, an arm pressing a free object, would leave the terms partial: none are taken, and
+// rows on rigid bodies alone keep the previous iteration; with them the shipped octopus arm's
+// object on its table took twice the corrections). Elliptic cones' rows (their state is the
+// cone's) stay out. Without these terms a wire of short sections lying on a floor split every step
+// (outside probe AA: 300 corrections and 15 splits per 1 ms step under trapezoidal, midpoint and
+// genalpha; now 27 and 1).
+void add_constraint_terms(const mjModel* m, const char* strain, SceneData& sd, mjtNum* A, double hD, double hK) {
+  const mjData* d = sd.d;
+  const int nv = m->nv;
+  const bool sparse = mj_isSparse(m);
+  std::vector<int>& nz = sd.tree_nz;
+  mjtNum* row = sd.frozen_row.data();
+  sd.frozen_D.clear();
+  sd.frozen_c.clear();
+  sd.frozen_val.clear();
+  sd.frozen_dof.clear();
+  sd.frozen_begin.assign(1, 0);
+  for (int i = 0; i < d->nefc; ++i) {
+    if (d->efc_state[i] != mjCNSTRSTATE_QUADRATIC || !(d->efc_D[i] > 0)) continue;
+    const mjtNum* u = sparse ? row : d->efc_J + static_cast<size_t>(i) * nv;
+    int last = -1, count = 0;
+    if (sparse) {
+      for (int k = d->efc_J_rowadr[i]; k < d->efc_J_rowadr[i] + d->efc_J_rownnz[i]; ++k)
+        if (d->efc_J[k] != 0.0) {
+          row[d->efc_J_colind[k]] = d->efc_J[k];
+          last = std::max(last, d->efc_J_colind[k]);
+          ++count;
+        }
+    } else {
+      for (int k = 0; k < nv; ++k)
+        if (u[k] != 0.0) last = k, ++count;
+    }
+    int n = 0;  // its dofs on the branch of its deepest one, deepest first
+    for (int k = last; k >= 0; k = m->dof_parentid[k])
+      if (u[k] != 0.0) nz[n++] = k;
+    if (n != count) {  // a row across two branches: the terms would be partial, none are taken
+      if (sparse)
+        for (int k = d->efc_J_rowadr[i]; k < d->efc_J_rowadr[i] + d->efc_J_rownnz[i]; ++k) row[d->efc_J_colind[k]] = 0.0;
+      for (int r = static_cast<int>(sd.frozen_D.size()) - 1; r >= 0; --r) {  // take back what was added
+        const double c = sd.frozen_c[r];
+        const int b0 = sd.frozen_begin[r], b1 = sd.frozen_begin[r + 1];
+        for (int a = b0; a < b1; ++a) {
+          int adr = m->dof_Madr[sd.frozen_dof[a]], b = a;
+          for (int k = sd.frozen_dof[a]; k >= 0 && b < b1; k = m->dof_parentid[k], ++adr)
+            if (k == sd.frozen_dof[b]) A[adr] -= c * sd.frozen_val[a] * sd.frozen_val[b++];
+        }
+      }
+      sd.frozen_D.clear();
+      return;
+    }
+    bool on_rod = false;  // (rows on rigid bodies only keep MuJoCo's treatment)
+    for (int a = 0; a < n && !on_rod; ++a) on_rod = strain[nz[a]];
+    if (n > 0 && on_rod) {
+      const mjtNum* kbip = d->efc_KBIP + 4 * i;
+      const double c = d->efc_D[i] * (1.0 + hD * kbip[1] + hK * kbip[0] * kbip[2]);
+      for (int a = 0; a < n; ++a) {  // qM's row nz[a] holds its ancestors in chain order
+        int adr = m->dof_Madr[nz[a]], b = a;
+        for (int k = nz[a]; k >= 0 && b < n; k = m->dof_parentid[k], ++adr)
+          if (k == nz[b]) A[adr] += c * u[nz[a]] * u[nz[b++]];
+      }
+      sd.frozen_D.push_back(d->efc_D[i]);
+      sd.frozen_c.push_back(c);
+      for (int a = 0; a < n; ++a) {
+        sd.frozen_dof.push_back(nz[a]);
+        sd.frozen_val.push_back(u[nz[a]]);
+      }
+      sd.frozen_begin.push_back(static_cast<int>(sd.frozen_dof.size()));
+    }
+    if (sparse)
+      for (int k = d->efc_J_rowadr[i]; k < d->efc_J_rowadr[i] + d->efc_J_rownnz[i]; ++k) row[d->efc_J_colind[k]] = 0.0;
+  }
+}
+
+// y += sum D J'(J x) over the rows add_constraint_terms froze with the matrix.
+void add_constraint_mass(const SceneData& sd, const mjtNum* x, mjtNum* y) {
+  for (size_t r = 0; r < sd.frozen_D.size(); ++r) {
+    double jx = 0.0;
+    for (int k = sd.frozen_begin[r]; k < sd.frozen_begin[r + 1]; ++k) jx += sd.frozen_val[k] * x[sd.frozen_dof[k]];
+    jx *= sd.frozen_D[r];
+    for (int k = sd.frozen_begin[r]; k < sd.frozen_begin[r + 1]; ++k) y[sd.frozen_dof[k]] += sd.frozen_val[k] * jx;
+  }
+}
+
 // A += (hD d + hK k) u u' for a row u of size nv (a tendon's Jacobian, an actuator's moment) with
 // damping d >= 0 and stiffness k >= 0: in qM's tree pattern where u's dofs lie on one branch, else
 // as one row of the low-rank correction solve_implicit applies (sd.W_rows); u is also kept with k
@@ -2124,7 +2225,7 @@ void factor_woodbury(const mjModel* m, SceneData& sd) {
 // and D live inside each section's dof chain, D_f in the kinematic tree's pattern), after
 // forward: assembled in sd.A_LD from qM and factorised there as MuJoCo factorises qM
 // (factor_ldl), with 1/diag(D) in sd.A_LDiagInv; mjData is not touched.
-void factor_implicit(const Scene& s, SceneData& sd, bool rods, double cD, double cK) {
+void factor_implicit(const Scene& s, SceneData& sd, bool rods, double cD, double cK, bool constraints = false) {
   const mjModel* m = s.m;
   mjData* d = sd.d;
   const double h = m->opt.timestep, hD = cD * h, hK = cK * h * h;
@@ -2180,6 +2281,8 @@ void factor_implicit(const Scene& s, SceneData& sd, bool rods, double cD, double
           if (a != 0.0) A[m->dof_Madr[rb.dof0 + i] + (i - j)] += a;
         }
   add_fluid_damping(s, sd, hD, A);  // fluid hook: + cD h D_f (no-op without the fluid)
+  sd.frozen_D.clear();
+  if (constraints) add_constraint_terms(m, s.dof_strain.data(), sd, A, hD, hK);
   factor_ldl(m, d, A, A, sd.A_LDiagInv.data(), s.dof_strain.data());  // (factor_mass: the rods keep their pivots)
   factor_woodbury(m, sd);
 }
@@ -2538,8 +2641,11 @@ bool newton_step(const Scene& s, SceneData& sd, const Scheme& sc, int iterations
   const double c = (1.0 - sc.af) / (1.0 - sc.am);
   // adaptive substeps control what the refreshed matrix's full steps would risk (Scene::step_tol)
   const bool refresh = s.newton_refresh || s.step_tol > 0;
-  if (!refresh && !be && (c * sc.cv1 != 0.5 || c * sc.cq1 != 0.25))
-    factor_implicit(s, sd, true, c * sc.cv1, c * sc.cq1);  // the start state's, the scheme's coefficients
+  // the start state's constraint rows (d->efc_*: the first iterate ran no forward) enter the
+  // iteration matrix (add_constraint_terms), which the linearised step's must not hold
+  const bool constrained = !smooth_only(sd) && d->nefc > 0;
+  if (!refresh && (constrained || (!be && (c * sc.cv1 != 0.5 || c * sc.cq1 != 0.25))))
+    factor_implicit(s, sd, true, c * sc.cv1, c * sc.cq1, true);  // the start state's, the scheme's coefficients
   if (!be) set_end_state(s, sd, sc);
   bool converged = false;
   double first = 0.0;  // size of the first correction
@@ -2548,7 +2654,7 @@ bool newton_step(const Scene& s, SceneData& sd, const Scheme& sc, int iterations
     forward(s, sd, Need::Forces);  // at (q+, v+)
     // the iteration matrix at the first iterate's state (Scene::newton_refresh; the rods' D and K
     // are constant)
-    if (k == 0 && refresh) factor_implicit(s, sd, true, be ? 1.0 : c * sc.cv1, be ? 1.0 : c * sc.cq1);
+    if (k == 0 && refresh) factor_implicit(s, sd, true, be ? 1.0 : c * sc.cv1, be ? 1.0 : c * sc.cq1, true);
     ++sd.newton_stats.iterations;
     // y = M r, M at (q+, v+), r = c f(q+, v+) + z; when forward skipped the accelerations (no
     // constraints), M f(q+, v+) = qfrc_smooth: y = M z + c qfrc_smooth
@@ -2558,6 +2664,9 @@ bool newton_step(const Scene& s, SceneData& sd, const Scheme& sc, int iterations
     }
     mj_mulM(m, d, w.y.data(), w.r.data());
     if (smooth_only(sd)) mju_addToScl(w.y.data(), d->qfrc_smooth, c, nv);
+    // (M + J'DJ) r with the rows the matrix holds (add_constraint_terms; where this iterate has no
+    // constraint rows, f's part of r is not at hand: M r, the matrix stiffer than the iterate's)
+    if (!smooth_only(sd)) add_constraint_mass(sd, w.r.data(), w.y.data());
     solve_implicit(s, sd, w.delta.data(), w.y.data());
     const Iterate it = apply_correction(s, sd, sc, k, stored, first);
     set_end_state(s, sd, sc);
@@ -2629,6 +2738,8 @@ bool midpoint_step(const Scene& s, SceneData& sd, int iterations) {
   // first iterate: the linearised trapezoidal step, whose average acceleration (d->qacc) is A
   implicit_step(s, sd, true, 0.5);
   std::copy(d->qacc, d->qacc + nv, w.A.begin());
+  // the start state's constraint rows in the iteration matrix (add_constraint_terms)
+  if (!smooth_only(sd) && d->nefc > 0) factor_implicit(s, sd, true, 0.5, 0.25, true);
   mjtNum* Mv = w.A0.data();  // M(q_m) v_m (A0 and f0 are not used by this scheme)
   mjtNum* vm = w.f0.data();  // v_m
   bool converged = false;
@@ -2653,6 +2764,12 @@ bool midpoint_step(const Scene& s, SceneData& sd, int iterations) {
     } else {
       mj_mulM(m, d, w.r.data(), d->qacc);
       mju_subFrom(w.r.data(), w.y.data(), nv);
+    }
+    // (M + J'DJ) (f - A) with the constraint rows the matrix holds (add_constraint_terms; M (f - A)
+    // where this iterate has none, as in newton_step)
+    if (!sd.frozen_D.empty() && !smooth_only(sd)) {
+      mju_sub(w.delta.data(), d->qacc, w.A.data(), nv);
+      add_constraint_mass(sd, w.delta.data(), w.r.data());
     }
     set_end_state(s, sd, sc);
     fwd_inertia(s, sd);

@@ -302,6 +302,12 @@ struct SceneData {
   std::vector<mjtNum> W_rows, W_coef, W_Z, W_S, W_t;
   int W_nrows = 0;
   std::vector<int> tree_nz;  // scratch of add_outer_in_tree (nv)
+  // The constraint rows the Newton schemes' iteration matrix holds (add_constraint_terms: rows in
+  // MuJoCo's quadratic state at the matrix's evaluation, on one branch of the tree), frozen with
+  // it: row r has D = frozen_D[r] and the entries frozen_val at dofs frozen_dof, from
+  // frozen_begin[r] to frozen_begin[r + 1]. frozen_row: scratch (nv).
+  std::vector<mjtNum> frozen_D, frozen_c, frozen_val, frozen_row;
+  std::vector<int> frozen_begin, frozen_dof;
   // The tendon Jacobian in rows of nv (ntendon x nv) where MuJoCo keeps ten_J compressed (sparse
   // Jacobians: jacobian="sparse", or "auto" from nv = 60 on), as patch_tendons leaves it: the
   // coupling's dense reads go through tendon_jacobian_row(). ten_J_mark: scratch, the pattern.
