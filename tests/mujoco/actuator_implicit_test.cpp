@@ -268,6 +268,26 @@ TEST(ActuatorImplicit, NegativeSpringsAndPositiveFeedbackStayExplicit) {
 
 namespace {
 
+// Steps `xml` (one actuator with a filter's dynamics, act' = (ctrl - act) / tau, however given)
+// by `it` at h over T from act 0.1 towards ctrl 0.5, and expects the scheme's exact recurrence
+// act_n - ctrl = (act_0 - ctrl) r^n to 1e-12, r = 1 / (1 + h / tau) for backward Euler and
+// (1 - h / 2 tau) / (1 + h / 2 tau) for the trapezoidal rule. Returns the final activation.
+double expect_filter_recurrence(const char* xml, Integrator it, double h, double tau, double T) {
+  auto s = load_scene_string(xml, kPath);
+  EXPECT_EQ(s->m->na, 1);
+  s->m->opt.timestep = h;
+  s->rho_inf = 0.0;  // genalpha's most damping variant (whose cq1 is backward Euler's)
+  SceneData sd(*s);
+  sd.d->act[0] = 0.1;
+  sd.d->ctrl[0] = 0.5;
+  const int n = static_cast<int>(std::lround(T / h));
+  for (int k = 0; k < n; ++k) EXPECT_EQ(step(*s, sd, it), Status::Ok) << k;
+  const double x = h / tau;
+  const double r = it == Integrator::Implicit ? 1.0 / (1.0 + x) : (1.0 - x / 2) / (1.0 + x / 2);
+  EXPECT_NEAR(sd.d->act[0], 0.5 - 0.4 * std::pow(r, n), 1e-12);
+  return sd.d->act[0];
+}
+
 // Filter activations (act' = (ctrl - act) / tau) follow the scheme: backward Euler under implicit,
 // the trapezoidal rule under trapezoidal, genalpha and midpoint (outside probe T: all advanced them
 // by Euler's rule, so the second-order schemes were first order on any scene with a filter). Exact
@@ -285,19 +305,9 @@ TEST(ActuatorImplicit, FilterActivationsFollowTheScheme) {
     for (const Integrator it : {Integrator::Implicit, Integrator::Trapezoidal, Integrator::GeneralizedAlpha,
                                 Integrator::Midpoint}) {
       SCOPED_TRACE(std::string(integrator_name(it)) + " at h = " + std::to_string(h));
-      auto s = load_scene_string(xml, kPath);
-      s->m->opt.timestep = h;
-      s->rho_inf = 0.0;  // genalpha's most damping variant (whose cq1 is backward Euler's)
-      SceneData sd(*s);
-      sd.d->act[0] = 0.1;
-      sd.d->ctrl[0] = 0.5;
-      const int n = static_cast<int>(std::lround(T / h));
-      for (int k = 0; k < n; ++k) ASSERT_EQ(step(*s, sd, it), Status::Ok);
-      const double x = h / tau;
-      const double r = it == Integrator::Implicit ? 1.0 / (1.0 + x) : (1.0 - x / 2) / (1.0 + x / 2);
-      EXPECT_NEAR(sd.d->act[0], 0.5 - 0.4 * std::pow(r, n), 1e-12);
+      const double act = expect_filter_recurrence(xml, it, h, tau, T);
       if (it == Integrator::Trapezoidal) {
-        const double err = std::abs(sd.d->act[0] - (0.5 - 0.4 * std::exp(-T / tau)));
+        const double err = std::abs(act - (0.5 - 0.4 * std::exp(-T / tau)));
         if (previous > 0) EXPECT_NEAR(previous / err, 4.0, 0.05);
         previous = err;
       }
@@ -381,18 +391,7 @@ TEST(ActuatorImplicit, UserActivationDynamicsFollowTheScheme) {
   for (const Integrator it : {Integrator::Implicit, Integrator::Trapezoidal, Integrator::GeneralizedAlpha,
                               Integrator::Midpoint}) {
     SCOPED_TRACE(integrator_name(it));
-    auto s = load_scene_string(xml, kPath);
-    ASSERT_EQ(s->m->na, 1);
-    s->m->opt.timestep = h;
-    s->rho_inf = 0.0;  // genalpha's most damping variant (whose cq1 is backward Euler's)
-    SceneData sd(*s);
-    sd.d->act[0] = 0.1;
-    sd.d->ctrl[0] = 0.5;
-    const int n = static_cast<int>(std::lround(T / h));
-    for (int k = 0; k < n; ++k) ASSERT_EQ(step(*s, sd, it), Status::Ok);
-    const double x = h / tau;
-    const double r = it == Integrator::Implicit ? 1.0 / (1.0 + x) : (1.0 - x / 2) / (1.0 + x / 2);
-    EXPECT_NEAR(sd.d->act[0], 0.5 - 0.4 * std::pow(r, n), 1e-12);
+    expect_filter_recurrence(xml, it, h, tau, T);
   }
   g_user_cubic = true;
   for (const Integrator it : {Integrator::Implicit, Integrator::Trapezoidal}) {
