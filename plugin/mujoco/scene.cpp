@@ -2107,33 +2107,13 @@ void add_constraint_terms(const mjModel* m, const char* strain, SceneData& sd, m
     int n = 0;  // its dofs on the branch of its deepest one, deepest first
     for (int k = last; k >= 0; k = m->dof_parentid[k])
       if (u[k] != 0.0) nz[n++] = k;
-    if (n != count) {  // a row across two branches: the terms would be partial, none are taken
-      if (sparse)
-        for (int k = d->efc_J_rowadr[i]; k < d->efc_J_rowadr[i] + d->efc_J_rownnz[i]; ++k) row[d->efc_J_colind[k]] = 0.0;
-      for (int r = static_cast<int>(sd.frozen_D.size()) - 1; r >= 0; --r) {  // take back what was added
-        const double c = sd.frozen_c[r];
-        const int b0 = sd.frozen_begin[r], b1 = sd.frozen_begin[r + 1];
-        for (int a = b0; a < b1; ++a) {
-          int adr = m->dof_Madr[sd.frozen_dof[a]], b = a;
-          for (int k = sd.frozen_dof[a]; k >= 0 && b < b1; k = m->dof_parentid[k], ++adr)
-            if (k == sd.frozen_dof[b]) A[adr] -= c * sd.frozen_val[a] * sd.frozen_val[b++];
-        }
-      }
-      sd.frozen_D.clear();
-      return;
-    }
+    const bool across = n != count;
     bool on_rod = false;  // (rows on rigid bodies only keep MuJoCo's treatment)
     for (int a = 0; a < n && !on_rod; ++a) on_rod = strain[nz[a]];
-    if (n > 0 && on_rod) {
+    if (!across && on_rod) {
       const mjtNum* kbip = d->efc_KBIP + 4 * i;
-      const double c = d->efc_D[i] * (1.0 + hD * kbip[1] + hK * kbip[0] * kbip[2]);
-      for (int a = 0; a < n; ++a) {  // qM's row nz[a] holds its ancestors in chain order
-        int adr = m->dof_Madr[nz[a]], b = a;
-        for (int k = nz[a]; k >= 0 && b < n; k = m->dof_parentid[k], ++adr)
-          if (k == nz[b]) A[adr] += c * u[nz[a]] * u[nz[b++]];
-      }
       sd.frozen_D.push_back(d->efc_D[i]);
-      sd.frozen_c.push_back(c);
+      sd.frozen_c.push_back(d->efc_D[i] * (1.0 + hD * kbip[1] + hK * kbip[0] * kbip[2]));
       for (int a = 0; a < n; ++a) {
         sd.frozen_dof.push_back(nz[a]);
         sd.frozen_val.push_back(u[nz[a]]);
@@ -2142,6 +2122,18 @@ void add_constraint_terms(const mjModel* m, const char* strain, SceneData& sd, m
     }
     if (sparse)
       for (int k = d->efc_J_rowadr[i]; k < d->efc_J_rowadr[i] + d->efc_J_rownnz[i]; ++k) row[d->efc_J_colind[k]] = 0.0;
+    if (across) {  // a row across two branches: the terms would be partial, none are taken
+      sd.frozen_D.clear();
+      return;
+    }
+  }
+  for (size_t r = 0; r < sd.frozen_D.size(); ++r) {  // A += c u u'
+    const int b0 = sd.frozen_begin[r], b1 = sd.frozen_begin[r + 1];
+    for (int a = b0; a < b1; ++a) {  // qM's row of dof a holds its ancestors in chain order
+      int adr = m->dof_Madr[sd.frozen_dof[a]], b = a;
+      for (int k = sd.frozen_dof[a]; k >= 0 && b < b1; k = m->dof_parentid[k], ++adr)
+        if (k == sd.frozen_dof[b]) A[adr] += sd.frozen_c[r] * sd.frozen_val[a] * sd.frozen_val[b++];
+    }
   }
 }
 
