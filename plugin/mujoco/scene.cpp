@@ -509,20 +509,32 @@ int point_correction(const Scene& s, const SceneData& sd, int r, int si, double 
   return point_correction(s, sd, r, si, J, g_start_X, p, dJ);
 }
 
+// The Jacobian in MuJoCo's dofs of the point p riding with the cross-section at abscissa X of
+// section si of rod r, in world axes as mj_jac writes it: jp (3 x nv) its translation, jr (3 x nv)
+// the cross-section's rotation. After fwd_position.
+void cross_section_jacobian_world(const Scene& s, const SceneData& sd, int r, int si, double X, const Vec3& p,
+                                  mjtNum* jp, mjtNum* jr) {
+  const int nv = s.m->nv;
+  mj_jac(s.m, sd.d, jp, jr, p.data(), s.rods[r].proxy_body[si]);
+  SectionCols dJ;
+  const int c0 = point_correction(s, sd, r, si, X, p, dJ);
+  for (int e = 0; e < 3; ++e)
+    for (int k = 0; k < dJ.cols(); ++k) {
+      jp[e * nv + c0 + k] += dJ(e, k);
+      jr[e * nv + c0 + k] += dJ(3 + e, k);
+    }
+}
+
 // The body Jacobian (rows: rotation, translation, in the frame's own axes) in MuJoCo's dofs of the
 // cross-section frame g at abscissa X of section si of rod r. After fwd_position.
 void cross_section_jacobian(const Scene& s, const SceneData& sd, int r, int si, double X, const SE3& g,
                             Eigen::MatrixXd& Jb) {
   const int nv = s.m->nv;
   std::vector<mjtNum> jp(3 * nv), jr(3 * nv);
-  mj_jac(s.m, sd.d, jp.data(), jr.data(), g.u.data(), s.rods[r].proxy_body[si]);
+  cross_section_jacobian_world(s, sd, r, si, X, g.u, jp.data(), jr.data());
   Eigen::MatrixXd Jw(6, nv);  // world axes: rotation, translation
   for (int i = 0; i < 3; ++i)
     for (int k = 0; k < nv; ++k) Jw(i, k) = jr[i * nv + k], Jw(3 + i, k) = jp[i * nv + k];
-  SectionCols dJ;
-  const int c0 = point_correction(s, sd, r, si, X, g.u, dJ);
-  Jw.block(0, c0, 3, dJ.cols()) += dJ.bottomRows<3>();
-  Jw.block(3, c0, 3, dJ.cols()) += dJ.topRows<3>();
   Jb.resize(6, nv);
   Jb.topRows<3>().noalias() = g.R.transpose() * Jw.topRows<3>();
   Jb.bottomRows<3>().noalias() = g.R.transpose() * Jw.bottomRows<3>();
@@ -1685,7 +1697,6 @@ void recompute_qpos0_constants(Scene& s, SceneData& sd) {
       tr[part] = mju_dot(J, jx.data(), 3 * nv) / 3.0;
     }
   };
-  SectionCols dJ;
   for (int b = 1; b < m->nbody; ++b) {
     double tr[2] = {0.0, 0.0};
     if (proxy_rod[b] >= 0) {
@@ -1725,14 +1736,7 @@ void recompute_qpos0_constants(Scene& s, SceneData& sd) {
         // weight, and MuJoCo's contact regulariser, which grows with it, let the rod sink 5.7 radii
         // into a floor.
         mass_points([&](double mi, int node) {
-          const Vec3& p = rd.g[node].u;
-          mj_jac(m, sd.d, jp.data(), jr.data(), p.data(), b);
-          const int c0 = point_correction(s, sd, r, si, rm.nodes[node].X, p, dJ);
-          for (int e = 0; e < 3; ++e)
-            for (int k = 0; k < dJ.cols(); ++k) {
-              jp[e * nv + c0 + k] += dJ(e, k);
-              jr[e * nv + c0 + k] += dJ(3 + e, k);
-            }
+          cross_section_jacobian_world(s, sd, r, si, rm.nodes[node].X, rd.g[node].u, jp.data(), jr.data());
           double t[2];
           inverse_weights(t);
           mass += mi;
