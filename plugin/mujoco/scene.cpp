@@ -2043,27 +2043,37 @@ ForceDerivatives actuator_force_derivatives(const mjModel* m, const mjData* d, i
   return df;
 }
 
-// Position of entry (i, j) of MuJoCo's sparse qM (row i, its ancestors' columns), i >= j, or -1
-// where j is not i or an ancestor of i (the tree pattern holds no such entry).
-int tree_entry(const mjModel* m, int i, int j) {
-  if (i < j) std::swap(i, j);
-  int adr = m->dof_Madr[i];
-  for (int k = i; k > j; k = m->dof_parentid[k], ++adr)
-    if (m->dof_parentid[k] < j) return -1;
-  return adr;
+// The nonzero dofs of a row u (nv values) whose deepest nonzero dof is `last` and whose nonzeros
+// number `count`: into nz, deepest first, each an ancestor (dof_parentid) of the one before, and
+// their number; -1 where two of them lie on different branches of the tree (qM's pattern cannot
+// hold their product).
+int branch_dofs(const mjModel* m, const mjtNum* u, int last, int count, std::vector<int>& nz) {
+  int n = 0;
+  for (int k = last; k >= 0; k = m->dof_parentid[k])
+    if (u[k] != 0.0) nz[n++] = k;
+  return n == count ? n : -1;
+}
+
+// A += c v v' in qM's tree pattern for a row with values val(a) at the dofs nz[0..n) of one branch,
+// deepest first (branch_dofs): qM's row of a dof holds the dof and its ancestors in chain order.
+template <class Val>
+void add_outer_on_branch(const mjModel* m, mjtNum* A, const int* nz, int n, double c, Val&& val) {
+  for (int a = 0; a < n; ++a) {
+    int adr = m->dof_Madr[nz[a]], b = a;
+    for (int k = nz[a]; k >= 0 && b < n; k = m->dof_parentid[k], ++adr)
+      if (k == nz[b]) A[adr] += c * val(a) * val(b++);
+  }
 }
 
 // A += c u u' for u of size nv (a tendon's or an actuator's row), in qM's tree pattern; nothing
 // and false where two of u's dofs are on different branches (the pattern cannot hold the term).
 bool add_outer_in_tree(const mjModel* m, mjtNum* A, const mjtNum* u, double c, std::vector<int>& nz) {
-  int n = 0;
+  int last = -1, count = 0;
   for (int i = 0; i < m->nv; ++i)
-    if (u[i] != 0.0) nz[n++] = i;
-  for (int a = 0; a < n; ++a)
-    for (int b = 0; b < a; ++b)
-      if (tree_entry(m, nz[a], nz[b]) < 0) return false;
-  for (int a = 0; a < n; ++a)
-    for (int b = 0; b <= a; ++b) A[tree_entry(m, nz[a], nz[b])] += c * u[nz[a]] * u[nz[b]];
+    if (u[i] != 0.0) last = i, ++count;
+  const int n = branch_dofs(m, u, last, count, nz);
+  if (n < 0) return false;
+  add_outer_on_branch(m, A, nz.data(), n, c, [&](int a) { return u[nz[a]]; });
   return true;
 }
 
@@ -2108,10 +2118,8 @@ void add_constraint_terms(const mjModel* m, const char* strain, SceneData& sd, m
       for (int k = 0; k < nv; ++k)
         if (u[k] != 0.0) last = k, ++count;
     }
-    int n = 0;  // its dofs on the branch of its deepest one, deepest first
-    for (int k = last; k >= 0; k = m->dof_parentid[k])
-      if (u[k] != 0.0) nz[n++] = k;
-    const bool across = n != count;
+    const int n = branch_dofs(m, u, last, count, nz);
+    const bool across = n < 0;
     bool on_rod = false;  // (rows on rigid bodies only keep MuJoCo's treatment)
     for (int a = 0; a < n && !on_rod; ++a) on_rod = strain[nz[a]];
     if (!across && on_rod) {
@@ -2131,13 +2139,10 @@ void add_constraint_terms(const mjModel* m, const char* strain, SceneData& sd, m
       return;
     }
   }
-  for (size_t r = 0; r < sd.frozen_D.size(); ++r) {  // A += c u u'
-    const int b0 = sd.frozen_begin[r], b1 = sd.frozen_begin[r + 1];
-    for (int a = b0; a < b1; ++a) {  // qM's row of dof a holds its ancestors in chain order
-      int adr = m->dof_Madr[sd.frozen_dof[a]], b = a;
-      for (int k = sd.frozen_dof[a]; k >= 0 && b < b1; k = m->dof_parentid[k], ++adr)
-        if (k == sd.frozen_dof[b]) A[adr] += sd.frozen_c[r] * sd.frozen_val[a] * sd.frozen_val[b++];
-    }
+  for (size_t r = 0; r < sd.frozen_D.size(); ++r) {
+    const int b0 = sd.frozen_begin[r];
+    add_outer_on_branch(m, A, sd.frozen_dof.data() + b0, sd.frozen_begin[r + 1] - b0, sd.frozen_c[r],
+                        [&](int a) { return sd.frozen_val[b0 + a]; });
   }
 }
 
