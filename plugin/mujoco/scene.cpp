@@ -1175,7 +1175,6 @@ void patch_tendons(const Scene& s, SceneData& sd) {
         mark[t * nv + d->ten_J_colind[k]] = 1;
       }
   }
-  if (s.rods.empty()) return;  // (sparse without rods: the unpacked rows only)
   thread_local SectionCols dJ;  // scratch: no heap memory
   for (int t = 0; t < m->ntendon; ++t)
     tendon_site_points(m, d, t, [&](int site, const Vec3& p, const Vec3& grad) {
@@ -1370,7 +1369,7 @@ SceneData::SceneData(const Scene& s) {
     frozen_dof.reserve(rows * std::min(nv, 64));
     frozen_row.assign(nv, 0.0);
   }
-  if (s.m->ntendon) {
+  if (s.m->ntendon && !s.rods.empty()) {  // (patch_tendons)
     ten_J_rows.assign(static_cast<size_t>(s.m->ntendon) * nv, 0);
     ten_J_mark.assign(static_cast<size_t>(s.m->ntendon) * nv, 0);
   }
@@ -1514,7 +1513,7 @@ void fwd_position(const Scene& s, SceneData& sd, Need need) {
   mj_camlight(m, d);
   if (!s.com_cameras.empty() || !s.com_lights.empty()) patch_com_tracking(s, sd);
   mj_tendon(m, d);
-  if (m->ntendon && (!s.rods.empty() || mj_isSparse(m))) patch_tendons(s, sd);
+  if (m->ntendon && !s.rods.empty()) patch_tendons(s, sd);
   fluid_damping(s, sd);  // fluid hook: damping matrix (scene_fluid.hpp); no-op without the fluid
   // (MuJoCo factorises M before the collisions; nothing up to the constraint projection reads
   // the factor, so it waits until the constraint rows tell whether it is needed)
@@ -1538,7 +1537,8 @@ void fwd_position(const Scene& s, SceneData& sd, Need need) {
 
 
 const mjtNum* tendon_jacobian_row(const Scene& s, const SceneData& sd, int t) {
-  return (mj_isSparse(s.m) ? sd.ten_J_rows.data() : sd.d->ten_J) + static_cast<size_t>(t) * s.m->nv;
+  if (!mj_isSparse(s.m)) return sd.d->ten_J + static_cast<size_t>(t) * s.m->nv;
+  return s.rods.empty() ? nullptr : sd.ten_J_rows.data() + static_cast<size_t>(t) * s.m->nv;
 }
 
 void fwd_velocity(const Scene& s, SceneData& sd) {

@@ -308,8 +308,8 @@ struct SceneData {
   // frozen_begin[r] to frozen_begin[r + 1]. frozen_row: scratch (nv).
   std::vector<mjtNum> frozen_D, frozen_c, frozen_val, frozen_row;
   std::vector<int> frozen_begin, frozen_dof;
-  // The tendon Jacobian in rows of nv (ntendon x nv) where MuJoCo keeps ten_J compressed (sparse
-  // Jacobians: jacobian="sparse", or "auto" from nv = 60 on), as patch_tendons leaves it: the
+  // The tendon Jacobian in rows of nv (ntendon x nv) of a scene with rods where MuJoCo keeps ten_J
+  // compressed (sparse Jacobians: jacobian="sparse", or "auto" from nv = 60 on), as patch_tendons leaves it: the
   // coupling's dense reads go through tendon_jacobian_row(). ten_J_mark: scratch, the pattern.
   std::vector<mjtNum> ten_J_rows;
   std::vector<char> ten_J_mark;
@@ -385,7 +385,8 @@ bool implicit_is_mujocos(const Scene& s);
 
 // Row t of the tendon Jacobian dL_t/dq (nv values, the rod-site corrections included) after
 // forward(), in either of MuJoCo's layouts of d->ten_J (dense rows, or compressed where its
-// Jacobians are sparse).
+// Jacobians are sparse). Null for a scene without rods in the compressed layout: nothing there
+// reads dense rows, and the step does not unpack them (d->ten_J is MuJoCo's own).
 const mjtNum* tendon_jacobian_row(const Scene& s, const SceneData& sd, int t);
 
 // Staged MuJoCo pipeline with the rod patches: position, velocity, actuation, acceleration,
