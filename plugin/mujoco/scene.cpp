@@ -831,8 +831,6 @@ bool riding_frame(const Scene& s, int b, int& rod, int& section, double& X) {
   return sec.ndof > 0;
 }
 
-// Load-time tables of widen_contact_margins: the explicit pairs with a sagging capsule and their own
-// margins and gaps, and whether two sagging capsules of different bodies can meet.
 // MuJoCo's <exclude> signatures, sorted (geoms_may_touch).
 std::vector<int> sorted_exclusions(const mjModel* m) {
   std::vector<int> excluded(m->exclude_signature, m->exclude_signature + m->nexclude);
@@ -864,22 +862,6 @@ double segment_distance(const Vec3& a0, const Vec3& a1, const Vec3& b0, const Ve
   return (w + sc * u - tc * v).norm();
 }
 
-// A load warning for two rods whose capsules overlap in the model's reference configuration where
-// MuJoCo would collide them: rods mounted at one point of one body (or of the world) overlap at
-// their bases, which the proxies' exclusions (parent body, tip bodies) do not cover, and push each
-// other apart from the first step. (Outside probe U: two branches from one hub.) `sd`: positions
-// evaluated at qpos0 (recompute_qpos0_constants leaves them so).
-// MuJoCo 2.2.2's Newton constraint solver with sparse Jacobians stops the program ("Rank-defficient
-// Hessian in HessianDirect") where a pivot of M + J'DJ falls below mjMINVAL (1e-15); with dense
-// ones it raises such a pivot to mjMINVAL and goes on, as its factorisation of M does. Strain
-// coordinates have their units (1/m): in SI a thin, short section's twist inertia lies there
-// (outside probe Z: 1.3e-16 kg m^4 for a 6 mm section of a 1 mm wire on a floor, a crash at the
-// first contact). Where a strain pivot of M at qpos0 is below kSmallPivot (a margin for other
-// configurations; J'DJ, positive semi-definite, only raises the pivots, the Schur complements),
-// a Newton scene that would run sparse by MuJoCo's rule (jacobian="auto") gets dense Jacobians,
-// with a warning; one that asks for sparse ones keeps them, with a warning that it may stop.
-constexpr double kSmallPivot = 100 * mjMINVAL;
-
 // Whether the scene can ever have constraint rows: contacts, equality constraints, joint or
 // tendon limits, friction loss.
 bool may_constrain(const Scene& s) {
@@ -893,6 +875,17 @@ bool may_constrain(const Scene& s) {
     if (m->dof_frictionloss[i] > 0) return true;
   return false;
 }
+
+// MuJoCo 2.2.2's Newton constraint solver with sparse Jacobians stops the program ("Rank-defficient
+// Hessian in HessianDirect") where a pivot of M + J'DJ falls below mjMINVAL (1e-15); with dense
+// ones it raises such a pivot to mjMINVAL and goes on, as its factorisation of M does. Strain
+// coordinates have their units (1/m): in SI a thin, short section's twist inertia lies there
+// (outside probe Z: 1.3e-16 kg m^4 for a 6 mm section of a 1 mm wire on a floor, a crash at the
+// first contact). Where a strain pivot of M at qpos0 is below kSmallPivot (a margin for other
+// configurations; J'DJ, positive semi-definite, only raises the pivots, the Schur complements),
+// a Newton scene that would run sparse by MuJoCo's rule (jacobian="auto") gets dense Jacobians,
+// with a warning; one that asks for sparse ones keeps them, with a warning that it may stop.
+constexpr double kSmallPivot = 100 * mjMINVAL;
 
 void avoid_sparse_newton_on_small_pivots(Scene& s, SceneData& sd) {
   mjModel* m = s.m;
@@ -925,6 +918,11 @@ void avoid_sparse_newton_on_small_pivots(Scene& s, SceneData& sd) {
                             "raise the inertia" + (asked ? "" : ")"));
 }
 
+// A load warning for two rods whose capsules overlap in the model's reference configuration where
+// MuJoCo would collide them: rods mounted at one point of one body (or of the world) overlap at
+// their bases, which the proxies' exclusions (parent body, tip bodies) do not cover, and push each
+// other apart from the first step. (Outside probe U: two branches from one hub.) `sd`: positions
+// evaluated at qpos0 (recompute_qpos0_constants leaves them so).
 void warn_overlapping_rods(Scene& s, const SceneData& sd) {
   const mjModel* m = s.m;
   if (!s.may_collide) return;
@@ -971,6 +969,8 @@ void warn_overlapping_rods(Scene& s, const SceneData& sd) {
     }
 }
 
+// Load-time tables of widen_contact_margins: the explicit pairs with a sagging capsule and their own
+// margins and gaps, and whether two sagging capsules of different bodies can meet.
 void setup_sagging_contacts(Scene& s) {
   const mjModel* m = s.m;
   std::vector<char> sagging(m->ngeom, 0);
