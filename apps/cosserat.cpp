@@ -199,10 +199,15 @@ struct SimOptions {
   }
 };
 
+// A MuJoCo error raised outside a step (`doing`: what the command was doing), reported against the file.
+mj::LoadError error_while(const std::string& path, const MujocoError& e, const char* doing) {
+  return mj::LoadError(path, 0, std::string(e.what()) + ", raised while " + doing);
+}
+
 // A MuJoCo error raised while a model is evaluated at its initial state (at load: its constants at
-// qpos0; in check: its first forward), reported against the file.
+// qpos0; in check: its first forward).
 mj::LoadError error_at_initial_state(const std::string& path, const MujocoError& e) {
-  return mj::LoadError(path, 0, std::string(e.what()) + ", raised while evaluating the model at its initial state");
+  return error_while(path, e, "evaluating the model at its initial state");
 }
 
 // mj::load_scene, with error_at_initial_state's report; prints the loader's warnings
@@ -599,7 +604,7 @@ struct Equilibrium {
     try {
       result = mj::equilibrium(*scene, *data, opt);
     } catch (const MujocoError& e) {
-      throw mj::LoadError(path, 0, std::string(e.what()) + ", raised while computing the static equilibrium");
+      throw error_while(path, e, "computing the static equilibrium");
     }
   }
   json report() const {
@@ -674,7 +679,7 @@ int cmd_linearize(int argc, char** argv) {
     try {
       return mj::linearize(*eq.scene, *eq.data);
     } catch (const MujocoError& e) {
-      throw mj::LoadError(pos->front(), 0, std::string(e.what()) + ", raised while linearising at the equilibrium");
+      throw error_while(pos->front(), e, "linearising at the equilibrium");
     }
   }();
   const mjModel* m = eq.scene->m;
