@@ -304,8 +304,9 @@ struct SceneData {
   std::vector<int> tree_nz;  // scratch of add_outer_in_tree (nv)
   // The constraint rows the Newton schemes' iteration matrix holds (add_constraint_terms: rows in
   // MuJoCo's quadratic state at the matrix's evaluation, on one branch of the tree), frozen with
-  // it: row r has D = frozen_D[r] and the entries frozen_val at dofs frozen_dof, from
-  // frozen_begin[r] to frozen_begin[r + 1]. frozen_row: scratch (nv).
+  // it: row r has D = frozen_D[r], its coefficient in the matrix frozen_c[r] (D (1 + h B + h^2 K I))
+  // and the entries frozen_val at dofs frozen_dof, from frozen_begin[r] to frozen_begin[r + 1]
+  // (deepest dof first). frozen_row: scratch (nv).
   std::vector<mjtNum> frozen_D, frozen_c, frozen_val, frozen_row;
   std::vector<int> frozen_begin, frozen_dof;
   // The tendon Jacobian in rows of nv (ntendon x nv) of a scene with rods where MuJoCo keeps ten_J
