@@ -3,11 +3,31 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
 
 #include <Eigen/Geometry>
 #include <Eigen/LU>
 
 namespace cosserat {
+
+int check_eigen_layout(int static_align, int heap_align) {
+  if (static_align == EIGEN_MAX_STATIC_ALIGN_BYTES && heap_align == EIGEN_DEFAULT_ALIGN_BYTES) return 0;
+  std::fprintf(stderr,
+               "cosserat: this program was compiled with Eigen alignments of %d bytes (fixed-size) and %d "
+               "(heap), the cosserat libraries with %d and %d: their structs would not match (memory "
+               "corruption). Compile it with the libraries' instruction-set flags (%s), e.g. by linking "
+               "the CMake targets cosserat_core / cosserat_mujoco, which pass them on, or rebuild the "
+               "libraries to match (cmake -DCOSSERAT_NATIVE=OFF for the baseline instruction set).\n",
+               static_align, heap_align, EIGEN_MAX_STATIC_ALIGN_BYTES, EIGEN_DEFAULT_ALIGN_BYTES,
+#ifdef __AVX2__
+               "-march=x86-64-v3"
+#else
+               "no -march, or -march=x86-64"
+#endif
+  );
+  std::_Exit(EXIT_FAILURE);  // (before static destructors and atexit handlers: nothing is safe to run)
+}
 
 namespace {
 // Taylor coefficients in theta^2 of each closed form (exact rationals from sympy, 16 terms).

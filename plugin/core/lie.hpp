@@ -24,6 +24,20 @@ using Mat3 = Eigen::Matrix3d;
 using Mat4 = Eigen::Matrix4d;
 using Mat6 = Eigen::Matrix<double, 6, 6>;
 
+// Eigen aligns fixed-size members (Mat6, ...) and its heap blocks to what the instruction set
+// wants: 32 bytes with AVX, 16 without. The layout of every struct of this library, and which
+// allocator frees Eigen's heap blocks, follow. A program compiled with other instruction-set flags
+// than the libraries (built for x86-64-v3 by default: CMake option COSSERAT_NATIVE) corrupts memory
+// when it shares them (outside probe AB: a double free inside load_scene, garbage read from
+// Scene::rods). So every translation unit that includes this header compares its Eigen alignments
+// with the libraries' at start-up (check_eigen_layout, lie.cpp), which ends the program (exit status
+// 1) with a message naming the flags to use. Linking the CMake targets passes the libraries' flags on.
+int check_eigen_layout(int static_align, int heap_align);
+namespace {
+[[maybe_unused]] const int eigen_layout_checked =
+    check_eigen_layout(EIGEN_MAX_STATIC_ALIGN_BYTES, EIGEN_DEFAULT_ALIGN_BYTES);
+}  // namespace
+
 // A rigid transformation g = (R, u): x -> R x + u.
 struct SE3 {
   Mat3 R = Mat3::Identity();

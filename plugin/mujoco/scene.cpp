@@ -1541,11 +1541,16 @@ const mjtNum* tendon_jacobian_row(const Scene& s, const SceneData& sd, int t) {
   return s.rods.empty() ? nullptr : sd.ten_J_rows.data() + static_cast<size_t>(t) * s.m->nv;
 }
 
+namespace {
+void refresh_velocity_skips(const Scene& s);
+}  // namespace
+
 void fwd_velocity(const Scene& s, SceneData& sd) {
   const mjModel* m = s.m;
   mjData* d = sd.d;
   if (m->ntendon) tendon_velocities(m, d);
   if (m->nu) mju_mulMatVec(d->actuator_velocity, d->actuator_moment, d->qvel, m->nu, m->nv);
+  refresh_velocity_skips(s);
   com_velocity_except(m, d, s.velocity_skip.data());
   for (size_t r = 0; r < s.rods.size(); ++r) {
     rod_velocity(s, sd, static_cast<int>(r));
@@ -1786,6 +1791,33 @@ bool mass_or_rod_below(const Scene& s, const RodBinding& rb) {
     if (other.base_body > rb.base_body && other.base_body < rb.below_end) return true;
   return false;
 }
+
+// RodBinding::cdof_dot_read and Scene::velocity_skip from the model's sensors and body masses.
+void decide_velocity_skips(const Scene& s) {
+  // acceleration sensors read every cdof_dot (mj_rnePostConstraint; whatever the sensor flags say now)
+  const bool acceleration_sensors = has_sensor_from(s.m, mjSTAGE_ACC);
+  for (const RodBinding& rb : s.rods) {
+    rb.massless_below = !mass_or_rod_below(s, rb);
+    rb.cdof_dot_read = acceleration_sensors || !rb.massless_below;
+  }
+  s.velocity_skip.assign(s.m->nbody, 0);
+  if (!has_sensor_from(s.m, mjSTAGE_VEL))  // sensors of velocities or accelerations read cvel, cdof_dot
+    for (const RodBinding& rb : s.rods)
+      if (!rb.cdof_dot_read)
+        for (int b = rb.base_body + 1; b < rb.below_end; ++b) s.velocity_skip[b] = 1;
+}
+
+// The skips decided at load stand while the bodies below the rods that skip them stay massless; a
+// mass given to one since (from C, between steps) is found here, at the cost of a look at those
+// bodies' masses, and the skips are decided again: its weight and inertia then count as if the
+// model had given it.
+void refresh_velocity_skips(const Scene& s) {
+  for (const RodBinding& rb : s.rods)
+    if (rb.massless_below && mass_or_rod_below(s, rb)) {
+      decide_velocity_skips(s);
+      return;
+    }
+}
 }  // namespace
 
 // Whether mj_collision (MuJoCo 2.2.2) can ever report a contact in model m, whatever its contact
@@ -1949,14 +1981,7 @@ std::unique_ptr<Scene> compile(const Preprocessed& pre) {
   for (const RodBinding& rb : s->rods)
     for (int b = rb.base_body + 1; b < rb.below_end; ++b) s->body_by_rod[b] = 1;
   setup_riding_frames(*s);
-  // acceleration sensors read every cdof_dot (mj_rnePostConstraint; whatever the sensor flags say now)
-  const bool acceleration_sensors = has_sensor_from(s->m, mjSTAGE_ACC);
-  for (RodBinding& rb : s->rods) rb.cdof_dot_read = acceleration_sensors || mass_or_rod_below(*s, rb);
-  s->velocity_skip.assign(s->m->nbody, 0);
-  if (!has_sensor_from(s->m, mjSTAGE_VEL))  // sensors of velocities or accelerations read cvel, cdof_dot
-    for (const RodBinding& rb : s->rods)
-      if (!rb.cdof_dot_read)
-        for (int b = rb.base_body + 1; b < rb.below_end; ++b) s->velocity_skip[b] = 1;
+  decide_velocity_skips(*s);
   setup_site_readers(pre, *s);  // sensors, transmissions, tracking that read rods (scene_sites.hpp)
   setup_fluid(*s);  // fluid hook: may switch MuJoCo's own fluid off (scene_fluid.hpp)
   if (!s->rods.empty()) {

@@ -70,7 +70,12 @@ struct RodBinding {
   // acceleration), or a sensor of the acceleration stage. Otherwise the step does not patch
   // d->cdof_dot of the rod's dofs: mj_rne would multiply them by the massless proxies' zero
   // inertias only (and Scene::velocity_skip may skip the rod's bodies in those passes altogether).
-  bool cdof_dot_read = true;
+  // A mass given at run time to a body below the rod that had none sets it again at the next
+  // evaluation (refresh_velocity_skips; mutable for that).
+  mutable bool cdof_dot_read = true;
+  // whether the bodies below the rod were massless (and no rod hung below it) when cdof_dot_read
+  // was last decided: the ones refresh_velocity_skips watches
+  mutable bool massless_below = false;
 };
 
 // Rod capsules' geom_size and geom_rbound follow the state (their chords): a Scene steps one
@@ -113,8 +118,10 @@ struct Scene {
   // per MuJoCo body: 1 for the bodies of rods whose cdof_dot nothing reads (RodBinding::
   // cdof_dot_read: massless, with a massless subtree), when no sensor reads velocities or
   // accelerations: the step's com-velocity and bias passes (com_velocity_except, rne_except) skip
-  // them, leaving their d->cvel and d->cdof_dot uncomputed.
-  std::vector<char> velocity_skip;
+  // them, leaving their d->cvel and d->cdof_dot uncomputed. Set again by the evaluation that finds
+  // a mass given to a body below such a rod since (refresh_velocity_skips: a payload's mass
+  // randomised at run time; outside probe AB found its weight left out when this was set at load only).
+  mutable std::vector<char> velocity_skip;
   // velocity sensors (velocimeter, gyro, framelinvel, frameangvel) whose object or reference frame
   // is a rod site off a rigid section (set at load): MuJoCo moves such a site rigidly with its
   // section's proxy, so the step evaluates them again with the site's material velocity
