@@ -2898,9 +2898,12 @@ void adaptive_step(const Scene& s, SceneData& sd, Integrator method) {
   const int nv = m->nv;
   const double H = m->opt.timestep, t_start = d->time;
   SceneData::Adaptive& a = sd.adapt;
-  // the previous substep's acceleration counts only if this step starts where it ended
+  // the previous substep's acceleration and level count only if this step starts where it ended: a
+  // state reset or set between steps (an RL episode's mj_resetData) starts from whole steps, as a
+  // new SceneData does (outside probe AB: the level carried over a reset, and the replayed episode
+  // ended 1.2 cm away from the first)
   bool history = a.valid && starts_at_end(a, d);
-  int level = std::clamp(a.level, 0, kMaxLevel);
+  int level = history ? std::clamp(a.level, 0, kMaxLevel) : 0;
   int done = 0;  // units of H / kUnits
   ++sd.adapt_stats.steps;
   while (done < kUnits) {
