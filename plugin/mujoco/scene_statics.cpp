@@ -55,6 +55,19 @@ class StaticProblem {
     settle_activations(m_, d_);
   }
 
+  // MuJoCo's control callback (mjcb_control), called where a step's evaluation calls it (after
+  // the velocities), from the controls the statics started with: the controls it sets are scaled by
+  // the load factor with the other loads (a feedback law is then the step's at the full loads, and
+  // the tangent stiffness and damping include its dependence on the state). Outside probe AB: the
+  // callback was ignored, and a rod bent by a motor whose control it set read straight.
+  void control_callback(double lambda) {
+    if (!mjcb_control) return;
+    std::copy(ctrl_.begin(), ctrl_.end(), d_->ctrl);
+    mjcb_control(m_, d_);
+    for (int i = 0; i < m_->nu; ++i) d_->ctrl[i] *= lambda;
+    settle_activations(m_, d_);
+  }
+
   // f = qfrc_smooth at the current qpos, at rest, under load factor lambda. Returns the scale.
   // Without `mass` the mass matrix is left stale (Need::SmoothStaticForces, which skips the collisions too); M's factorisation, O(nv^3)
   // for one long rod (whose dofs all share one branch), is skipped whenever no constraint acts.
@@ -63,6 +76,7 @@ class StaticProblem {
     mju_zero(d_->qvel, m_->nv);
     fwd_position(s_, sd_, mass ? Need::Forces : Need::SmoothStaticForces);
     fwd_velocity(s_, sd_);
+    control_callback(lambda);
     mj_fwdActuation(m_, d_);
     if (sd_.forces_only)
       smooth_forces(m_, d_);  // qfrc_smooth = passive - bias + applied + actuator + J^T xfrc
@@ -107,6 +121,7 @@ class StaticProblem {
     fwd_position(s_, sd_);
     auto force_at_velocity = [&](VectorXd& f) {
       fwd_velocity(s_, sd_);
+      control_callback(1.0);
       mj_fwdActuation(m_, d_);
       mj_fwdAcceleration(m_, d_);
       f = Eigen::Map<const VectorXd>(d_->qfrc_smooth, n);

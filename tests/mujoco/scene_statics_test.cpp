@@ -374,3 +374,31 @@ TEST(SceneStatics, AFailedRelaxationReportsNewtonsLastLoadStep) {
   EXPECT_GT(cosserat::min_axial_stretch(s->rods[0].model, sd.rod[0]), 0.5);
   for (int k = 0; k < s->m->nq; ++k) EXPECT_TRUE(std::isfinite(sd.d->qpos[k]));
 }
+
+// MuJoCo's control callback counts in the statics as in a step: a feedback law on a motor bending
+// the rod's first section, u = kp (target - ky0), holds it where the elastic moment balances the
+// motor's, EI l ky0 = kp (target - ky0) (curvature ky0 uniform over the section of length l; no
+// gravity). Outside probe AB: the callback was ignored and the rod read straight.
+namespace {
+double g_kp = 0.0, g_target = 0.0;
+int g_dof = -1;
+void feedback(const mjModel*, mjData* d) { d->ctrl[0] = g_kp * (g_target - d->qpos[g_dof]); }
+}  // namespace
+
+TEST(SceneStatics, EquilibriumTakesTheControlCallback) {
+  auto s = load_scene_string(R"(<mujoco><option gravity="0 0 0"/>
+    <worldbody><cosserat name="rod" pos="0 0 1" length="0.5" sections="4" strain="kl" radius="0.01"
+      density="1000" young="1e8" poisson="0.5" viscosity="1e6" contype="0" conaffinity="0"/></worldbody>
+    <actuator><motor joint="rod/s0/ky"/></actuator></mujoco>)", "callback.xml");
+  SceneData sd(*s);
+  const int j = mj_name2id(s->m, mjOBJ_JOINT, "rod/s0/ky");
+  g_dof = s->m->jnt_qposadr[j];
+  const double EI = 1e8 * M_PI * 1e-8 / 4, l = 0.125;
+  g_kp = EI * l;  // as stiff as the section: it stops halfway to the target
+  g_target = 0.2;
+  mjcb_control = feedback;
+  const SceneStaticsResult r = equilibrium(*s, sd);
+  mjcb_control = nullptr;
+  EXPECT_TRUE(r.converged);
+  EXPECT_NEAR(sd.d->qpos[g_dof], g_kp * g_target / (EI * l + g_kp), 1e-9);
+}
