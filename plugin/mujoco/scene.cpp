@@ -2030,6 +2030,7 @@ void reset(const Scene& s, SceneData& sd) {
   sd.status = Status::Ok;
   sd.warning.clear();
   sd.compression = {};
+  sd.last_step_end = -std::numeric_limits<double>::infinity();
   sd.adapt.valid = false;
   sd.adapt.level = 0;
 }
@@ -3111,6 +3112,14 @@ Status step(const Scene& s, SceneData& sd, Integrator method) {
   } in_step(sd);
   save_state(sd.step_start, m, d);
   const double t = d->time;
+  // a step from an earlier time than the last step's end starts a new run (MuJoCo's mj_resetData
+  // or a state set back between steps): the records of the last one (compression, divergence) are
+  // dropped, as reset() drops them (outside probe AB: an episode's collapse warning outlived it)
+  if (t < sd.last_step_end) {
+    sd.compression = {};
+    sd.status = Status::Ok;
+    sd.warning.clear();
+  }
   switch (method) {
     case Integrator::Euler:
       if (s.fluid.active) {
@@ -3143,6 +3152,7 @@ Status step(const Scene& s, SceneData& sd, Integrator method) {
     if (stretch < sd.compression.stretch) sd.compression = {stretch, t, static_cast<int>(r), section};
   }
   sd.status = Status::Ok;
+  sd.last_step_end = d->time;
   return sd.status;
 }
 

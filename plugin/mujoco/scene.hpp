@@ -238,8 +238,12 @@ struct SceneData {
   std::vector<cosserat::Data> rod;  // per rod
   Status status = Status::Ok;
   std::string warning;              // last divergence message
+  // The end time of the last step that succeeded (-inf: none since construction or reset()): a
+  // step from an earlier time starts a new run, dropping the last one's compression and divergence
+  // records as reset() does.
+  double last_step_end = -std::numeric_limits<double>::infinity();
   // The smallest axial stretch p_x of any extensible rod section seen by the steps since
-  // construction or reset() (cosserat::min_axial_stretch of each step's last forward evaluation),
+  // construction, reset() or a step back in time (cosserat::min_axial_stretch of each step's last forward evaluation),
   // with the step's start time, the rod and its section (local index); kept from the first
   // inversion (stretch <= 0) on. A section compressed towards zero length is outside what the
   // linear constitutive law describes.
