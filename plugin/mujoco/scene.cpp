@@ -82,6 +82,14 @@ LoadError mujoco_error(const Preprocessed& pre, const std::string& error) {
   if (line == 0) {
     if (first.rfind("key ", 0) == 0) {  // "key N: ...": the N-th <key>
       nth(pre.key_origin, msg.find("key ") + 4);
+      // the rods' share of the length (outside probe AD: the user had to count strain coordinates)
+      if (first.find("invalid qpos size") != std::string::npos && !pre.rods.empty()) {
+        hint = " (the rods' strain coordinates, in the model's joint order:";
+        for (const RodDecl& r : pre.rods)
+          hint += " rod '" + r.name + "' " + std::to_string(r.joints.size()) + ",";
+        hint.back() = ';';
+        hint += " the other joints are yours: free 7, ball 4, hinge and slide 1)";
+      }
     } else if (const size_t at = after("sensor array, position "); at != std::string::npos) {  // repeated name
       nth(pre.sensor_origin, at);
     } else if (const size_t at2 = after("actuator array, position "); at2 != std::string::npos) {
@@ -119,6 +127,24 @@ LoadError mujoco_error(const Preprocessed& pre, const std::string& error) {
       std::any_of(pre.rods.begin(), pre.rods.end(), names_a_capsule))
     hint = ": a <default> geom pos reaches the rod's capsules, which are placed with fromto; give the rod a class "
            "without a geom pos";
+  // a name under a rod's prefix that the rod does not generate (outside probe AD: a strain joint
+  // the rod's strain has not, or a section beyond its last, read "unknown transmission target")
+  for (const RodDecl& r : pre.rods) {
+    const size_t at = first.find("'" + r.name + "/");
+    if (at == std::string::npos || !hint.empty()) continue;
+    const size_t end = first.find('\'', at + 1);
+    const std::string name = first.substr(at + 1, end == std::string::npos ? std::string::npos : end - at - 1);
+    if (std::find(r.joints.begin(), r.joints.end(), name) != r.joints.end() ||
+        std::find(r.proxies.begin(), r.proxies.end(), name) != r.proxies.end())
+      continue;
+    std::string first_section;
+    for (const std::string& j : r.joints)
+      if (j.rfind(r.name + "/s0/", 0) == 0) first_section += " " + j.substr(r.name.size() + 4);
+    hint = ": rod '" + r.name + "' has no '" + name + "'. Its sections are " + r.name + "/s0 to " + r.name + "/s" +
+           std::to_string(r.proxies.size() - 1) + " (bodies), its strain joints " + r.name +
+           "/s<i>/<coordinate>, the first section's coordinates:" + first_section +
+           " (the rod's strain or dofs attribute sets them; GVS adds the polynomial degree)";
+  }
   return LoadError(where.file, where.line,
                    "MuJoCo: " + first + (object.empty() ? "" : " (object '" + object + "')") + hint);
 }

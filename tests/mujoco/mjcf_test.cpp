@@ -149,7 +149,10 @@ std::vector<BadCase> bad_cases() {
       {"site at beyond the tip", in_world(rod + ">\n<site name=\"s\" at=\"1.5\"/>\n</cosserat>"), 4, "'at' must be in [0, 1]"},
       {"site at negative", in_world(rod + ">\n<site name=\"s\" at=\"-0.1\"/>\n</cosserat>"), 4, "'at' must be in"},
       {"site pos with 4 numbers", in_world(rod + ">\n<site name=\"s\" at=\"0.5\" pos=\"0 0 0 0\"/>\n</cosserat>"), 4, "'pos' needs 2 to 3"},
-      {"site unknown attribute", in_world(rod + ">\n\n<site name=\"s\" at=\"0.5\" euler=\"0 0 0\"/>\n</cosserat>"), 5, "unknown attribute 'euler'"},
+      {"site unknown attribute", in_world(rod + ">\n\n<site name=\"s\" at=\"0.5\" colour=\"red\"/>\n</cosserat>"), 5, "unknown attribute 'colour'"},
+      // an orientation on a rod site says why it is refused (outside probe AD)
+      {"site orientation", in_world(rod + ">\n\n<site name=\"s\" at=\"0.5\" euler=\"0 0 90\"/>\n</cosserat>"), 5, "attribute 'euler' is not accepted on a rod site: its frame is the rod's cross-section frame"},
+      {"site zaxis", in_world(rod + ">\n<site name=\"s\" at=\"0.5\" zaxis=\"0 0 1\"/>\n</cosserat>"), 4, "attribute 'zaxis' is not accepted on a rod site"},
       {"section lengths exceed", in_world(rod + ">\n<section length=\"0.6\"/>\n<section length=\"0.6\"/>\n</cosserat>"), 3, "section lengths add up to 1.2"},
       {"section lengths fall short", in_world(rod + ">\n<section length=\"0.3\"/>\n<section length=\"0.3\"/>\n</cosserat>"), 3, "section lengths add up to 0.6"},
       {"section lengths leave nothing", in_world(rod + ">\n<section length=\"1\"/>\n<section/>\n</cosserat>"), 3, "leaving nothing"},
@@ -165,6 +168,9 @@ std::vector<BadCase> bad_cases() {
       {"include cycle", "<mujoco>\n<include file=\"cycle_a.xml\"/>\n</mujoco>\n", 2, "include cycle", "cycle_b.xml"},
       {"malformed XML", "<mujoco>\n<worldbody>\n<cosserat name=\"a\" length=\"1\">\n</worldbody>\n</mujoco>\n", 3, "XML_ERROR_MISMATCHED_ELEMENT"},
       {"unterminated attribute", "<mujoco>\n<worldbody>\n<cosserat name=\"a length=\"1\"/>\n</worldbody>\n</mujoco>\n", 3, "XML_ERROR"},
+      // tinyxml2's errors in words first (outside probe AD: a repeated attribute read only
+      // "Error=XML_ERROR_PARSING_ATTRIBUTE ErrorID=7 ...")
+      {"repeated attribute", "<mujoco>\n<worldbody>\n<cosserat name=\"a\" length=\"1\" length=\"2\"/>\n</worldbody>\n</mujoco>\n", 3, "malformed XML: an attribute could not be read (given twice in one element"},
       {"empty document", "", 0, "XML_ERROR_EMPTY_DOCUMENT"},
       {"root is not <mujoco>", "<mujoko>\n</mujoko>\n", 1, "root element must be <mujoco>"},
       {"duplicate rod name", in_world(rod + "/>\n" + rod + "/>"), 4, "duplicate rod name 'a'"},

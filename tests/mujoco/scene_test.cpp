@@ -476,6 +476,17 @@ TEST(Scene, MujocoCompileErrorsPointAtTheUsersFileAndLine) {
   const std::string rod2 = "<mujoco>\n<worldbody>\n<cosserat name=\"rod\" length=\"0.3\" sections=\"2\"/>\n</worldbody>\n"
                            "<keyframe>\n<key name=\"fine\"/>\n";
   expect_load_error(rod2 + "<key qpos=\"1 2\"/>\n</keyframe>\n</mujoco>\n", dir, "keys.xml", 7, "key 1");
+  // a keyframe of the wrong length says how many coordinates are the rods' (outside probe AD)
+  expect_load_error(rod2 + "<key qpos=\"1 2\"/>\n</keyframe>\n</mujoco>\n", dir, "keys.xml", 7,
+                    "expected length 8 (the rods' strain coordinates, in the model's joint order: rod 'rod' 8;");
+  // a strain joint the rod does not have, or a section beyond its last, names the rod's joints
+  // (outside probe AD: MuJoCo's bare "unknown transmission target")
+  const std::string kl3 = "<mujoco>\n<worldbody>\n<cosserat name=\"A\" length=\"0.3\" sections=\"3\"/>\n</worldbody>\n";
+  for (const std::string& joint : {std::string("A/s1/py"), std::string("A/s5/kz")})
+    expect_load_error(kl3 + "<actuator>\n<motor joint=\"" + joint + "\"/>\n</actuator>\n</mujoco>\n", dir,
+                      "strain_joint.xml", 6,
+                      "rod 'A' has no '" + joint + "'. Its sections are A/s0 to A/s2 (bodies), its strain joints "
+                      "A/s<i>/<coordinate>, the first section's coordinates: kx ky kz px");
   expect_load_error(rod2 + "<key time=\"nan\"/>\n</keyframe>\n</mujoco>\n", dir, "nan_key.xml", 7,
                     "'time' has a number that is not finite");
   // errors MuJoCo reports with an element's index and no line (outside probe, fourteenth session):
