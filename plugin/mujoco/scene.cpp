@@ -137,13 +137,19 @@ LoadError mujoco_error(const Preprocessed& pre, const std::string& error) {
     if (std::find(r.joints.begin(), r.joints.end(), name) != r.joints.end() ||
         std::find(r.proxies.begin(), r.proxies.end(), name) != r.proxies.end())
       continue;
-    std::string first_section;
+    // the coordinates of the section the name points at, if it has one, else of the first (outside
+    // probe AE: with sections of different strains the first section's misled)
+    std::string section = r.name + "/s0";
+    if (const size_t slash = name.find('/', r.name.size() + 1); slash != std::string::npos)
+      if (std::find(r.proxies.begin(), r.proxies.end(), name.substr(0, slash)) != r.proxies.end())
+        section = name.substr(0, slash);
+    std::string coordinates;
     for (const std::string& j : r.joints)
-      if (j.rfind(r.name + "/s0/", 0) == 0) first_section += " " + j.substr(r.name.size() + 4);
+      if (j.rfind(section + "/", 0) == 0) coordinates += " " + j.substr(section.size() + 1);
     hint = ": rod '" + r.name + "' has no '" + name + "'. Its sections are " + r.name + "/s0 to " + r.name + "/s" +
            std::to_string(r.proxies.size() - 1) + " (bodies), its strain joints " + r.name +
-           "/s<i>/<coordinate>, the first section's coordinates:" + first_section +
-           " (the rod's strain or dofs attribute sets them; GVS adds the polynomial degree)";
+           "/s<i>/<coordinate>, section " + section + "'s coordinates:" + coordinates +
+           " (the strain or dofs attribute sets them; GVS adds the polynomial degree)";
   }
   return LoadError(where.file, where.line,
                    "MuJoCo: " + first + (object.empty() ? "" : " (object '" + object + "')") + hint);

@@ -75,7 +75,10 @@ void tangent_stiffness(const Scene& s, SceneData& sd, double lambda, Eigen::Matr
 // Linearisation at the current qpos (call equilibrium() first), qvel = 0 and the current ctrl:
 //   M dqacc + D dqvel + Kt dq = Bu dctrl,   x = [dq; dqvel],   x_dot = A x + B dctrl.
 // M is the patched mass matrix (rods included), D the rods' Kelvin-Voigt damping plus joint and
-// tendon damping, Kt the tangent stiffness (constraint forces are not linearised).
+// tendon damping, Kt the tangent stiffness (constraint forces are not linearised). With a control
+// callback (mjcb_control, called at every force evaluation), D and Kt hold its dependence on the
+// state (the closed loop), and Bu = d qfrc_actuator / d ctrl at its controls: the input matrix of a
+// perturbation added to them.
 using SceneLinearization = cosserat::Linearization;  // the core's: A, B, M, D, Kt, Bu, frequencies
 SceneLinearization linearize(const Scene& s, SceneData& sd);
 

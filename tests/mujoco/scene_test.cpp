@@ -486,7 +486,13 @@ TEST(Scene, MujocoCompileErrorsPointAtTheUsersFileAndLine) {
     expect_load_error(kl3 + "<actuator>\n<motor joint=\"" + joint + "\"/>\n</actuator>\n</mujoco>\n", dir,
                       "strain_joint.xml", 6,
                       "rod 'A' has no '" + joint + "'. Its sections are A/s0 to A/s2 (bodies), its strain joints "
-                      "A/s<i>/<coordinate>, the first section's coordinates: kx ky kz px");
+                      "A/s<i>/<coordinate>, section A/s" + (joint == "A/s1/py" ? "1" : "0") +
+                          "'s coordinates: kx ky kz px");
+  // with sections of different strains, the named section's coordinates (outside probe AE)
+  expect_load_error("<mujoco>\n<worldbody>\n<cosserat name=\"A\" length=\"0.3\" sections=\"2\">\n<section/>\n"
+                    "<section strain=\"ikl\"/>\n</cosserat>\n</worldbody>\n<actuator>\n<motor joint=\"A/s1/px\"/>\n"
+                    "</actuator>\n</mujoco>\n",
+                    dir, "mixed_sections.xml", 9, "section A/s1's coordinates: kx ky kz (the strain");
   expect_load_error(rod2 + "<key time=\"nan\"/>\n</keyframe>\n</mujoco>\n", dir, "nan_key.xml", 7,
                     "'time' has a number that is not finite");
   // errors MuJoCo reports with an element's index and no line (outside probe, fourteenth session):
