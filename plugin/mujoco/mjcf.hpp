@@ -32,8 +32,8 @@ namespace cosserat::mj {
 // physical. A rest shape must be longer (the loader refuses a rest stretch at or below it).
 constexpr double kCollapsedStretch = 0.1;
 
-// A load error that knows where it comes from: what() is "file:line: message".
-// "file:line: message" ("file: message" where the line is 0: an error of the whole model)
+// A load error that knows where it comes from: what() is "file:line: message" ("file: message"
+// where the line is 0: an error of the whole model).
 class LoadError : public std::runtime_error {
  public:
   LoadError(const std::string& file, int line, const std::string& msg);

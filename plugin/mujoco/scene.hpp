@@ -243,9 +243,9 @@ struct SceneData {
   // records as reset() does.
   double last_step_end = -std::numeric_limits<double>::infinity();
   // The smallest axial stretch p_x of any extensible rod section seen by the steps since
-  // construction, reset() or a step back in time (cosserat::min_axial_stretch of each step's last forward evaluation),
-  // with the step's start time, the rod and its section (local index); kept from the first
-  // inversion (stretch <= 0) on. A section compressed towards zero length is outside what the
+  // construction, reset() or a step back in time (cosserat::min_axial_stretch of each step's last
+  // forward evaluation), with the step's start time, the rod and its section (local index); kept
+  // from the first inversion (stretch <= 0) on. A section compressed towards zero length is outside what the
   // linear constitutive law describes.
   struct Compression {
     double stretch = std::numeric_limits<double>::infinity();
