@@ -2057,6 +2057,48 @@ std::string collapse_warning(const Scene& s, const SceneData& sd) {
   return b;
 }
 
+std::string divergence_hint(const Scene& s, const SceneData& sd, Integrator in, Vocabulary words) {
+  const bool cli = words == Vocabulary::CommandLine;
+  const std::string smaller_step = cli ? "a smaller --timestep" : "a smaller time step (m->opt.timestep)";
+  const std::string implicit = cli ? "--integrator implicit" : "Integrator::Implicit";
+  const std::string collapse = collapse_warning(s, sd);
+  // an explicit step that is too large crushes sections on its way to blowing up: the step is the
+  // cause there (outside probe Y: rk4 on a stiff rod at 0.2 ms was told to stiffen the rod)
+  const bool explicit_step = in == Integrator::Euler || in == Integrator::RK4 || in == Integrator::Rosenbrock;
+  if (!collapse.empty() && !explicit_step) return "after a rod section collapsed: " + collapse;
+  std::string hint;
+  if (in == Integrator::Euler || in == Integrator::RK4)
+    hint = "try " + smaller_step + ", or " + implicit +
+           ": explicit integrators need steps below the stiffest mode's period";
+  else if (in == Integrator::Rosenbrock)
+    hint = "try " + smaller_step + ", or " + implicit +
+           ": the rosenbrock step treats gravity, Coriolis and geometric stiffness explicitly";
+  else if (s.newton_for(in) == 0)
+    hint = std::string("try ") + (cli ? "--newton 10" : "Scene::newton_iterations = 10") +
+           " (gravity, Coriolis and geometric stiffness are explicit in the linearised step) or " + smaller_step;
+  else
+    hint = "try " + smaller_step + ", or more " + (cli ? "--newton corrections" : "Newton corrections (Scene::newton_iterations)");
+  if (!collapse.empty())
+    hint += "; a rod section also collapsed on the way, as under any unstable explicit step: " + collapse;
+  // MuJoCo 2.2.2's sparse Newton solver stops at a pivot below 1e-15 (the loader moves scenes whose
+  // rods' inertias lie there at qpos0 to dense Jacobians, with a warning; a blowing-up state gets
+  // there too)
+  if (sd.warning.find("Rank-defficient Hessian") != std::string::npos)
+    hint = "MuJoCo's sparse Newton constraint solver stops where a pivot of the inertia falls below 1e-15 (a thin, "
+           "short rod section in SI units, or a state already blowing up): <option jacobian=\"dense\"/> or "
+           "solver=\"CG\" does not stop there; else " + hint;
+  // contacts or constraint rows dropped for want of room come first: bodies then pass through each other
+  const mjData* d = sd.d;
+  const mjModel* m = s.m;
+  const int full = d->warning[mjWARN_CONTACTFULL].number + d->warning[mjWARN_CNSTRFULL].number;
+  if (full > 0)
+    hint = "MuJoCo's contact buffers were full " + std::to_string(full) +
+           " times and contacts were dropped: raise <size nconmax=\"...\" njmax=\"...\"> (now " +
+           std::to_string(m->nconmax) + " and " + std::to_string(m->njmax) +
+           "; a capsule on a plane makes 1-2 contacts of 1-6 constraint rows each); else " + hint;
+  return hint;
+}
+
 void reset(const Scene& s, SceneData& sd) {
   mj_resetData(s.m, sd.d);
   sd.status = Status::Ok;

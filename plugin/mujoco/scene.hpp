@@ -237,7 +237,7 @@ struct SceneData {
   mjData* d = nullptr;
   std::vector<cosserat::Data> rod;  // per rod
   Status status = Status::Ok;
-  std::string warning;              // last divergence message
+  std::string warning;              // last divergence message (remedies: divergence_hint)
   // The end time of the last step that succeeded (-inf: none since construction or reset()): a
   // step from an earlier time starts a new run, dropping the last one's compression and divergence
   // records as reset() does.
@@ -365,6 +365,15 @@ struct SceneData {
 
 // The warning for such a collapse (rod, section, stretch, time), or "" when none happened.
 std::string collapse_warning(const Scene& s, const SceneData& sd);
+
+// What to try after step() returned Diverged under `method` (SceneData::warning says what
+// happened): the integrator's remedy, led by a section collapse, MuJoCo's full contact buffers or
+// its sparse solver's small pivots where those came first. `Vocabulary` names the remedies as a
+// program sets them (m->opt.timestep, Integrator::Implicit, Scene::newton_iterations) or as the
+// command line's options (--timestep, --integrator implicit, --newton).
+enum class Vocabulary { Cpp, CommandLine };
+std::string divergence_hint(const Scene& s, const SceneData& sd, Integrator method,
+                            Vocabulary words = Vocabulary::Cpp);
 
 // Loads an MJCF file with <cosserat> elements. Throws LoadError on bad input.
 // Whether any two geoms of m can ever touch (Scene::may_collide).

@@ -1454,3 +1454,30 @@ TEST(Scene, AMassGivenAtRunTimeCountsAsTheModelsOwn) {
   // payload 4 cm higher after 0.2 s)
   for (int k = 0; k < 3; ++k) EXPECT_NEAR(da.d->site_xpos[3 * p + k], dr.d->site_xpos[3 * p + k], 1e-12);
 }
+
+// After a divergence a program gets the command line's advice in its own terms (outside probe AD:
+// SceneData::warning said what happened, and only the command line said what to try).
+TEST(Scene, ADivergenceHintNamesTheRemedyInTheProgramsTerms) {
+  const std::string xml = R"(<mujoco><option timestep="0.002"/><worldbody>
+    <cosserat name="rod" length="0.5" sections="4" strain="kl" radius="0.005" young="1e9"/>
+  </worldbody></mujoco>)";
+  auto s = load_scene_string(xml, kPath);
+  SceneData sd(*s);
+  Status st = Status::Ok;
+  for (int k = 0; k < 500 && st == Status::Ok; ++k) st = step(*s, sd, Integrator::RK4);
+  ASSERT_EQ(st, Status::Diverged);
+  const std::string cpp = divergence_hint(*s, sd, Integrator::RK4);
+  EXPECT_EQ(cpp.rfind("try a smaller time step (m->opt.timestep), or Integrator::Implicit: explicit", 0), 0u) << cpp;
+  const std::string cli = divergence_hint(*s, sd, Integrator::RK4, Vocabulary::CommandLine);
+  EXPECT_EQ(cli.rfind("try a smaller --timestep, or --integrator implicit: explicit", 0), 0u) << cli;
+  // (rk4 crushed a section on its way: the step's advice leads, the collapse follows)
+  EXPECT_NE(cpp.find("; a rod section also collapsed on the way"), std::string::npos) << cpp;
+  // the linearised trapezoidal rule's remedy is its Newton corrections (a run without a collapse)
+  SceneData fresh(*s);
+  s->newton_iterations = 0;
+  const std::string lin = divergence_hint(*s, fresh, Integrator::Trapezoidal);
+  EXPECT_EQ(lin.rfind("try Scene::newton_iterations = 10 (gravity", 0), 0u) << lin;
+  s->newton_iterations = 10;
+  const std::string full = divergence_hint(*s, fresh, Integrator::Trapezoidal);
+  EXPECT_EQ(full.rfind("try a smaller time step (m->opt.timestep), or more Newton corrections", 0), 0u) << full;
+}
