@@ -205,6 +205,7 @@ struct PartialStep {
   SE3 offset;
   double Xp = 0.0;
   bool full = false;  // X is the node itself: the step is the node's own (Data holds it)
+  bool empty = false;  // X is the parent frame: a step of length 0 (Om = 0; xa, xb, sp unset unless G was asked for)
   StepPoints sp;
   Vec6 Om, xa, xb;
 };
@@ -233,6 +234,11 @@ void partial_step(const Model& m, const Data& d, int r, double X, int section, M
   ps.Xp = n.X - n.h;  // abscissa of the parent frame
   ps.full = X == n.X;
   if (ps.full && !when_full) return;
+  ps.empty = X == ps.Xp;
+  if (ps.empty && !G) {  // X is the parent frame: no motion (a rod's start, a capsule's first end)
+    ps.Om.setZero();
+    return;
+  }
   step_points(sec, ps.Xp, X - ps.Xp, n.commutator, ps.sp);
   ps.Om = step_twist_at(sec, ps.sp, d.q.data() + n.dof0, G, ps.xa, ps.xb);
 }
@@ -243,6 +249,7 @@ SE3 rod_pose(const Model& m, const Data& d, int r, double X) {
   partial_step(m, d, r, X, -1, nullptr, ps, false);
   if (ps.full) return d.g[ps.node];
   const SE3& gp = ps.parent < 0 ? d.base_pose : d.g[ps.parent];
+  if (ps.empty) return gp * ps.offset;
   return gp * ps.offset * exp_se3(ps.Om);
 }
 
