@@ -593,7 +593,8 @@ int cmd_equilibrium(int argc, char** argv) {
                  "equilibrium is unstable is refused and split; \"omega2_min\" in the report is the smallest\n"
                  "eigenvalue of K x = omega^2 M x there); scenes whose contacts, limits or equality constraints\n"
                  "carry load, or where the stable branch cannot be followed, are settled by dynamic relaxation\n"
-                 "(the report's \"method\").\n"
+                 "(the report's \"method\"); past a buckling load the relaxation starts from the unstable\n"
+                 "equilibrium moved along its unstable mode, and settles on the buckled shape.\n"
                  "Exit status 1 when no equilibrium is found.\n"};
   cl.options.push_back(text_option("--json", "F", "write {converged, iterations, residual, sites, bodies, ...} ('-': stdout)", json_path));
   state.add_to(cl);

@@ -14,10 +14,20 @@ struct Linearization {
   VecX frequencies_hz;  // undamped natural frequencies, ascending (from Kt x = w^2 M x; an unstable
                         // mode, w^2 < 0, shows as 0 Hz: see omega2 and unstable_modes)
   VecX omega2;          // the eigenvalues w^2 [1/s^2], ascending, signed (real parts if Kt is unsymmetric)
-  int unstable_modes = 0;  // modes with w^2 < -1e-7 max|w^2|: the equilibrium is unstable
+  int unstable_modes = 0;  // modes with w^2 below the noise (unstable_mode): the equilibrium is unstable
   VecX damping_ratios;  // modal damping x^T D x / (2 w x^T M x) of those modes (NaN for w = 0);
                         // empty when Kt is not symmetric (follower loads)
 };
+
+// Whether the eigenpair (omega2, x) of K x = omega^2 M x is unstable beyond the noise of a
+// finite-difference stiffness and of the eigensolver:
+//   omega2 < -max(1e-4 |x|'|K||x| / x'M x, 1e-15 omega2_abs_max)
+// (|.| entrywise). The first bound is the mode's own stiffness scale, what the rounding of K's
+// entries can move its eigenvalue by: an outside probe's column at twice its buckling load had
+// omega^2 = -6.2 1/s^2 beside axial modes at 1e12, and a threshold relative to the largest
+// eigenvalue (1e-7, then 1e-9 of it) took it for stable. The second is a floor far above the
+// eigensolver's (the neutral mode of that column buckled came out at 2e-6 beside 1e12).
+bool unstable_mode(double omega2, const VecX& x, const MatX& K, const MatX& M, double omega2_abs_max);
 
 // Linearises at d.q (call equilibrium() first) and d.ctrl.
 Linearization linearize(const Model& m, Data& d);

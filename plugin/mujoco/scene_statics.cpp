@@ -255,11 +255,13 @@ bool newton(StaticProblem& p, double lambda, const SceneStaticsOptions& opt, Sce
 // Stability of the equilibrium at the current qpos under load factor lambda: the smallest
 // eigenvalue omega^2 of Ks x = omega^2 M x, Ks the symmetric part of the tangent stiffness (a
 // negative one: the equilibrium is unstable, the rod would fall away from it). Returns true when
-// stable: omega^2_min >= -1e-9 |omega^2|_max (central differences leave noise below that;
-// neutral directions, such as a free hinge without gravity, count as stable). (It was 1e-7, which
-// with a rod's stiff axial and shear modes at 3e6 let a standing column through 5% past its
-// buckling load, omega^2_min = -0.23: an outside probe.)
-bool stable_equilibrium(StaticProblem& p, const Scene& s, SceneData& sd, double lambda, double& omega2_min) {
+// no eigenvalue lies below the noise of the central differences (cosserat::unstable_mode: neutral
+// directions, such as a free hinge without gravity, count as stable); `mode` (if given) is then
+// the most unstable one's eigenvector, in the tangent space of qpos. (Until the twenty-seventh
+// session the test was omega^2_min >= -1e-9 |omega^2|_max, which a rod's axial modes at 1e12 made
+// blind: outside probe AF's column at twice its buckling load, omega^2_min = -6.2, passed.)
+bool stable_equilibrium(StaticProblem& p, const Scene& s, SceneData& sd, double lambda, double& omega2_min,
+                        VectorXd* mode = nullptr) {
   const int n = p.nv();
   omega2_min = 0.0;
   if (n == 0) return true;
@@ -272,19 +274,69 @@ bool stable_equilibrium(StaticProblem& p, const Scene& s, SceneData& sd, double 
   const MatrixXd M = Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(
       full.data(), n, n);
   const MatrixXd Ks = 0.5 * (Kt + Kt.transpose());
-  Eigen::GeneralizedSelfAdjointEigenSolver<MatrixXd> es(Ks, M, Eigen::EigenvaluesOnly);
+  Eigen::GeneralizedSelfAdjointEigenSolver<MatrixXd> es(Ks, M);
   if (es.info() != Eigen::Success) return true;  // M not positive definite: no verdict
   const VectorXd& w = es.eigenvalues();
   omega2_min = w(0);
   const double big = std::max(std::abs(w(0)), std::abs(w(n - 1)));
-  return w(0) >= -1e-9 * big;
+  for (int i = 0; i < n && w(i) < 0; ++i)
+    if (cosserat::unstable_mode(w(i), es.eigenvectors().col(i), Ks, M, big)) {
+      if (mode) *mode = es.eigenvectors().col(i);
+      return false;
+    }
+  return true;
 }
 
 // Newton with load continuation (statics.cpp's scheme). On failure qpos is the last good step.
 // With opt.stable, a load step whose equilibrium is unstable is refused like a failed one (the
 // increment is halved): small enough increments follow the stable branch from the start.
+// An unstable equilibrium the solve came across: where, under which load factor, and the
+// eigenvector of its most unstable mode (tangent space of qpos).
+struct UnstableState {
+  std::vector<mjtNum> qpos;
+  double lambda = 0.0;
+  VectorXd mode;
+  bool found() const { return !qpos.empty(); }
+};
+
+// q moved along the tangent-space direction `mode`, by `amount` in its largest coordinate
+// (radians, strains, curvatures in 1/m, metres). 1e-3: a start that an unstable equilibrium's
+// dynamics leave exponentially, at its rate sqrt(-omega^2).
+std::vector<mjtNum> along_mode(const mjModel* m, std::vector<mjtNum> q, const VectorXd& mode, double amount = 1e-3) {
+  const double big = mode.cwiseAbs().maxCoeff();
+  if (big > 0) mj_integratePos(m, q.data(), mode.data(), amount / big);
+  return q;
+}
+
+// Branch switching past a bifurcation: Newton under the full loads from the unstable equilibrium
+// the continuation met, moved along its unstable mode by growing amounts (0.01, 0.1, 1 in the
+// mode's largest coordinate), until it converges on a stable equilibrium (the buckled column, whose
+// amplitude grows like the square root of the load's excess: 0.1% past the buckling load is too
+// slow a fall for the dynamic relaxation's 30 s). On failure qpos and the result are as they were.
+bool switch_branch(StaticProblem& p, const Scene& s, SceneData& sd, const SceneStaticsOptions& opt,
+                   SceneStaticsResult& res, const UnstableState& unstable) {
+  const std::vector<mjtNum> q_good = p.qpos();
+  const SceneStaticsResult before = res;
+  for (const double amount : {1e-2, 1e-1, 1.0}) {
+    p.set_qpos(along_mode(s.m, unstable.qpos, unstable.mode, amount));
+    double w2 = 0.0;
+    if (newton(p, 1.0, opt, res) && stable_equilibrium(p, s, sd, 1.0, w2)) {
+      ++res.load_steps;
+      res.omega2_min = w2;
+      res.message = "converged, past a bifurcation: from the unstable equilibrium at load factor " +
+                    cosserat::load_factor_text(unstable.lambda) + " moved along its unstable mode";
+      return true;
+    }
+  }
+  const int iterations = res.iterations;
+  res = before;
+  res.iterations = iterations;
+  p.set_qpos(q_good);
+  return false;
+}
+
 bool solve_smooth(StaticProblem& p, const Scene& s, SceneData& sd, const SceneStaticsOptions& opt,
-                  SceneStaticsResult& res) {
+                  SceneStaticsResult& res, UnstableState& unstable) {
   double lam = 0.0, dlam = 1.0;
   std::vector<mjtNum> q_good = p.qpos();
   int halvings = 0;
@@ -294,14 +346,20 @@ bool solve_smooth(StaticProblem& p, const Scene& s, SceneData& sd, const SceneSt
       opt.progress("Newton, load step " + std::to_string(res.load_steps + 1) + " to load factor " +
                    cosserat::load_factor_text(target) + ", " + std::to_string(res.iterations) + " iterations so far");
     double w2 = 0.0;
-    if (newton(p, target, opt, res) && (!opt.stable || stable_equilibrium(p, s, sd, target, w2))) {
+    VectorXd mode;
+    bool converged = newton(p, target, opt, res), refused = false;
+    if (converged && opt.stable && !stable_equilibrium(p, s, sd, target, w2, &mode)) {
+      refused = true;
+      if (!unstable.found() || target >= unstable.lambda) unstable = {p.qpos(), target, mode};
+    }
+    if (converged && !refused) {
       lam = target;
       q_good = p.qpos();
       ++res.load_steps;
       res.omega2_min = w2;
       dlam *= 2.0;
     } else {
-      if (opt.stable && w2 < 0) ++res.unstable_steps_refused;
+      if (refused) ++res.unstable_steps_refused;
       p.set_qpos(q_good);
       dlam *= 0.5;
       if (++halvings > opt.max_load_halvings) {
@@ -474,9 +532,11 @@ SceneStaticsResult equilibrium(const Scene& s, SceneData& sd, const SceneStatics
       return res;
     }
   const std::vector<mjtNum> q_start(d->qpos, d->qpos + m->nq);
+  UnstableState unstable;
   {
     StaticProblem p(s, sd);
-    res.converged = solve_smooth(p, s, sd, opt, res);
+    res.converged = solve_smooth(p, s, sd, opt, res, unstable);
+    if (!res.converged && unstable.found()) res.converged = switch_branch(p, s, sd, opt, res, unstable);
   }
   // the smooth solution ignores constraint forces: check that none is needed there, and that the
   // way there does not pass through a support
@@ -501,35 +561,54 @@ SceneStaticsResult equilibrium(const Scene& s, SceneData& sd, const SceneStatics
     return res;
   }
   const std::vector<mjtNum> q_newton(d->qpos, d->qpos + m->nq);  // Newton's last converged load step
-  sd.compression = {};
-  res.converged = relax(s, sd, q_start, opt, res);
-  res.message = (res.converged ? "" : res.message + "; ") + "relaxation used because " + why;
-  if (!res.converged) {
-    // a relaxation that diverged or did not settle leaves a state of no meaning (probe O: inverted
-    // sections after a blow-up): report the last equilibrium Newton found instead
-    if (const std::string c = collapse_warning(s, sd); !c.empty()) res.message += "; during the relaxation " + c;
-    std::copy(q_newton.begin(), q_newton.end(), d->qpos);
-    res.message += q_newton == q_start ? "; the positions reported are the start's"
-                                       : "; the positions reported are Newton's last converged load step";
+  // Where Newton met unstable equilibria (a column above its buckling load), the relaxation starts
+  // from the last of them moved a little along its unstable mode, and falls away from it onto the
+  // stable branch (the buckled column); from the start it could settle on it again (the straight
+  // column, by symmetry). A relaxation that settles on an unstable state all the same is given one
+  // more such start.
+  std::vector<mjtNum> q_relax = q_start;
+  std::string from;
+  if (unstable.found()) {
+    q_relax = along_mode(m, unstable.qpos, unstable.mode);
+    from = ", started from the unstable equilibrium at load factor " + cosserat::load_factor_text(unstable.lambda) +
+           " moved along its unstable mode";
   }
-  forward(s, sd);
-  res.constraint_rows = load_bearing_rows(d);
-  // relaxation settles where the motion stops, which a symmetric start can do on an unstable
-  // equilibrium (a straight column above its buckling load): without constraint rows carrying
-  // load its stability is the smooth one's
-  if (res.converged && opt.stable && res.constraint_rows == 0) {
+  for (int attempt = 0;; ++attempt) {
+    sd.compression = {};
+    res.converged = relax(s, sd, q_relax, opt, res);
+    res.message = (res.converged ? "" : res.message + "; ") + "relaxation used because " + why + from;
+    if (!res.converged) {
+      // a relaxation that diverged or did not settle leaves a state of no meaning (probe O: inverted
+      // sections after a blow-up): report the last equilibrium Newton found instead
+      if (const std::string c = collapse_warning(s, sd); !c.empty()) res.message += "; during the relaxation " + c;
+      std::copy(q_newton.begin(), q_newton.end(), d->qpos);
+      res.message += q_newton == q_start ? "; the positions reported are the start's"
+                                         : "; the positions reported are Newton's last converged load step";
+    }
+    forward(s, sd);
+    res.constraint_rows = load_bearing_rows(d);
+    // relaxation settles where the motion stops, which a symmetric start can do on an unstable
+    // equilibrium (a straight column above its buckling load): without constraint rows carrying
+    // load its stability is the smooth one's
+    if (!res.converged || !opt.stable || res.constraint_rows > 0) return res;
     StaticProblem p(s, sd);
     double w2 = 0.0;
-    if (!stable_equilibrium(p, s, sd, 1.0, w2)) {
-      res.converged = false;
-      res.omega2_min = w2;
-      res.message += "; the state it settled in is an unstable equilibrium (omega^2_min = " + std::to_string(w2) +
-                     "): the rod would fall away from it (start from a perturbed state, e.g. a keyframe)";
-    }
+    VectorXd mode;
+    const bool stable = stable_equilibrium(p, s, sd, 1.0, w2, &mode);
     mju_zero(d->qvel, m->nv);
     forward(s, sd);
+    if (stable) return res;
+    if (attempt == 0) {
+      q_relax = along_mode(m, std::vector<mjtNum>(d->qpos, d->qpos + m->nq), mode);
+      from = ", started again from the unstable state the first relaxation settled in, moved along its unstable mode";
+      continue;
+    }
+    res.converged = false;
+    res.omega2_min = w2;
+    res.message += "; the state it settled in is an unstable equilibrium (omega^2_min = " + std::to_string(w2) +
+                   "): the rod would fall away from it (start from a perturbed state, e.g. a keyframe)";
+    return res;
   }
-  return res;
 }
 
 SceneLinearization linearize(const Scene& s, SceneData& sd) {
