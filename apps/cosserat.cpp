@@ -651,7 +651,7 @@ int cmd_linearize(int argc, char** argv) {
   // the linearisation is of the smooth dynamics: constraints that carry load at the equilibrium
   // (a welded tip, a floor) are left out, and the frequencies are the unconstrained system's
   std::string constraint_warning;
-  if (eq.result.constraint_rows > 0 || eq.result.method != "newton")
+  if (eq.result.constraint_rows > 0)
     constraint_warning = std::to_string(eq.result.constraint_rows) +
                          " constraint rows (contacts, limits, equality constraints) act at the equilibrium (found by " +
                          eq.result.method + "); the linearisation leaves them out: these are the frequencies "
@@ -685,12 +685,20 @@ int cmd_linearize(int argc, char** argv) {
     eq.print();
     if (!constraint_warning.empty()) std::printf("warning: %s\n", constraint_warning.c_str());
     if (lin.unstable_modes > 0)
-      std::printf("warning: %d unstable mode(s) (omega^2 < 0, listed as 0 Hz): the equilibrium is unstable\n",
+      std::printf("warning: %d unstable mode(s) (omega^2 < 0, listed first): the equilibrium is unstable\n",
                   lin.unstable_modes);
     std::printf("natural frequencies [Hz] (damping ratio):\n");
     for (int i = 0; i < lin.frequencies_hz.size(); ++i) {
+      // the modes are in ascending omega^2: the unstable ones come first, growing as exp(t / tau)
+      if (i < lin.unstable_modes) {
+        std::printf("  %3d  unstable: omega^2 = %.6g 1/s^2, e-folding time %.4g s\n", i + 1, lin.omega2(i),
+                    1.0 / std::sqrt(-lin.omega2(i)));
+        continue;
+      }
       std::printf("  %3d  %12.6g", i + 1, lin.frequencies_hz(i));
-      if (i < lin.damping_ratios.size()) std::printf("  (%.4g)", lin.damping_ratios(i));
+      if (i < lin.damping_ratios.size())
+        std::isfinite(lin.damping_ratios(i)) ? std::printf("  (%.4g)", lin.damping_ratios(i))
+                                             : std::printf("  (neutral mode)");
       std::printf("\n");
     }
   }
