@@ -159,7 +159,7 @@ struct Converter {
       // joints at the body origin: springs of the rod around X_k
       {
         const double r = radius_at(spec, Xk), A = kPi * r * r, I = kPi * r * r * r * r / 4, J = 2 * I;
-        const double E = sj.material.young, G = E / (2 * (1 + sj.material.poisson)), mu = sj.material.viscosity;
+        const double E = sj.material.young, G = sj.material.shear_modulus(), mu = sj.material.viscosity;
         // the clamp factor on bending only: the chain's torsion and stretch are exact with 1/ds
         // (outside probe Q: doubling them too made the clamp's torsion too stiff to first order)
         const double f = k == 0 ? opt.base_spring_factor : 1.0;

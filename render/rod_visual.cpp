@@ -95,7 +95,7 @@ double rod_strain_magnitude(const mj::Scene& s, const mj::SceneData& sd, int r, 
 double rod_stress_magnitude(const mj::Scene& s, const mj::SceneData& sd, int r, double X) {
   const auto [e, g] = surface_strain(s, sd, r, X);
   const RodMaterial& mat = section_at(s.rods[r].model, X).material;
-  const double E = mat.young, G = mat.young / (2.0 * (1.0 + mat.poisson));
+  const double E = mat.young, G = mat.shear_modulus();
   return std::sqrt((E * e) * (E * e) + 3.0 * (G * g) * (G * g));
 }
 

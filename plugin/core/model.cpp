@@ -26,7 +26,7 @@ Mat6 spatial_inertia(double m, const Vec3& c, const Mat3& Ic) {
 
 Vec6 section_stiffness(const RodMaterial& mat, double r) {
   const double A = M_PI * r * r, I = M_PI * r * r * r * r / 4.0, J = 2.0 * I;
-  const double G = mat.young / (2.0 * (1.0 + mat.poisson));
+  const double G = mat.shear_modulus();
   Vec6 s;
   s << G * J, mat.young * I, mat.young * I, mat.young * A, G * A, G * A;
   return s;
@@ -148,6 +148,7 @@ int Model::add_rod(int parent, const SE3& placement, const RodSpec& spec) {
             "rod '" + spec.name + "': density and Young's modulus must be positive");
     require(ss.material.poisson > -1.0 && ss.material.poisson <= 0.5,
             "rod '" + spec.name + "': Poisson ratio must be in (-1, 0.5]");
+    require(ss.material.shear >= 0, "rod '" + spec.name + "': negative shear modulus");
     require(ss.material.viscosity >= 0, "rod '" + spec.name + "': negative viscosity");
     Section sec;
     sec.rod = rod_id;

@@ -39,8 +39,10 @@ Mat6 spatial_inertia(double mass, const Vec3& com, const Mat3& inertia_at_com);
 struct RodMaterial {
   double density = 1000.0;  // rho [kg/m^3]
   double young = 1e6;       // E [Pa]
-  double poisson = 0.5;     // nu; G = E / (2 (1 + nu))
+  double poisson = 0.5;     // nu; G = E / (2 (1 + nu)) unless `shear` is given
+  double shear = 0.0;       // G [Pa] given on its own (> 0), for torsion and shear; 0: from poisson
   double viscosity = 0.0;   // Kelvin-Voigt mu [Pa s]: Upsilon = mu diag(Jx, 3Iy, 3Iz, 3A, A, A)
+  double shear_modulus() const { return shear > 0 ? shear : young / (2.0 * (1.0 + poisson)); }
 };
 
 // The largest GVS order of a section, and so the most dofs a section can have (6 strains, each a

@@ -297,8 +297,17 @@ SectionSpec read_section_spec(const Reader& r, SectionSpec s) {
   r.check(s.material.density > 0, "density", "must be positive");
   s.material.young = r.number("young", s.material.young);
   r.check(s.material.young > 0, "young", "must be positive");
+  // the shear modulus from Poisson's ratio, or given on its own (`shear`, for a torsional and shear
+  // stiffness that no isotropic ratio gives: PyElastica's helical-buckling rod has GJ/EI = 0.587,
+  // where 0.5 <= nu makes it at least 2/3); a section's own `poisson` overrides an inherited `shear`
+  r.check(!(r.has("poisson") && r.has("shear")), "shear",
+          "and 'poisson' both given: the shear modulus is G = E / (2 (1 + poisson)) or 'shear', not both");
+  if (r.has("poisson")) s.material.shear = 0.0;
   s.material.poisson = r.number("poisson", s.material.poisson);
-  r.check(s.material.poisson > -1.0 && s.material.poisson <= 0.5, "poisson", "must be in (-1, 0.5]");
+  r.check(s.material.poisson > -1.0 && s.material.poisson <= 0.5, "poisson",
+          "must be in (-1, 0.5]; for a shear modulus that no such ratio gives, set 'shear' (G in Pa) instead");
+  s.material.shear = r.number("shear", s.material.shear);
+  r.check(!r.has("shear") || s.material.shear > 0, "shear", "must be positive (G in Pa)");
   s.material.viscosity = r.number("viscosity", s.material.viscosity);
   r.check(s.material.viscosity >= 0, "viscosity", "must be >= 0");
   if (r.text("quadrature") == "lobatto") {
@@ -356,6 +365,14 @@ void check_section_scales(const Reader& r, const SectionSpec& s, double r_min, s
       warnings.push_back(where(r) + "young " + fmt(s.material.young) +
                          " Pa is outside the moduli of real materials (about 10 Pa for the softest gels to 1.2e12 Pa "
                          "for diamond): check the units (Pa)");
+  }
+  if (r.has("shear")) {
+    r.check(s.material.shear * I >= kTiny, "shear",
+            "is too small: the section's torsional stiffness shear pi r^4/2 underflows (shear " +
+                fmt(s.material.shear) + " Pa)");
+    if (s.material.shear < 1.0 || s.material.shear > 1e13)
+      warnings.push_back(where(r) + "shear " + fmt(s.material.shear) +
+                         " Pa is outside the moduli of real materials: check the units (Pa)");
   }
 }
 
@@ -560,7 +577,7 @@ RodInput Preprocessor::read_rod(XMLElement* cosserat, const std::string& parent_
   const Reader r = reader(cosserat);
   r.allow_attributes({"name", "pos", "quat", "euler", "axisangle", "xyaxes", "zaxis", "length",
                       "sections", "strain", "dofs", "order", "reststrain", "radius", "density",
-                      "young", "poisson", "viscosity", "quadrature", "capsules", "selfcollide", "drag", "wavelength",
+                      "young", "poisson", "shear", "viscosity", "quadrature", "capsules", "selfcollide", "drag", "wavelength",
                       "contype", "conaffinity", "condim", "friction", "solref", "solimp", "margin",
                       "gap", "rgba", "group", "material", "class"});
   r.allow_children({"site", "body", "section"});
@@ -665,7 +682,7 @@ void Preprocessor::read_sections(const Reader& r, RodInput& rod) {
        c = c->NextSiblingElement("section")) {
     elements.push_back(c);
     const Reader s = reader(c);
-    s.allow_attributes({"length", "strain", "dofs", "order", "reststrain", "density", "young", "poisson",
+    s.allow_attributes({"length", "strain", "dofs", "order", "reststrain", "density", "young", "poisson", "shear",
                         "viscosity", "quadrature"});
     s.allow_children({});
     SectionSpec ss = read_section_spec(s, spec.section);

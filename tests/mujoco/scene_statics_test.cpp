@@ -101,6 +101,33 @@ TEST(SceneStatics, ClampedRodFrequenciesMatchEulerBernoulli) {
   for (int i = 1; i < lin.frequencies_hz.size(); ++i) EXPECT_GE(lin.frequencies_hz(i), lin.frequencies_hz(i - 1));
 }
 
+// A shear modulus given on its own (`shear`, here G = E/10, which no Poisson ratio in (-1, 0.5]
+// gives) sets the torsion: the clamped rod's torsional modes are (2k - 1)/(4L) sqrt(G/rho),
+// whatever the radius; a section's own `poisson` takes the rod's G back to E/(2(1 + nu)).
+TEST(SceneStatics, AShearModulusGivenOnItsOwnSetsTheTorsion) {
+  const double L = 0.5, E = 1e6, G = 1e5, rho = 1000.0;
+  const std::string rod = R"(<mujoco><option gravity="0 0 0"/><worldbody>
+    <cosserat name="b" length="0.5" sections="2" order="3" dofs="1 0 0 0 0 0" radius="0.01" density="1000"
+              young="1e6" shear="1e5")";
+  {
+    auto s = load_scene_string(rod + "/></worldbody></mujoco>", kPath);
+    SceneData sd(*s);
+    const SceneLinearization lin = linearize(*s, sd);
+    ASSERT_GE(lin.frequencies_hz.size(), 3);
+    // (2 sections of order 3: the discretisation's error grows with the mode, below 2e-6, 1.6e-5 and
+    // 7e-4 of the frequency; G from poisson = 0.5 would put the first at 9.1 Hz)
+    for (int k = 1; k <= 3; ++k) {
+      const double f = (2 * k - 1) / (4 * L) * std::sqrt(G / rho);
+      EXPECT_NEAR(lin.frequencies_hz(k - 1) / f, 1.0, k == 1 ? 1e-6 : 1e-3) << "torsion mode " << k;
+    }
+  }
+  {
+    auto s = load_scene_string(rod + ">\n<section poisson=\"0.25\"/><section/></cosserat></worldbody></mujoco>", kPath);
+    EXPECT_DOUBLE_EQ(s->rods[0].model.sections[0].material.shear_modulus(), E / 2.5);
+    EXPECT_DOUBLE_EQ(s->rods[0].model.sections[1].material.shear_modulus(), G);
+  }
+}
+
 // The scene's linearisation of the cantilever agrees with the core's, and its damping is the
 // rod's Kelvin-Voigt matrix plus MuJoCo's joint damping.
 TEST(SceneStatics, LinearizationMatchesCore) {
