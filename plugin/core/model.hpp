@@ -40,8 +40,11 @@ struct RodMaterial {
   double density = 1000.0;  // rho [kg/m^3]
   double young = 1e6;       // E [Pa]
   double poisson = 0.5;     // nu; G = E / (2 (1 + nu)) unless `shear` is given
-  double shear = 0.0;       // G [Pa] given on its own (> 0), for torsion and shear; 0: from poisson
   double viscosity = 0.0;   // Kelvin-Voigt mu [Pa s]: Upsilon = mu diag(Jx, 3Iy, 3Iz, 3A, A, A)
+  // G [Pa] given on its own (> 0), for torsion and shear; 0: from poisson. (Last: the brace
+  // initialisations {density, young, poisson, viscosity} keep their meaning; placed before
+  // viscosity, it took the demo arm's viscosity for G = 2 Pa, and its equilibrium sagged 364 m.)
+  double shear = 0.0;
   double shear_modulus() const { return shear > 0 ? shear : young / (2.0 * (1.0 + poisson)); }
 };
 

@@ -7,6 +7,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -592,11 +593,20 @@ TEST_F(Cli, EquilibriumRefusesFreeBodies) {
   EXPECT_NE(r.err.find("a free-floating body has no static equilibrium"), std::string::npos) << r.err;
 }
 
+// The demo runs, and its equilibrium is a 0.4 m arm's: the tip within the arm's length of the clamp,
+// below it (a field added to RodMaterial before `viscosity` once took the demo's brace-initialised
+// viscosity for its shear modulus, and the tip sagged to z = -364 m, CI passing).
 TEST_F(Cli, DemoStillWorks) {
   const fs::path dir = scratch() / "demo";
   const Result r = cosserat("demo --duration 0.02 --out '" + dir.string() + "'");
   ASSERT_EQ(r.status, 0) << r.err;
   EXPECT_EQ(lines(read_text(dir / "demo.csv")).size(), 22u);  // header + steps 0..20
+  const size_t at = r.out.find("tip at (");
+  ASSERT_NE(at, std::string::npos) << r.out;
+  double x = 0, y = 0, z = 0;
+  ASSERT_EQ(std::sscanf(r.out.c_str() + at, "tip at (%lf, %lf, %lf)", &x, &y, &z), 3) << r.out;
+  EXPECT_LE(std::sqrt(x * x + y * y + z * z), 0.4 * 1.001) << r.out;
+  EXPECT_LT(z, -0.1) << r.out;
 }
 
 // `cosserat run <args>` on the shipped cantilever succeeds without any warning line.
