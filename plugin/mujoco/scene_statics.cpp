@@ -287,9 +287,6 @@ bool stable_equilibrium(StaticProblem& p, const Scene& s, SceneData& sd, double 
   return true;
 }
 
-// Newton with load continuation (statics.cpp's scheme). On failure qpos is the last good step.
-// With opt.stable, a load step whose equilibrium is unstable is refused like a failed one (the
-// increment is halved): small enough increments follow the stable branch from the start.
 // An unstable equilibrium the solve came across: where, under which load factor, and the
 // eigenvector of its most unstable mode (tangent space of qpos).
 struct UnstableState {
@@ -335,6 +332,11 @@ bool switch_branch(StaticProblem& p, const Scene& s, SceneData& sd, const SceneS
   return false;
 }
 
+// Newton with load continuation (statics.cpp's scheme). On failure qpos is the last good step.
+// With opt.stable, a load step whose equilibrium is unstable is refused like a failed one (the
+// increment is halved): small enough increments follow the stable branch from the start. The
+// refused equilibrium under the largest load is kept in `unstable` (switch_branch and the
+// relaxation start from it).
 bool solve_smooth(StaticProblem& p, const Scene& s, SceneData& sd, const SceneStaticsOptions& opt,
                   SceneStaticsResult& res, UnstableState& unstable) {
   double lam = 0.0, dlam = 1.0;
