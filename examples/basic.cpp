@@ -13,6 +13,12 @@
 
 using namespace cosserat;
 
+// The shipped models' directory: examples/CMakeLists.txt defines it; a copy built elsewhere reads
+// them from ./models (or define COSSERAT_MODELS_DIR="/path/to/models" when compiling).
+#ifndef COSSERAT_MODELS_DIR
+#define COSSERAT_MODELS_DIR "models"
+#endif
+
 int main(int argc, char** argv) {
   const std::string path = argc > 1 ? argv[1] : COSSERAT_MODELS_DIR "/cantilever.xml";
   const double seconds = argc > 2 ? std::atof(argv[2]) : 1.0;

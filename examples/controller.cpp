@@ -15,6 +15,12 @@
 
 using namespace cosserat;
 
+// The shipped models' directory: examples/CMakeLists.txt defines it; a copy built elsewhere reads
+// them from ./models (or define COSSERAT_MODELS_DIR="/path/to/models" when compiling).
+#ifndef COSSERAT_MODELS_DIR
+#define COSSERAT_MODELS_DIR "models"
+#endif
+
 namespace {
 int shoulder = -1;  // actuator id, found after loading
 

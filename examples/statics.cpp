@@ -17,6 +17,12 @@
 
 using namespace cosserat;
 
+// The shipped models' directory: examples/CMakeLists.txt defines it; a copy built elsewhere reads
+// them from ./models (or define COSSERAT_MODELS_DIR="/path/to/models" when compiling).
+#ifndef COSSERAT_MODELS_DIR
+#define COSSERAT_MODELS_DIR "models"
+#endif
+
 int main() {
   auto scene = mj::load_scene(COSSERAT_MODELS_DIR "/cantilever.xml");
   mj::SceneData data(*scene);
