@@ -37,11 +37,11 @@ Linearization linearize(const Model& m, Data& d) {
   return L;
 }
 
-bool unstable_mode(double omega2, const VecX& x, const MatX& K, const MatX& M, double omega2_abs_max) {
-  const VecX ax = x.cwiseAbs();
+bool unstable_mode(const VecX& x, const MatX& K, const MatX& M) {
   const double mass = x.dot(M * x);
-  const double scale = mass > 0 ? ax.dot(K.cwiseAbs() * ax) / mass : 0.0;
-  return omega2 < -std::max(1e-4 * scale, 1e-15 * omega2_abs_max);
+  if (!(mass > 0)) return false;
+  const VecX ax = x.cwiseAbs();
+  return x.dot(K * x) < -1e-4 * ax.dot(K.cwiseAbs() * ax);
 }
 
 void state_space(Linearization& L) {
@@ -63,27 +63,24 @@ void state_space(Linearization& L) {
   if ((L.Kt - Ks).norm() <= 1e-6 * Ks.norm()) {
     Eigen::GeneralizedSelfAdjointEigenSolver<MatX> es(Ks, L.M);  // ascending, x^T M x = 1
     L.damping_ratios.resize(n);
-    const double big = n > 0 ? es.eigenvalues().cwiseAbs().maxCoeff() : 0.0;
     for (int i = 0; i < n; ++i) {
       L.omega2(i) = es.eigenvalues()(i);
       const double w = std::sqrt(std::max(es.eigenvalues()(i), 0.0));
       const VecX x = es.eigenvectors().col(i);
       L.frequencies_hz(i) = w / (2.0 * M_PI);
       L.damping_ratios(i) = w > 0 ? x.dot(L.D * x) / (2.0 * w) : std::nan("");
-      if (unstable_mode(L.omega2(i), x, Ks, L.M, big)) ++L.unstable_modes;
+      if (L.omega2(i) < 0 && unstable_mode(x, Ks, L.M)) ++L.unstable_modes;
     }
   } else {
-    // (follower loads) each mode's stiffness scale from the moduli of its eigenvector's entries
+    // (follower loads) a real mode's quotient x'Kt x = x'Ks x (its eigenvector's real part)
     Eigen::EigenSolver<MatX> es(lu.solve(L.Kt));
     std::vector<std::pair<double, VecX>> modes;
-    for (int i = 0; i < n; ++i) modes.emplace_back(es.eigenvalues()(i).real(), es.eigenvectors().col(i).cwiseAbs());
+    for (int i = 0; i < n; ++i) modes.emplace_back(es.eigenvalues()(i).real(), es.eigenvectors().col(i).real());
     std::sort(modes.begin(), modes.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
-    double big = 0.0;
-    for (const auto& md : modes) big = std::max(big, std::abs(md.first));
     for (int i = 0; i < n; ++i) {
       L.omega2(i) = modes[i].first;
       L.frequencies_hz(i) = std::sqrt(std::max(modes[i].first, 0.0)) / (2.0 * M_PI);
-      if (unstable_mode(modes[i].first, modes[i].second, L.Kt, L.M, big)) ++L.unstable_modes;
+      if (modes[i].first < 0 && unstable_mode(modes[i].second, Ks, L.M)) ++L.unstable_modes;
     }
   }
 }

@@ -19,15 +19,17 @@ struct Linearization {
                         // empty when Kt is not symmetric (follower loads)
 };
 
-// Whether the eigenpair (omega2, x) of K x = omega^2 M x is unstable beyond the noise of a
-// finite-difference stiffness and of the eigensolver:
-//   omega2 < -max(1e-4 |x|'|K||x| / x'M x, 1e-15 omega2_abs_max)
-// (|.| entrywise). The first bound is the mode's own stiffness scale, what the rounding of K's
-// entries can move its eigenvalue by: an outside probe's column at twice its buckling load had
-// omega^2 = -6.2 1/s^2 beside axial modes at 1e12, and a threshold relative to the largest
-// eigenvalue (1e-7, then 1e-9 of it) took it for stable. The second is a floor far above the
-// eigensolver's (the neutral mode of that column buckled came out at 2e-6 beside 1e12).
-bool unstable_mode(double omega2, const VecX& x, const MatX& K, const MatX& M, double omega2_abs_max);
+// Whether the mode x (an eigenvector of K x = omega^2 M x, K symmetric) shows the equilibrium
+// unstable beyond the noise of a finite-difference stiffness: its Rayleigh quotient
+//   rho = x'K x / x'M x  <  -1e-4 |x|'|K||x| / x'M x      (|.| entrywise).
+// rho bounds the smallest eigenvalue from above whatever the eigensolver's accuracy (so rho < 0
+// proves an unstable direction), and the bound on the right is the mode's own stiffness scale,
+// what the rounding of K's entries can move rho by (the probe measured the two bending planes of
+// a symmetric column 2e-5 of it apart). No scale relative to the largest eigenvalue enters: an
+// outside probe's column at twice its buckling load had omega^2 = -6.2 1/s^2 beside axial modes
+// at 1e12, which thresholds of 1e-7, 1e-9 and then 1e-15 of the largest eigenvalue (a 1 mm
+// column's at 6.7e18) took for stable.
+bool unstable_mode(const VecX& x, const MatX& K, const MatX& M);
 
 // Linearises at d.q (call equilibrium() first) and d.ctrl.
 Linearization linearize(const Model& m, Data& d);

@@ -278,9 +278,8 @@ bool stable_equilibrium(StaticProblem& p, const Scene& s, SceneData& sd, double 
   if (es.info() != Eigen::Success) return true;  // M not positive definite: no verdict
   const VectorXd& w = es.eigenvalues();
   omega2_min = w(0);
-  const double big = std::max(std::abs(w(0)), std::abs(w(n - 1)));
   for (int i = 0; i < n && w(i) < 0; ++i)
-    if (cosserat::unstable_mode(w(i), es.eigenvectors().col(i), Ks, M, big)) {
+    if (cosserat::unstable_mode(es.eigenvectors().col(i), Ks, M)) {
       if (mode) *mode = es.eigenvectors().col(i);
       return false;
     }
@@ -563,17 +562,31 @@ SceneStaticsResult equilibrium(const Scene& s, SceneData& sd, const SceneStatics
     return res;
   }
   const std::vector<mjtNum> q_newton(d->qpos, d->qpos + m->nq);  // Newton's last converged load step
-  // Where Newton met unstable equilibria (a column above its buckling load), the relaxation starts
-  // from the last of them moved a little along its unstable mode, and falls away from it onto the
-  // stable branch (the buckled column); from the start it could settle on it again (the straight
-  // column, by symmetry). A relaxation that settles on an unstable state all the same is given one
-  // more such start.
+  // The relaxation starts from the user's state; if that state is itself an unstable equilibrium
+  // under the full loads (a straight column above its buckling load: the symmetric start's
+  // dynamics leave it only as fast as round-off grows, a heavy column at 1.25 times its load not
+  // within 30 s), from there moved a little along its unstable mode, to fall onto the stable branch
+  // (the buckled column). A relaxation that settles on an unstable equilibrium all the same starts
+  // again from it so moved. (For a while in the twenty-seventh session it started from the unstable
+  // state Newton's continuation had met, wherever the user's start was: outside probe AG's rod
+  // leaning on a hinge was sent from its upright state, by the sign of an eigenvector, onto a wall
+  // on the other side instead of the floor on its own side, and a stretched soft rod diverged.)
   std::vector<mjtNum> q_relax = q_start;
   std::string from;
-  if (unstable.found()) {
-    q_relax = along_mode(m, unstable.qpos, unstable.mode);
-    from = ", started from the unstable equilibrium at load factor " + cosserat::load_factor_text(unstable.lambda) +
-           " moved along its unstable mode";
+  if (opt.stable && !constrained && !through) {
+    std::copy(q_start.begin(), q_start.end(), d->qpos);
+    mju_zero(d->qvel, m->nv);
+    forward(s, sd);
+    if (load_bearing_rows(d) == 0) {
+      StaticProblem p(s, sd);
+      VectorXd f(m->nv), mode;
+      double w2 = 0.0;
+      const double scale = p.force(1.0, f);
+      if (f.norm() <= opt.relaxation_tolerance * scale && !stable_equilibrium(p, s, sd, 1.0, w2, &mode)) {
+        q_relax = along_mode(m, q_start, mode);
+        from = ", started from the initial state, an unstable equilibrium, moved along its unstable mode";
+      }
+    }
   }
   for (int attempt = 0;; ++attempt) {
     sd.compression = {};
