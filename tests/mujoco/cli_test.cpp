@@ -659,6 +659,16 @@ TEST_F(Cli, AClosedSceneWhoseEnergyGrowsIsWarnedAbout) {
   const Result mid = cosserat("run '" + model.string() + "' --key bent --integrator midpoint --duration 10");
   EXPECT_EQ(mid.status, 0) << mid.err;
   EXPECT_EQ(mid.out.find("energy grew"), std::string::npos) << mid.out;
+  // under gravity, clamped 100 m up: the gain (30 J in 20 s) is judged against the energy the run
+  // moves, not against the total's 311 J of height above the datum (outside probe AG)
+  const fs::path high = scratch() / "release_high.xml";
+  std::ofstream(high) << R"(<mujoco><option timestep="0.005" gravity="0 0 -9.81"/><worldbody>
+    <cosserat name="rod" pos="0 0 100" length="1" sections="4" strain="kl" radius="0.01" density="1000" young="1e8"
+              poisson="0.3" contype="0" conaffinity="0"/></worldbody>
+    <keyframe><key name="bent" qpos="0 3 0 0 0 3 0 0 0 3 0 0 0 3 0 0"/></keyframe></mujoco>)";
+  const Result up = cosserat("run '" + high.string() + "' --key bent --integrator trapezoidal --duration 20");
+  EXPECT_EQ(up.status, 0) << up.err;
+  EXPECT_NE(up.out.find("warning: the energy grew by 30.4 J"), std::string::npos) << up.out;
 }
 
 // A run that diverges after MuJoCo's contact buffers overflowed says so first, with the <size>

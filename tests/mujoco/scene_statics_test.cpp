@@ -449,6 +449,45 @@ TEST(SceneStatics, LinearizeCountsAColumnAboveItsBucklingLoadUnstable) {
     EXPECT_EQ(L.unstable_modes, ratio > 1 ? 2 : 0) << "omega2 " << L.omega2(0) << ", " << L.omega2(1);
     EXPECT_EQ(L.omega2(0) < 0, ratio > 1);
   }
+  // the same column scaled to 1 mm (r = 20 um, 32 sections, the rod 1e-4 of the load): its stiff
+  // modes reach omega^2 = 6.7e18, where a threshold relative to the largest eigenvalue (1e-15 of
+  // it, outside probe AG) hid the pair at -6344 and -5945
+  const double l = 1e-3, r = 2e-5, EIs = 1e8 * M_PI * std::pow(r, 4) / 4, Pcs = M_PI * M_PI * EIs / (4 * l * l);
+  auto s = load_scene_string(std::string(R"(<mujoco><option gravity="0 0 -9.81"/><worldbody>
+      <cosserat name="col" euler="0 -90 0" length="0.001" sections="32" strain="ikl" radius="2e-05" density="0.1"
+                young="1e8" poisson="0.5" contype="0" conaffinity="0">
+        <body name="load"><inertial pos="0 0 0" mass=")") + std::to_string(2 * Pcs / 9.81) +
+                             R"(" diaginertia="1e-14 1e-14 1e-14"/></body></cosserat></worldbody></mujoco>)",
+                             kPath);
+  SceneData sd(*s);
+  const SceneLinearization tiny = linearize(*s, sd);
+  EXPECT_EQ(tiny.unstable_modes, 2) << "omega2 " << tiny.omega2(0) << ", " << tiny.omega2(1) << " ... "
+                                    << tiny.omega2(tiny.omega2.size() - 1);
+}
+
+// Where the relaxation takes over from a state that is no equilibrium, it starts there, whatever
+// unstable equilibria Newton's continuation met on the way: a rod on a free hinge, leaning 15 deg
+// towards -x between a floor and a wall at x = 0.25, falls onto the floor on its own side (outside
+// probe AG: started from the upright state Newton had refused, moved along its unstable mode, it
+// fell the way that mode's sign said, onto the wall).
+TEST(SceneStatics, ARelaxationStartsFromTheUsersStateWhereThatIsNoEquilibrium) {
+  for (const double side : {-1.0, 1.0}) {
+    SCOPED_TRACE(side);
+    auto s = load_scene_string(std::string(R"(<mujoco><option gravity="0 0 -9.81" timestep="0.001"/><worldbody>
+      <geom name="floor" type="plane" size="2 2 0.1"/>
+      <geom name="wall" type="box" pos=")") + (side < 0 ? "0.25" : "-0.25") + R"( 0 0.6" size="0.05 0.2 0.6"/>
+      <body name="hub" pos="0 0 0.05"><joint name="sh" type="hinge" axis="0 1 0" damping="0.01"/>
+        <inertial pos="0 0 0" mass="1e-3" diaginertia="1e-6 1e-6 1e-6"/>
+        <cosserat name="arm" euler="0 )" + (side < 0 ? "-105" : "-75") + R"( 0" length="0.5" sections="4" strain="kl"
+                  radius="0.01" density="1000" young="1e7"/></body></worldbody></mujoco>)",
+                               kPath);
+    SceneData sd(*s);
+    const SceneStaticsResult r = equilibrium(*s, sd);
+    ASSERT_TRUE(r.converged) << r.message;
+    const Vec3 tip = rod_frame(*s, sd, 0, 0.5).u;
+    EXPECT_GT(side * tip.x(), 0.45) << tip.transpose();  // lying on the floor, on the side it leant to
+    EXPECT_LT(tip.z(), 0.03) << tip.transpose();
+  }
 }
 
 // The same column past its buckling load, against Euler's elastica of a clamped-free column under
