@@ -30,6 +30,18 @@ void settle_activations(const mjModel* m, mjData* d) {
   }
 }
 
+// A force scale that does not vanish at equilibrium (gravity's generalised force does, for a
+// hanging pendulum): |g| sqrt(total mass * sum_j M_jj), the weight times a lever arm per dof, for
+// gravity g. Needs the mass matrix of fwd_position.
+double weight_force_scale(const Scene& s, const mjData* d, const double g[3]) {
+  double mass = s.m->body_subtreemass[0], diag = 0.0;
+  for (const auto& rb : s.rods)
+    for (const auto& node : rb.model.nodes) mass += node.inertia(3, 3);
+  for (int j = 0; j < s.m->nv; ++j) diag += d->qM[s.m->dof_Madr[j]];
+  const bool gravity_on = !(s.m->opt.disableflags & mjDSBL_GRAVITY);
+  return gravity_on ? mju_norm3(g) * std::sqrt(mass * diag) : 0.0;
+}
+
 // The static problem of one scene: the loads as the user set them (scaled by the load factor at
 // every evaluation and restored on destruction) and evaluations of the smooth force at rest.
 class StaticProblem {
@@ -88,7 +100,14 @@ class StaticProblem {
       if (!mass) fwd_inertia(s_, sd_);
       weight_scale_ = weight_scale();
     }
-    return std::max({passive.norm(), (f - passive).norm(), lambda * weight_scale_, 1e-300});
+    // the rods' elastic forces apart from the rest of qfrc_passive: where a spring (a tendon's, a
+    // joint's) holds a rod bent, the two balance each other in qfrc_passive, whose norm then
+    // shrinks with the residual and cannot scale it (outside probe AG: a rod held by a tendon spring
+    // without gravity never converged, its residual 1 throughout)
+    VectorXd rods = VectorXd::Zero(m_->nv);
+    for (size_t r = 0; r < s_.rods.size(); ++r)
+      rods.segment(s_.rods[r].dof0, s_.rods[r].model.nv) = sd_.rod[r].qfrc_passive;
+    return std::max({rods.norm(), (passive - rods).norm(), (f - passive).norm(), lambda * weight_scale_, 1e-300});
   }
 
   // Tangent stiffness -df/dq at lambda by central differences in the tangent space of qpos.
@@ -174,17 +193,7 @@ class StaticProblem {
     return t == mjJNT_HINGE || t == mjJNT_SLIDE ? q[m_->jnt_qposadr[jnt]] : 0.0;
   }
 
-  // A force scale that does not vanish at equilibrium (gravity's generalised force does, for a
-  // hanging pendulum): |g| sqrt(total mass * sum_j M_jj), the weight times a lever arm per dof.
-  // Needs the mass matrix of fwd_position.
-  double weight_scale() const {
-    double mass = s_.m->body_subtreemass[0], diag = 0.0;
-    for (const auto& rb : s_.rods)
-      for (const auto& node : rb.model.nodes) mass += node.inertia(3, 3);
-    for (int j = 0; j < m_->nv; ++j) diag += d_->qM[m_->dof_Madr[j]];
-    const bool gravity_on = !(m_->opt.disableflags & mjDSBL_GRAVITY);
-    return gravity_on ? mju_norm3(gravity_.data()) * std::sqrt(mass * diag) : 0.0;
-  }
+  double weight_scale() const { return weight_force_scale(s_, d_, gravity_.data()); }
 
   const Scene& s_;
   SceneData& sd_;
@@ -398,7 +407,13 @@ FullResidual full_residual(const Scene& s, SceneData& sd) {
   FullResidual r;
   r.force = Eigen::Map<const VectorXd>(Ma.data(), n).norm();
   r.constraint = constraint.norm();
-  r.scale = std::max({passive.norm(), (smooth - passive).norm(), r.constraint, 1e-300});
+  // the rods' elastic forces apart from the rest of qfrc_passive (StaticProblem::force)
+  VectorXd rods = VectorXd::Zero(n);
+  for (size_t k = 0; k < s.rods.size(); ++k) rods.segment(s.rods[k].dof0, s.rods[k].model.nv) = sd.rod[k].qfrc_passive;
+  // and the weight's scale: gravity's generalised force vanishes at a hanging equilibrium (outside
+  // probe AG: a rigid double pendulum's relaxation stayed at residual 1)
+  r.scale = std::max({rods.norm(), (passive - rods).norm(), (smooth - passive).norm(), r.constraint,
+                      weight_force_scale(s, d, m->opt.gravity), 1e-300});
   return r;
 }
 

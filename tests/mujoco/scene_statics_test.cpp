@@ -526,6 +526,43 @@ TEST(SceneStatics, AColumnPastItsBucklingLoadIsEulersElastica) {
   }
 }
 
+// Equilibria whose forces cancel term by term did not converge (outside probe AG; the residual was
+// scaled by the norms of qfrc_passive and of gravity's generalised force, which vanish with it):
+// a rod held bent by a tendon spring without gravity (the rod's elastic force against the spring's,
+// both in qfrc_passive) rests where the same scene with a negligible gravity (1e-6 m/s^2) rests,
+// and a rigid double pendulum hangs with its centre of mass under its pivot.
+TEST(SceneStatics, ForcesCancellingTermByTermStillConverge) {
+  auto tendon = [](const char* g) {
+    return std::string(R"(<mujoco><option gravity="0 0 )") + g + R"("/><worldbody><site name="top" pos="0 0 0.3"/>
+      <cosserat name="r" length="0.5" sections="2" strain="kl" radius="0.01" density="1000" young="1e6" contype="0"
+                conaffinity="0"/></worldbody>
+      <tendon><spatial name="t" stiffness="1" springlength="0.2"><site site="top"/><site site="r/tip"/></spatial></tendon>
+      </mujoco>)";
+  };
+  Vec3 tips[2];
+  for (int k = 0; k < 2; ++k) {
+    auto s = load_scene_string(tendon(k == 0 ? "0" : "-1e-6"), kPath);
+    SceneData sd(*s);
+    const SceneStaticsResult r = equilibrium(*s, sd);
+    ASSERT_TRUE(r.converged) << r.message;
+    tips[k] = rod_frame(*s, sd, 0, 0.5).u;
+  }
+  EXPECT_LT((tips[0] - tips[1]).norm(), 1e-5) << tips[0].transpose() << " vs " << tips[1].transpose();
+  EXPECT_GT(tips[0].z(), 0.1);  // pulled up towards the anchor
+
+  auto s = load_scene_string(R"(<mujoco><option gravity="0 0 -9.81"/><worldbody>
+    <body name="b" pos="0 0 1"><joint type="ball" damping="0.1"/>
+      <geom type="sphere" size="0.02" pos="0 0 -0.1" mass="0.1" contype="0" conaffinity="0"/>
+      <body pos="0 0 -0.2"><joint type="hinge" axis="0.169 0.722 0"/>
+        <geom type="capsule" fromto="0 0 0 0.006 0.006 -0.2" size="0.01" mass="0.05" contype="0" conaffinity="0"/>
+      </body></body></worldbody></mujoco>)", kPath);
+  SceneData sd(*s);
+  const SceneStaticsResult r = equilibrium(*s, sd);
+  ASSERT_TRUE(r.converged) << r.message;
+  const int b = mj_name2id(s->m, mjOBJ_BODY, "b");
+  EXPECT_LT(std::hypot(sd.d->subtree_com[3 * b], sd.d->subtree_com[3 * b + 1]), 1e-5);
+}
+
 // Probe O: a cable pulling a soft rod at 300 N (T/EA = 0.95) has no equilibrium the continuation
 // reaches, and the dynamic relaxation that follows blows up (sections inverted). The positions
 // reported must then be Newton's last converged load step, an equilibrium at the load factor where
