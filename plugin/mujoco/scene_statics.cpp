@@ -42,6 +42,17 @@ double weight_force_scale(const Scene& s, const mjData* d, const double g[3]) {
   return gravity_on ? mju_norm3(g) * std::sqrt(mass * diag) : 0.0;
 }
 
+// The rods' own passive forces (their elastic forces at rest) in MuJoCo's dof order, zero
+// elsewhere: the residual's scales take them apart from the rest of qfrc_passive, since where a
+// spring (a tendon's, a joint's) holds a rod bent the two balance each other in qfrc_passive, whose
+// norm then shrinks with the residual and cannot scale it (outside probe AG: a rod held by a
+// tendon spring without gravity never converged, its residual 1 throughout).
+VectorXd rods_passive(const Scene& s, const SceneData& sd) {
+  VectorXd v = VectorXd::Zero(s.m->nv);
+  for (size_t r = 0; r < s.rods.size(); ++r) v.segment(s.rods[r].dof0, s.rods[r].model.nv) = sd.rod[r].qfrc_passive;
+  return v;
+}
+
 // The static problem of one scene: the loads as the user set them (scaled by the load factor at
 // every evaluation and restored on destruction) and evaluations of the smooth force at rest.
 class StaticProblem {
@@ -100,13 +111,7 @@ class StaticProblem {
       if (!mass) fwd_inertia(s_, sd_);
       weight_scale_ = weight_scale();
     }
-    // the rods' elastic forces apart from the rest of qfrc_passive: where a spring (a tendon's, a
-    // joint's) holds a rod bent, the two balance each other in qfrc_passive, whose norm then
-    // shrinks with the residual and cannot scale it (outside probe AG: a rod held by a tendon spring
-    // without gravity never converged, its residual 1 throughout)
-    VectorXd rods = VectorXd::Zero(m_->nv);
-    for (size_t r = 0; r < s_.rods.size(); ++r)
-      rods.segment(s_.rods[r].dof0, s_.rods[r].model.nv) = sd_.rod[r].qfrc_passive;
+    const VectorXd rods = rods_passive(s_, sd_);
     return std::max({rods.norm(), (passive - rods).norm(), (f - passive).norm(), lambda * weight_scale_, 1e-300});
   }
 
@@ -407,10 +412,8 @@ FullResidual full_residual(const Scene& s, SceneData& sd) {
   FullResidual r;
   r.force = Eigen::Map<const VectorXd>(Ma.data(), n).norm();
   r.constraint = constraint.norm();
-  // the rods' elastic forces apart from the rest of qfrc_passive (StaticProblem::force)
-  VectorXd rods = VectorXd::Zero(n);
-  for (size_t k = 0; k < s.rods.size(); ++k) rods.segment(s.rods[k].dof0, s.rods[k].model.nv) = sd.rod[k].qfrc_passive;
-  // and the weight's scale: gravity's generalised force vanishes at a hanging equilibrium (outside
+  const VectorXd rods = rods_passive(s, sd);
+  // the weight's scale: gravity's generalised force vanishes at a hanging equilibrium (outside
   // probe AG: a rigid double pendulum's relaxation stayed at residual 1)
   r.scale = std::max({rods.norm(), (passive - rods).norm(), (smooth - passive).norm(), r.constraint,
                       weight_force_scale(s, d, m->opt.gravity), 1e-300});
