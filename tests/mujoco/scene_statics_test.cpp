@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <stdexcept>
 #include <string>
 
 #include <Eigen/Eigenvalues>
@@ -363,7 +364,8 @@ std::pair<double, double> heavy_column_tip(double w_over_EI, double L) {
     return k;  // phi'(L)
   };
   double lo = 1e-3, flo = shoot(lo, nullptr, nullptr), hi = lo;
-  while (true) {  // the first sign change of phi'(L) above c = 0
+  for (int scan = 0;; ++scan) {  // the first sign change of phi'(L) above c = 0 (below 100 1/m)
+    if (scan == 2000) throw std::runtime_error("heavy_column_tip: no buckled branch below c = 100");
     hi = lo + 0.05;
     const double fhi = shoot(hi, nullptr, nullptr);
     if ((fhi > 0) != (flo > 0)) break;
