@@ -661,31 +661,47 @@ int cmd_linearize(int argc, char** argv) {
   bool matrices = false;
   StateOptions state;
   CommandLine cl{"linearize", "linearise at the static equilibrium: natural frequencies and modal damping", {"MODEL.xml"}, {},
-                 "Second-order form M ddq + D dq' + K dq = Bu du about the equilibrium (tangent space of qpos).\n"};
+                 "Second-order form M ddq + D dq' + K dq = Bu du about the equilibrium (tangent space of qpos).\n"
+                 "Equality constraints (weld, connect, joint, tendon) are held rigid: the form is then in the\n"
+                 "coordinates y of the motions they leave free, dq = basis y, and K includes the stiffness of\n"
+                 "the loads they carry. Contacts and limits are left out (a warning says when they carry load).\n"};
   cl.options.push_back(text_option("--json", "F", "write {frequencies_hz: [ascending], damping_ratios, omega2, unstable_modes, ...} ('-': stdout)", json_path));
-  cl.options.push_back(flag_option("--matrices", "include M, D, K and Bu in the JSON", matrices));
+  cl.options.push_back(flag_option("--matrices", "include M, D, K and Bu in the JSON (and the basis of the coordinates)", matrices));
+  mj::SceneLinearizeOptions lopt;
+  bool without_equalities = false;
+  cl.options.push_back(flag_option("--without-equalities",
+                                   "leave the equality constraints out (default: held rigid, a weld a clamped end)",
+                                   without_equalities));
   state.add_to(cl);
   const auto pos = cl.parse(argc, argv);
   if (!pos) return 0;
   check_writable("--json", json_path);
+  lopt.rigid_equalities = !without_equalities;
   const Equilibrium eq(pos->front(), state);
   if (!eq.result.converged) fail("no static equilibrium to linearise about: " + eq.result.message);
   const mj::SceneLinearization lin = [&] {
     try {
-      return mj::linearize(*eq.scene, *eq.data);
+      return mj::linearize(*eq.scene, *eq.data, lopt);
     } catch (const MujocoError& e) {
       throw error_while(pos->front(), e, "linearising at the equilibrium");
     }
   }();
   const mjModel* m = eq.scene->m;
-  // the linearisation is of the smooth dynamics: constraints that carry load at the equilibrium
-  // (a welded tip, a floor) are left out, and the frequencies are the unconstrained system's
-  std::string constraint_warning;
-  if (eq.result.constraint_rows > 0)
-    constraint_warning = std::to_string(eq.result.constraint_rows) +
-                         " constraint rows (contacts, limits, equality constraints) act at the equilibrium (found by " +
-                         eq.result.method + "); the linearisation leaves them out: these are the frequencies "
-                         "without them";
+  // equality constraints are held rigid (unless --without-equalities); the constraints that are
+  // left out and carry load at the equilibrium (a floor, a limit) make the frequencies those of
+  // the system without them
+  std::string constraint_warning, constraint_note;
+  const int left_out = eq.result.constraint_rows - lin.constraint_rows;
+  if (left_out > 0)
+    constraint_warning = std::to_string(left_out) + " constraint rows (" +
+                         (lin.constraint_rows > 0 || !without_equalities ? "contacts, limits"
+                                                                         : "contacts, limits, equality constraints") +
+                         ") act at the equilibrium (found by " + eq.result.method +
+                         "); the linearisation leaves them out: these are the frequencies without them";
+  if (lin.constraint_rows > 0)
+    constraint_note = std::to_string(lin.constraint_rows) + " equality constraint rows held rigid: " +
+                      std::to_string(lin.M.rows()) + " coordinates of the " + std::to_string(m->nv) +
+                      " degrees of freedom remain free";
   if (!json_path.empty()) {
     json j;
     j["frequencies_hz"] = std::vector<double>(lin.frequencies_hz.data(), lin.frequencies_hz.data() + lin.frequencies_hz.size());
@@ -696,6 +712,8 @@ int cmd_linearize(int argc, char** argv) {
     j["omega2"] = std::vector<double>(lin.omega2.data(), lin.omega2.data() + lin.omega2.size());
     j["unstable_modes"] = lin.unstable_modes;
     j["nv"] = m->nv;
+    j["coordinates"] = lin.M.rows();  // nv less the equality constraints' rows held rigid
+    j["equality_rows"] = lin.constraint_rows;
     j["nu"] = m->nu;
     j["equilibrium"] = eq.report();
     json warnings = json::array();
@@ -708,11 +726,13 @@ int cmd_linearize(int argc, char** argv) {
       j["D"] = matrix_json(lin.D);
       j["K"] = matrix_json(lin.Kt);
       j["Bu"] = matrix_json(lin.Bu);
+      if (lin.constraint_rows > 0) j["basis"] = matrix_json(lin.basis);  // dq = basis y
     }
     write_json(json_path, j);
   }
   if (json_path != "-") {
     eq.print();
+    if (!constraint_note.empty()) std::printf("%s\n", constraint_note.c_str());
     if (!constraint_warning.empty()) std::printf("warning: %s\n", constraint_warning.c_str());
     if (lin.unstable_modes > 0)
       std::printf("warning: %d unstable mode(s) (omega^2 < 0, listed first): the equilibrium is unstable\n",

@@ -17,6 +17,10 @@ struct Linearization {
   int unstable_modes = 0;  // modes with w^2 below the noise (unstable_mode): the equilibrium is unstable
   VecX damping_ratios;  // modal damping x^T D x / (2 w x^T M x) of those modes (NaN for w = 0);
                         // empty when Kt is not symmetric (follower loads)
+  // Constrained coordinates (a MuJoCo scene's equality constraints held rigid): dq = basis y, the
+  // matrices above in y. Empty (and constraint_rows 0): the coordinates are dq itself.
+  MatX basis;
+  int constraint_rows = 0;
 };
 
 // Whether the mode x (an eigenvector of K x = omega^2 M x, K symmetric) shows the equilibrium

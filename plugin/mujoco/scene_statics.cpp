@@ -6,11 +6,13 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <stdexcept>
 #include <vector>
 
 #include <Eigen/Eigenvalues>
 #include <Eigen/LU>
 #include <Eigen/QR>
+#include <Eigen/SVD>
 
 #include "statics.hpp"
 
@@ -51,6 +53,37 @@ VectorXd rods_passive(const Scene& s, const SceneData& sd) {
   VectorXd v = VectorXd::Zero(s.m->nv);
   for (size_t r = 0; r < s.rods.size(); ++r) v.segment(s.rods[r].dof0, s.rods[r].model.nv) = sd.rod[r].qfrc_passive;
   return v;
+}
+
+// The rows of the equality constraints (welds, connects, joint and tendon couplings) after an
+// evaluation, dense (rows x nv), in either of MuJoCo's layouts of efc_J.
+MatrixXd equality_jacobian(const mjModel* m, const mjData* d) {
+  std::vector<int> rows;
+  for (int i = 0; i < d->nefc; ++i)
+    if (d->efc_type[i] == mjCNSTR_EQUALITY) rows.push_back(i);
+  MatrixXd J = MatrixXd::Zero(static_cast<int>(rows.size()), m->nv);
+  for (int r = 0; r < J.rows(); ++r) {
+    const int i = rows[r];
+    if (!mj_isSparse(m)) {
+      for (int j = 0; j < m->nv; ++j) J(r, j) = d->efc_J[static_cast<size_t>(i) * m->nv + j];
+    } else {
+      for (int k = 0; k < d->efc_J_rownnz[i]; ++k)
+        J(r, d->efc_J_colind[d->efc_J_rowadr[i] + k]) = d->efc_J[d->efc_J_rowadr[i] + k];
+    }
+  }
+  return J;
+}
+
+// An orthonormal basis (columns) of the tangent directions dq that the rows of J leave free
+// (J N = 0): the identity without rows.
+MatrixXd free_directions(const MatrixXd& J) {
+  const int n = static_cast<int>(J.cols());
+  if (J.rows() == 0) return MatrixXd::Identity(n, n);
+  Eigen::JacobiSVD<MatrixXd> svd(J, Eigen::ComputeFullV);
+  const VectorXd& sigma = svd.singularValues();
+  int rank = 0;
+  while (rank < sigma.size() && sigma(rank) > 1e-9 * sigma(0)) ++rank;
+  return svd.matrixV().rightCols(n - rank);
 }
 
 // The static problem of one scene: the loads as the user set them (scaled by the load factor at
@@ -115,6 +148,23 @@ class StaticProblem {
     return std::max({rods.norm(), (passive - rods).norm(), (f - passive).norm(), lambda * weight_scale_, 1e-300});
   }
 
+  // The total generalised force M qacc = qfrc_smooth + qfrc_constraint at the current qpos and
+  // qvel under the full loads: a run's evaluation (contacts detected, MuJoCo's soft constraint
+  // rows solved), with the constraint solver's tolerance tightened to round-off for the call.
+  void total_force(VectorXd& F) {
+    set_loads(1.0);
+    fwd_position(s_, sd_, Need::Acceleration);
+    fwd_velocity(s_, sd_);
+    control_callback(1.0);
+    mj_fwdActuation(m_, d_);
+    mj_fwdAcceleration(m_, d_);
+    const mjtNum tolerance = m_->opt.tolerance;
+    m_->opt.tolerance = 1e-15;
+    mj_fwdConstraint(m_, d_);
+    m_->opt.tolerance = tolerance;
+    F = Eigen::Map<const VectorXd>(d_->qfrc_smooth, m_->nv) + Eigen::Map<const VectorXd>(d_->qfrc_constraint, m_->nv);
+  }
+
   // Tangent stiffness -df/dq at lambda by central differences in the tangent space of qpos.
   void stiffness(double lambda, MatrixXd& Kt) {
     const int n = m_->nv;
@@ -122,7 +172,7 @@ class StaticProblem {
     VectorXd fp(n), fm(n), e = VectorXd::Zero(n);
     const std::vector<mjtNum> q0 = qpos();
     for (int j = 0; j < n; ++j) {
-      const double h = 1e-6 * std::max(1.0, std::abs(scalar_coordinate(q0, j)));
+      const double h = step_size(q0, j);
       e(j) = 1.0;
       move(q0, e, h);
       force(lambda, fp, false);
@@ -132,6 +182,42 @@ class StaticProblem {
       Kt.col(j) = -(fp - fm) / (2.0 * h);
     }
     set_qpos(q0);
+  }
+
+  // The equality constraints that act at the current qpos, at rest under the full loads: their
+  // rows' Jacobian J (dense, rows x nv) and the stiffness of the loads f they carry there,
+  // Kc = -d(J(q)' f)/dq at fixed f by central differences (the turning of a weld's end moment or
+  // a connect's end load with the geometry: their geometric stiffness). The rows' own soft
+  // response (solref, solimp) is left out: with the rows held rigid, motions along J are none.
+  void equality_loads(MatrixXd& J, MatrixXd& Kc) {
+    const int n = m_->nv;
+    VectorXd F(n);
+    mju_zero(d_->qvel, n);
+    total_force(F);
+    J = equality_jacobian(m_, d_);
+    VectorXd f(J.rows());
+    for (int i = 0, r = 0; i < d_->nefc; ++i)
+      if (d_->efc_type[i] == mjCNSTR_EQUALITY) f(r++) = d_->efc_force[i];
+    Kc.setZero(n, n);
+    if (J.rows() == 0) return;
+    VectorXd e = VectorXd::Zero(n);
+    const std::vector<mjtNum> q0 = qpos();
+    auto load_at = [&](double h) {
+      move(q0, e, h);
+      fwd_position(s_, sd_, Need::Acceleration);
+      const MatrixXd Jh = equality_jacobian(m_, d_);
+      if (Jh.rows() != J.rows()) throw std::runtime_error("the equality constraint rows changed under a perturbation");
+      return VectorXd(Jh.transpose() * f);
+    };
+    for (int j = 0; j < n; ++j) {
+      const double h = step_size(q0, j);
+      e(j) = 1.0;
+      const VectorXd fp = load_at(h), fm = load_at(-h);
+      e(j) = 0.0;
+      Kc.col(j) = -(fp - fm) / (2.0 * h);
+    }
+    set_qpos(q0);
+    total_force(F);  // the stages at q0 again
   }
 
   // Velocity derivative -df/dqvel at the current qpos (damping: rods' Kelvin-Voigt, joint and
@@ -191,6 +277,9 @@ class StaticProblem {
   }
 
  private:
+  // The finite-difference step of dof j at q.
+  double step_size(const std::vector<mjtNum>& q, int j) const { return 1e-6 * std::max(1.0, std::abs(scalar_coordinate(q, j))); }
+
   // qpos value of dof j when its joint is a hinge or slide (0 for ball joints).
   double scalar_coordinate(const std::vector<mjtNum>& q, int j) const {
     const int jnt = m_->dof_jntid[j];
@@ -274,30 +363,58 @@ bool newton(StaticProblem& p, double lambda, const SceneStaticsOptions& opt, Sce
 // the most unstable one's eigenvector, in the tangent space of qpos. (Until the twenty-seventh
 // session the test was omega^2_min >= -1e-9 |omega^2|_max, which a rod's axial modes at 1e12 made
 // blind: outside probe AF's column at twice its buckling load, omega^2_min = -6.2, passed.)
+//
+// With `constraints` (lambda = 1, an equilibrium where constraint rows carry load) the equality
+// constraints that act are held rigid: the eigenproblem is N'K N y = omega^2 N'M N y on the
+// directions dq = N y they leave free (free_directions), K the smooth stiffness plus that of the
+// loads the rows carry (StaticProblem::equality_loads: a twisted rod's end moment at a weld, a
+// column's end load at a connect). The rows' own soft stiffness (MuJoCo's solref and solimp, most
+// often far stiffer than a rod) is left out: in K its entries would set the noise scale of
+// unstable_mode far above a buckling mode's quotient. Contacts and limits are left out as in the
+// smooth test (their rows are one-sided). (Until the twenty-eighth session equilibria where
+// constraint rows carried load were not checked: outside probe AG's rod twisted 11 times past
+// Greenhill's load by a weld came back straight and "converged".)
 bool stable_equilibrium(StaticProblem& p, const Scene& s, SceneData& sd, double lambda, double& omega2_min,
-                        VectorXd* mode = nullptr) {
+                        VectorXd* mode = nullptr, bool constraints = false) {
   const int n = p.nv();
   omega2_min = 0.0;
   if (n == 0) return true;
-  MatrixXd Kt;
+  MatrixXd Kt, J, Kc;
   p.stiffness(lambda, Kt);
-  VectorXd f(n);
-  p.force(lambda, f);  // the stages (and qM) at the equilibrium again
+  MatrixXd N = MatrixXd::Identity(n, n);
+  if (constraints) {
+    p.equality_loads(J, Kc);  // leaves the stages (and qM) at the equilibrium
+    Kt += Kc;
+    N = free_directions(J);
+  } else {
+    VectorXd f(n);
+    p.force(lambda, f);  // the stages (and qM) at the equilibrium again
+  }
+  if (N.cols() == 0) return true;  // nothing can move
   std::vector<mjtNum> full(static_cast<size_t>(n) * n);
   mj_fullM(s.m, full.data(), sd.d->qM);
-  const MatrixXd M = Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(
-      full.data(), n, n);
-  const MatrixXd Ks = 0.5 * (Kt + Kt.transpose());
+  const MatrixXd M = N.transpose() *
+                     Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(full.data(), n, n) *
+                     N;
+  const MatrixXd KN = N.transpose() * Kt * N;
+  const MatrixXd Ks = 0.5 * (KN + KN.transpose());
   Eigen::GeneralizedSelfAdjointEigenSolver<MatrixXd> es(Ks, M);
   if (es.info() != Eigen::Success) return true;  // M not positive definite: no verdict
   const VectorXd& w = es.eigenvalues();
   omega2_min = w(0);
-  for (int i = 0; i < n && w(i) < 0; ++i)
+  for (int i = 0; i < w.size() && w(i) < 0; ++i)
     if (cosserat::unstable_mode(es.eigenvectors().col(i), Ks, M)) {
-      if (mode) *mode = es.eigenvectors().col(i);
+      if (mode) *mode = N * es.eigenvectors().col(i);
       return false;
     }
   return true;
+}
+
+// Whether equality constraint rows act after an evaluation (stable_equilibrium's `constraints`).
+bool equality_rows(const mjData* d) {
+  for (int i = 0; i < d->nefc; ++i)
+    if (d->efc_type[i] == mjCNSTR_EQUALITY) return true;
+  return false;
 }
 
 // An unstable equilibrium the solve came across: where, under which load factor, and the
@@ -493,7 +610,17 @@ bool relax(const Scene& s, SceneData& sd, const std::vector<mjtNum>& q_start, co
   double ke_prev = 0.0;
   bool converged = false;
   for (long k = 0; k < max_steps && !converged; ++k) {
-    if (step(s, sd) != Status::Ok) {
+    // a MuJoCo error raised in a step (where the application's mju_user_error handler throws) ends
+    // the relaxation like a divergence: outside probe AG's twisted rod between two welds broke
+    // MuJoCo's constraint solver ("Rank-defficient Hessian"), which aborted the whole command
+    Status status = Status::Ok;
+    try {
+      status = step(s, sd);
+    } catch (const std::exception& e) {
+      abandon_step(sd, e.what());
+      status = Status::Diverged;
+    }
+    if (status != Status::Ok) {
       res.message = "dynamic relaxation diverged: " + sd.warning;
       break;
     }
@@ -589,18 +716,27 @@ SceneStaticsResult equilibrium(const Scene& s, SceneData& sd, const SceneStatics
   // state Newton's continuation had met, wherever the user's start was: outside probe AG's rod
   // leaning on a hinge was sent from its upright state, by the sign of an eigenvector, onto a wall
   // on the other side instead of the floor on its own side, and a stretched soft rod diverged.)
+  // Where equality constraints carry load at the start (a rod twisted between two welds), its
+  // stability is that of the total force with them held rigid (stable_equilibrium).
   std::vector<mjtNum> q_relax = q_start;
   std::string from;
-  if (opt.stable && !constrained && !through) {
+  if (opt.stable) {
     std::copy(q_start.begin(), q_start.end(), d->qpos);
     mju_zero(d->qvel, m->nv);
     forward(s, sd);
-    if (load_bearing_rows(d) == 0) {
+    const bool rows = load_bearing_rows(d) > 0;
+    if (!rows || equality_rows(d)) {
       StaticProblem p(s, sd);
       VectorXd f(m->nv), mode;
-      double w2 = 0.0;
-      const double scale = p.force(1.0, f);
-      if (f.norm() <= opt.relaxation_tolerance * scale && !stable_equilibrium(p, s, sd, 1.0, w2, &mode)) {
+      double w2 = 0.0, residual = 0.0;
+      if (rows) {
+        const FullResidual r = full_residual(s, sd);
+        residual = r.force / r.scale;
+      } else {
+        const double scale = p.force(1.0, f);
+        residual = f.norm() / scale;
+      }
+      if (residual <= opt.relaxation_tolerance && !stable_equilibrium(p, s, sd, 1.0, w2, &mode, rows)) {
         q_relax = along_mode(m, q_start, mode);
         from = ", started from the initial state, an unstable equilibrium, moved along its unstable mode";
       }
@@ -622,12 +758,14 @@ SceneStaticsResult equilibrium(const Scene& s, SceneData& sd, const SceneStatics
     res.constraint_rows = load_bearing_rows(d);
     // relaxation settles where the motion stops, which a symmetric start can do on an unstable
     // equilibrium (a straight column above its buckling load): without constraint rows carrying
-    // load its stability is the smooth one's
-    if (!res.converged || !opt.stable || res.constraint_rows > 0) return res;
+    // load its stability is the smooth one's, with equality rows the total force's with them held
+    // rigid; contacts and limits alone give no verdict (their rows are one-sided)
+    const bool rows = res.constraint_rows > 0;
+    if (!res.converged || !opt.stable || (rows && !equality_rows(d))) return res;
     StaticProblem p(s, sd);
     double w2 = 0.0;
     VectorXd mode;
-    const bool stable = stable_equilibrium(p, s, sd, 1.0, w2, &mode);
+    const bool stable = stable_equilibrium(p, s, sd, 1.0, w2, &mode, rows);
     mju_zero(d->qvel, m->nv);
     forward(s, sd);
     if (stable) return res;
@@ -644,7 +782,7 @@ SceneStaticsResult equilibrium(const Scene& s, SceneData& sd, const SceneStatics
   }
 }
 
-SceneLinearization linearize(const Scene& s, SceneData& sd) {
+SceneLinearization linearize(const Scene& s, SceneData& sd, const SceneLinearizeOptions& opt) {
   const mjModel* m = s.m;
   const int n = m->nv, nu = m->nu;
   SceneLinearization L;
@@ -663,6 +801,25 @@ SceneLinearization linearize(const Scene& s, SceneData& sd) {
   for (int i = 0; i < n; ++i)
     for (int j = 0; j < n; ++j) L.M(i, j) = full[static_cast<size_t>(i) * n + j];
   L.Bu = p.actuation_matrix();
+
+  if (opt.rigid_equalities) {
+    // the equality constraints that act, held rigid: coordinates y with dq = N y, J N = 0, and
+    // the stiffness of the loads they carry (StaticProblem::equality_loads); their own damping and
+    // their response to the controls act along J only, which N' removes
+    MatrixXd J, Kc;
+    p.equality_loads(J, Kc);
+    if (J.rows() > 0) {
+      const MatrixXd N = free_directions(J);
+      L.Kt = N.transpose() * (L.Kt + Kc) * N;
+      L.D = N.transpose() * L.D * N;
+      L.M = N.transpose() * L.M * N;
+      L.Bu = N.transpose() * L.Bu;
+      L.basis = N;
+      L.constraint_rows = static_cast<int>(J.rows());
+    }
+    mju_zero(sd.d->qvel, n);
+    forward(s, sd);
+  }
 
   state_space(L);
   return L;

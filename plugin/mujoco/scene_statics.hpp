@@ -72,14 +72,25 @@ double static_force(const Scene& s, SceneData& sd, double lambda, Eigen::VectorX
 // Tangent stiffness Kt = -df/dq (nv x nv, tangent space) by central differences at lambda.
 void tangent_stiffness(const Scene& s, SceneData& sd, double lambda, Eigen::MatrixXd& Kt);
 
+struct SceneLinearizeOptions {
+  // Hold the equality constraints that act (welds, connects, joint and tendon couplings) rigid:
+  // the linearisation is then in coordinates y of the motions they leave free, dq = basis y, with
+  // the stiffness of the loads they carry (a weld's end moment on a twisted rod, a connect's end
+  // load on a column), the frequencies those of a clamped or pinned end. False: they are left out
+  // (the frequencies without them), as contacts and limits always are.
+  bool rigid_equalities = true;
+};
+
 // Linearisation at the current qpos (call equilibrium() first), qvel = 0 and the current ctrl:
 //   M dqacc + D dqvel + Kt dq = Bu dctrl,   x = [dq; dqvel],   x_dot = A x + B dctrl.
 // M is the patched mass matrix (rods included), D the rods' Kelvin-Voigt damping plus joint and
-// tendon damping, Kt the tangent stiffness (constraint forces are not linearised). With a control
-// callback (mjcb_control, called at every force evaluation), D and Kt hold its dependence on the
-// state (the closed loop), and Bu = d qfrc_actuator / d ctrl at its controls: the input matrix of a
-// perturbation added to them.
+// tendon damping, Kt the tangent stiffness. With a control callback (mjcb_control, called at every
+// force evaluation), D and Kt hold its dependence on the state (the closed loop), and Bu =
+// d qfrc_actuator / d ctrl at its controls: the input matrix of a perturbation added to them.
+// Constraint forces: equality constraints as opt says (with rows held rigid, every matrix is in
+// the coordinates y, dq = L.basis y, and L.constraint_rows counts the rows); contacts and limits
+// are not linearised (the frequencies are those without them).
 using SceneLinearization = cosserat::Linearization;  // the core's: A, B, M, D, Kt, Bu, frequencies
-SceneLinearization linearize(const Scene& s, SceneData& sd);
+SceneLinearization linearize(const Scene& s, SceneData& sd, const SceneLinearizeOptions& opt = {});
 
 }  // namespace cosserat::mj

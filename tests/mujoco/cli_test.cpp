@@ -520,29 +520,53 @@ TEST_F(Cli, EquilibriumAndLinearizeJson) {
 // linearize leaves constraints out: with a welded tip the frequencies are the free cantilever's,
 // and it says so on stdout and in the JSON (an outside probe read 8.85 Hz for a clamped-clamped
 // beam's 56 Hz behind a warning only in the JSON, and only when relaxation had been used).
-TEST_F(Cli, LinearizeSaysConstraintsAreLeftOut) {
+// linearize holds equality constraints rigid (a note says how many coordinates remain) and says
+// which constraints it leaves out: equalities with --without-equalities, and contacts always.
+TEST_F(Cli, LinearizeHoldsEqualitiesRigidAndSaysWhatItLeavesOut) {
   const fs::path model = scratch() / "weld.xml";
   std::ofstream(model) << R"(<mujoco><option gravity="0 0 -9.81"/><worldbody>
     <cosserat name="beam" pos="0 0 1" length="1.0" sections="8" strain="kl" radius="0.01" young="1e10">
       <body name="w"><geom type="sphere" size="0.001" mass="1e-6" contype="0" conaffinity="0"/></body>
     </cosserat></worldbody>
     <equality><weld body1="w" solref="0.001 1"/></equality></mujoco>)";
-  const Result r = cosserat("linearize '" + model.string() + "'");
+  const Result held = cosserat("linearize '" + model.string() + "'");
+  ASSERT_EQ(held.status, 0) << held.err;
+  EXPECT_NE(held.out.find("6 equality constraint rows held rigid: 26 coordinates of the 32"), std::string::npos) << held.out;
+  EXPECT_EQ(held.out.find("warning: "), std::string::npos) << held.out;
+  const fs::path out = scratch() / "lin.json";
+  ASSERT_EQ(cosserat("linearize '" + model.string() + "' --json '" + out.string() + "' --matrices").status, 0);
+  json j = json::parse(read_text(out));
+  EXPECT_EQ(j["coordinates"], 26);
+  EXPECT_EQ(j["equality_rows"], 6);
+  EXPECT_EQ(j["frequencies_hz"].size(), 26u);
+  EXPECT_EQ(j["basis"].size(), 32u);  // dq = basis y: nv rows
+  EXPECT_EQ(j["basis"][0].size(), 26u);
+  EXPECT_FALSE(j.contains("warnings"));
+
+  const Result r = cosserat("linearize '" + model.string() + "' --without-equalities");
   ASSERT_EQ(r.status, 0) << r.err;
   EXPECT_NE(r.out.find("warning: "), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("the linearisation leaves them out"), std::string::npos) << r.out;
-  const fs::path out = scratch() / "lin.json";
-  ASSERT_EQ(cosserat("linearize '" + model.string() + "' --json '" + out.string() + "'").status, 0);
-  const json j = json::parse(read_text(out));
+  ASSERT_EQ(cosserat("linearize '" + model.string() + "' --without-equalities --json '" + out.string() + "'").status, 0);
+  j = json::parse(read_text(out));
   ASSERT_TRUE(j.contains("warnings"));
   EXPECT_NE(j["warnings"][0].get<std::string>().find("constraint rows"), std::string::npos);
-  // without the weld: no such warning
+  EXPECT_EQ(j["coordinates"], 32);
+  // a rod lying on a floor: the contacts are left out, and said to be
+  std::ofstream(model) << R"(<mujoco><option gravity="0 0 -9.81"/><worldbody><geom type="plane" size="2 2 0.1"/>
+    <body name="b" pos="0 0 0.01"><joint type="slide" axis="0 0 1"/><geom type="sphere" size="0.01" mass="0.1"/></body>
+    </worldbody></mujoco>)";
+  const Result contact = cosserat("linearize '" + model.string() + "'");
+  ASSERT_EQ(contact.status, 0) << contact.err;
+  EXPECT_NE(contact.out.find("(contacts, limits) act at the equilibrium"), std::string::npos) << contact.out;
+  // without any constraint: no such warning
   std::ofstream(model) << R"(<mujoco><option gravity="0 0 -9.81"/><worldbody>
     <cosserat name="beam" pos="0 0 1" length="1.0" sections="8" strain="kl" radius="0.01" young="1e10"/>
     </worldbody></mujoco>)";
   const Result free = cosserat("linearize '" + model.string() + "'");
   ASSERT_EQ(free.status, 0) << free.err;
   EXPECT_EQ(free.out.find("leaves them out"), std::string::npos) << free.out;
+  EXPECT_EQ(free.out.find("held rigid"), std::string::npos) << free.out;
 }
 
 TEST_F(Cli, EquilibriumWithKeyframeAndControls) {

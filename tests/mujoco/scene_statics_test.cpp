@@ -565,6 +565,131 @@ TEST(SceneStatics, ForcesCancellingTermByTermStillConverge) {
   EXPECT_LT(std::hypot(sd.d->subtree_com[3 * b], sd.d->subtree_com[3 * b + 1]), 1e-5);
 }
 
+// Equality constraints are held rigid in the linearisation: a clamped rod whose tip is pinned by a
+// `connect` to the world has the clamped-pinned beam's frequencies (beta L = 3.9266, 7.0686,
+// 10.2102), and with the constraint left out the clamped-free ones (1.8751), as before.
+TEST(SceneStatics, AClampedRodPinnedByAConnectHasTheClampedPinnedFrequencies) {
+  const double L = 1.0, r = 0.005, E = 1e9, rho = 1000.0;
+  auto s = load_scene_string(R"(<mujoco><option gravity="0 0 0"/><worldbody>
+    <cosserat name="b" length="1" sections="4" order="4" dofs="0 0 1 0 0 0" radius="0.005" density="1000"
+              young="1e9" poisson="0.5">
+      <body name="tip"><inertial pos="0 0 0" mass="1e-9" diaginertia="1e-15 1e-15 1e-15"/></body></cosserat>
+    </worldbody><equality><connect body1="tip" anchor="0 0 0"/></equality></mujoco>)",
+                             kPath);
+  SceneData sd(*s);
+  ASSERT_TRUE(equilibrium(*s, sd).converged);
+  const double EI = E * M_PI * std::pow(r, 4) / 4.0, rhoA = rho * M_PI * r * r;
+  auto hz = [&](double betaL) { return betaL * betaL / (2.0 * M_PI * L * L) * std::sqrt(EI / rhoA); };
+  const SceneLinearization pinned = linearize(*s, sd);
+  // the tip moves sideways at first order only (planar bending, inextensible): one row of rank
+  EXPECT_EQ(pinned.constraint_rows, 3);
+  EXPECT_EQ(pinned.M.rows(), s->m->nv - 1);
+  ASSERT_EQ(pinned.basis.rows(), s->m->nv);
+  const double betaL[3] = {3.92660231, 7.06858275, 10.21017612};
+  for (int i = 0; i < 3; ++i)  // (4 GVS sections of order 4: 4e-5, 1.5e-4, 3.6e-4 below, rotary inertia)
+    EXPECT_NEAR(pinned.frequencies_hz(i) / hz(betaL[i]), 1.0, 1e-3) << "mode " << i + 1;
+  const SceneLinearization free = linearize(*s, sd, SceneLinearizeOptions{false});
+  EXPECT_EQ(free.constraint_rows, 0);
+  EXPECT_EQ(free.M.rows(), s->m->nv);
+  EXPECT_NEAR(free.frequencies_hz(0) / hz(1.87510407), 1.0, 1e-3);
+}
+
+// A column pinned at its foot (a hinge) and at its top, where a `connect` joins its tip to a load
+// on a vertical slide: the compression is a constraint force. Its stiffness enters the held-rigid
+// linearisation, omega_1^2(P) / omega_1^2(0) = 1 - P / P_cr (the pinned-pinned beam's mode does not
+// change with P), P_cr = pi^2 EI / L^2; past P_cr the straight column, where the relaxation settles
+// (the start is symmetric), is found unstable and left along its mode for Euler's elastica of the
+// pinned-pinned column (chord L (2 E(p) / K(p) - 1), 2 K(p) / pi = sqrt(P / P_cr)). Until the
+// twenty-eighth session equilibria held by constraint rows were not checked for stability, and
+// the linearisation left the constraint's load out (the ratio was 1).
+TEST(SceneStatics, AConnectsEndLoadSoftensAndBucklesAPinnedColumn) {
+  const double L = 1.0, EI = 1e8 * M_PI * std::pow(0.02, 4) / 4, Pcr = M_PI * M_PI * EI / (L * L);
+  auto column = [&](double ratio) {
+    const double tip_mass = 1.0;  // (heavy enough for MuJoCo's soft connect to hold the tip within 1e-6 m)
+    return std::string(R"(<mujoco><option gravity="0 0 )") + (ratio > 0 ? "-9.81" : "0") + R"(" timestep="0.001"/>
+      <worldbody><body name="foot"><joint name="pin" type="hinge" axis="0 1 0"/>
+        <inertial pos="0 0 0" mass="1e-6" diaginertia="1e-15 1e-15 1e-15"/>
+        <cosserat name="col" euler="0 -90 0" length="1" sections="32" strain="ikl" radius="0.02" density="0.1"
+                  young="1e8" poisson="0.5" contype="0" conaffinity="0">
+          <body name="tip"><inertial pos="0 0 0" mass=")" + std::to_string(tip_mass) + R"(" diaginertia="1e-15 1e-15 1e-15"/></body>
+        </cosserat></body>
+        <body name="load" pos="0 0 1"><joint name="slide" type="slide" axis="0 0 1"/>
+          <inertial pos="0 0 0" mass=")" + std::to_string(std::max(ratio, 0.5) * Pcr / 9.81 - tip_mass) + R"(" diaginertia="1 1 1"/>
+        </body></worldbody>
+      <equality><connect body1="tip" body2="load" anchor="0 0 0"/></equality></mujoco>)";
+  };
+  double omega2_unloaded = 0.0;
+  for (const double ratio : {0.0, 0.5, 0.98}) {
+    SCOPED_TRACE(ratio);
+    auto s = load_scene_string(column(ratio), kPath);
+    SceneData sd(*s);
+    const SceneStaticsResult r = equilibrium(*s, sd);
+    ASSERT_TRUE(r.converged) << r.message;
+    EXPECT_EQ(r.message.find("unstable"), std::string::npos) << r.message;
+    const SceneLinearization lin = linearize(*s, sd);
+    EXPECT_EQ(lin.unstable_modes, 0);
+    if (ratio == 0.0) {
+      omega2_unloaded = lin.omega2(0);
+      EXPECT_NEAR(std::sqrt(omega2_unloaded) / (M_PI * M_PI * std::sqrt(EI / (0.1 * M_PI * 4e-4))), 1.0, 1e-3);
+      continue;
+    }
+    // (32 sections put P_cr 8e-4 above Euler's, second order)
+    EXPECT_NEAR(lin.omega2(0) / omega2_unloaded, 1.0 - ratio, 2e-3);
+  }
+  for (const double ratio : {1.02, 1.2}) {
+    SCOPED_TRACE(ratio);
+    auto s = load_scene_string(column(ratio), kPath);
+    SceneData sd(*s);
+    const SceneStaticsResult r = equilibrium(*s, sd);
+    ASSERT_TRUE(r.converged) << r.message;
+    // at 1.02 the relaxation settles on the straight column first (at 1.2 round-off grows fast
+    // enough to leave it on the way)
+    if (ratio < 1.1) EXPECT_NE(r.message.find("moved along its unstable mode"), std::string::npos) << r.message;
+    double lo = 0.0, hi = 1.0 - 1e-12;  // p^2, from 2 K(p) / pi = sqrt(P / P_cr)
+    for (int it = 0; it < 200; ++it) {
+      const double mid = 0.5 * (lo + hi);
+      (2 * std::comp_ellint_1(std::sqrt(mid)) / M_PI < std::sqrt(ratio) ? lo : hi) = mid;
+    }
+    const double p = std::sqrt(0.5 * (lo + hi));
+    const double chord = L * (2 * std::comp_ellint_2(p) / std::comp_ellint_1(p) - 1);
+    const Vec3 tip = rod_frame(*s, sd, 0, L).u;
+    // (32 sections: 1.7e-3 and 1.3e-3 L above; 64: 4.8e-4 and 3.2e-4, second order)
+    EXPECT_NEAR(tip.z(), chord, 2.5e-3 * L);
+    EXPECT_LT(std::abs(tip.x()) + std::abs(tip.y()), 1e-4);  // pinned under the load
+  }
+}
+
+// Greenhill's problem: a rod clamped at both ends (its tip by a `weld`) and twisted by the weld's
+// turned relpose buckles past the end moment M_cr = 8.9868 EI / L. The relaxation settles on the
+// straight twisted rod (the start is symmetric, and the soft weld needs a little motion to carry
+// the moment); held rigid, the weld's moment makes that state unstable past M_cr, and the solve
+// leaves it along its mode. (Outside probe AG: 11 times past M_cr, reported straight and
+// "converged".)
+TEST(SceneStatics, ATwistedRodBetweenTwoClampsIsUnstablePastGreenhillsMoment) {
+  const double EI = 1e6 * M_PI * 1e-8 / 4, GJ = 2 * EI / 3;  // poisson 0.5
+  for (const double ratio : {0.97, 1.03}) {
+    SCOPED_TRACE(ratio);
+    const double twist = ratio * 8.9868 * EI / GJ;  // [rad/m], the rod 1 m long
+    std::string key;
+    for (int i = 0; i < 16; ++i) key += std::to_string(twist) + " 0 0 ";
+    auto s = load_scene_string(std::string(R"(<mujoco><option gravity="0 0 0" timestep="0.001"/><worldbody>
+      <body name="anchor" pos="0 0 1" euler="0 -90 0"/>
+      <cosserat name="rod" euler="0 -90 0" length="1" sections="16" strain="ikl" radius="0.01" density="1000"
+                young="1e6" poisson="0.5" contype="0" conaffinity="0">
+        <body name="tip"><inertial pos="0 0 0" mass="0.1" diaginertia="1e-3 1e-3 1e-3"/></body></cosserat></worldbody>
+      <equality><weld body1="tip" body2="anchor" relpose="0 0 0 )") +
+                                   std::to_string(std::cos(twist / 2)) + " " + std::to_string(-std::sin(twist / 2)) +
+                                   R"( 0 0"/></equality><keyframe><key qpos=")" + key + R"("/></keyframe></mujoco>)",
+                               kPath);
+    SceneData sd(*s);
+    mj_resetDataKeyframe(s->m, sd.d, 0);
+    const SceneStaticsResult r = equilibrium(*s, sd);
+    ASSERT_TRUE(r.converged) << r.message;
+    EXPECT_EQ(r.method, "dynamic relaxation");
+    EXPECT_EQ(r.message.find("moved along its unstable mode") != std::string::npos, ratio > 1) << r.message;
+  }
+}
+
 // Probe O: a cable pulling a soft rod at 300 N (T/EA = 0.95) has no equilibrium the continuation
 // reaches, and the dynamic relaxation that follows blows up (sections inverted). The positions
 // reported must then be Newton's last converged load step, an equilibrium at the load factor where
