@@ -624,7 +624,8 @@ int cmd_equilibrium(int argc, char** argv) {
                  "eigenvalue of K x = omega^2 M x there); scenes whose contacts, limits or equality constraints\n"
                  "carry load, or where the stable branch cannot be followed, are settled by dynamic relaxation\n"
                  "(the report's \"method\"); past a buckling load the relaxation starts from the unstable\n"
-                 "equilibrium moved along its unstable mode, and settles on the buckled shape.\n"
+                 "equilibrium moved along its unstable mode, and settles on the buckled shape. Where constraint\n"
+                 "rows carry load, stability is judged with them held rigid (contacts as pins).\n"
                  "Exit status 1 when no equilibrium is found.\n"};
   cl.options.push_back(text_option("--json", "F", "write {converged, iterations, residual, sites, bodies, ...} ('-': stdout)", json_path));
   state.add_to(cl);

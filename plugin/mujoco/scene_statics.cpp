@@ -55,12 +55,61 @@ VectorXd rods_passive(const Scene& s, const SceneData& sd) {
   return v;
 }
 
-// The rows of the equality constraints (welds, connects, joint and tendon couplings) after an
-// evaluation, dense (rows x nv), in either of MuJoCo's layouts of efc_J.
-MatrixXd equality_jacobian(const mjModel* m, const mjData* d) {
-  std::vector<int> rows;
+// Which constraint rows an analysis with constraints held rigid holds: the equality constraints'
+// (welds, connects, joint and tendon couplings), or every row that can carry load at rest: the
+// equalities, the limits that act, and every row of a contact one of whose rows acts (its point
+// then held to the other geom with its friction, a pin; friction loss only resists motion).
+enum class Held { Equalities, Loaded };
+
+bool is_contact(int type) {
+  return type == mjCNSTR_CONTACT_FRICTIONLESS || type == mjCNSTR_CONTACT_PYRAMIDAL || type == mjCNSTR_CONTACT_ELLIPTIC;
+}
+
+// A row's identity across evaluations at nearby configurations, where indices can shift as
+// contacts come and go: its type, its object (for a contact its two geoms and its rank among
+// their contacts) and its place among that object's rows.
+struct RowKey {
+  int type = 0, object = 0, other = 0, rank = 0, row = 0;
+  bool operator==(const RowKey&) const = default;
+};
+
+std::vector<RowKey> row_keys(const mjData* d) {
+  std::vector<RowKey> keys(d->nefc);
+  for (int i = 0; i < d->nefc; ++i) {
+    RowKey k;
+    k.type = d->efc_type[i];
+    k.object = d->efc_id[i];
+    if (is_contact(k.type)) {
+      const mjContact& c = d->contact[d->efc_id[i]];
+      k.object = c.geom1;
+      k.other = c.geom2;
+      for (int j = 0; j < d->efc_id[i]; ++j) k.rank += d->contact[j].geom1 == c.geom1 && d->contact[j].geom2 == c.geom2;
+    }
+    if (i > 0 && d->efc_type[i - 1] == d->efc_type[i] && d->efc_id[i - 1] == d->efc_id[i]) k.row = keys[i - 1].row + 1;
+    keys[i] = k;
+  }
+  return keys;
+}
+
+// The rows `held` holds after an evaluation (their indices).
+std::vector<int> held_rows(const mjData* d, Held held) {
+  std::vector<char> contact_acts(d->ncon, 0);
   for (int i = 0; i < d->nefc; ++i)
-    if (d->efc_type[i] == mjCNSTR_EQUALITY) rows.push_back(i);
+    if (is_contact(d->efc_type[i]) && d->efc_state[i] != mjCNSTRSTATE_SATISFIED) contact_acts[d->efc_id[i]] = 1;
+  std::vector<int> rows;
+  for (int i = 0; i < d->nefc; ++i) {
+    const int t = d->efc_type[i];
+    const bool hold = t == mjCNSTR_EQUALITY ||
+                      (held == Held::Loaded && (is_contact(t) ? contact_acts[d->efc_id[i]] != 0
+                                                : (t == mjCNSTR_LIMIT_JOINT || t == mjCNSTR_LIMIT_TENDON) &&
+                                                      d->efc_state[i] != mjCNSTRSTATE_SATISFIED));
+    if (hold) rows.push_back(i);
+  }
+  return rows;
+}
+
+// Rows `rows` of efc_J after an evaluation, dense (rows x nv), in either of MuJoCo's layouts.
+MatrixXd constraint_jacobian(const mjModel* m, const mjData* d, const std::vector<int>& rows) {
   MatrixXd J = MatrixXd::Zero(static_cast<int>(rows.size()), m->nv);
   for (int r = 0; r < J.rows(); ++r) {
     const int i = rows[r];
@@ -184,30 +233,39 @@ class StaticProblem {
     set_qpos(q0);
   }
 
-  // The equality constraints that act at the current qpos, at rest under the full loads: their
-  // rows' Jacobian J (dense, rows x nv) and the stiffness of the loads f they carry there,
+  // The constraint rows `held` holds at the current qpos, at rest under the full loads: their
+  // Jacobian J (dense, rows x nv) and the stiffness of the loads f they carry there,
   // Kc = -d(J(q)' f)/dq at fixed f by central differences (the turning of a weld's end moment or
-  // a connect's end load with the geometry: their geometric stiffness). The rows' own soft
-  // response (solref, solimp) is left out: with the rows held rigid, motions along J are none.
-  void equality_loads(MatrixXd& J, MatrixXd& Kc) {
+  // a connect's end load with the geometry, a contact's point moving over its geoms: their
+  // geometric stiffness). The rows' own soft response (solref, solimp) is left out: with the rows
+  // held rigid, motions along J are none. Throws std::runtime_error when a held row is gone
+  // at a perturbed configuration (a contact at the edge of its margin).
+  void held_loads(Held held, MatrixXd& J, MatrixXd& Kc) {
     const int n = m_->nv;
     VectorXd F(n);
     mju_zero(d_->qvel, n);
     total_force(F);
-    J = equality_jacobian(m_, d_);
-    VectorXd f(J.rows());
-    for (int i = 0, r = 0; i < d_->nefc; ++i)
-      if (d_->efc_type[i] == mjCNSTR_EQUALITY) f(r++) = d_->efc_force[i];
+    const std::vector<int> rows = held_rows(d_, held);
+    const std::vector<RowKey> all = row_keys(d_);
+    std::vector<RowKey> keys;
+    VectorXd f(rows.size());
+    for (size_t r = 0; r < rows.size(); ++r) keys.push_back(all[rows[r]]), f(r) = d_->efc_force[rows[r]];
+    J = constraint_jacobian(m_, d_, rows);
     Kc.setZero(n, n);
-    if (J.rows() == 0) return;
+    if (rows.empty()) return;
     VectorXd e = VectorXd::Zero(n);
     const std::vector<mjtNum> q0 = qpos();
     auto load_at = [&](double h) {
       move(q0, e, h);
       fwd_position(s_, sd_, Need::Acceleration);
-      const MatrixXd Jh = equality_jacobian(m_, d_);
-      if (Jh.rows() != J.rows()) throw std::runtime_error("the equality constraint rows changed under a perturbation");
-      return VectorXd(Jh.transpose() * f);
+      const std::vector<RowKey> now = row_keys(d_);
+      std::vector<int> found;
+      for (const RowKey& k : keys) {
+        const auto it = std::find(now.begin(), now.end(), k);
+        if (it == now.end()) throw std::runtime_error("a constraint row held rigid is gone under a perturbation");
+        found.push_back(static_cast<int>(it - now.begin()));
+      }
+      return VectorXd(constraint_jacobian(m_, d_, found).transpose() * f);
     };
     for (int j = 0; j < n; ++j) {
       const double h = step_size(q0, j);
@@ -364,16 +422,19 @@ bool newton(StaticProblem& p, double lambda, const SceneStaticsOptions& opt, Sce
 // session the test was omega^2_min >= -1e-9 |omega^2|_max, which a rod's axial modes at 1e12 made
 // blind: outside probe AF's column at twice its buckling load, omega^2_min = -6.2, passed.)
 //
-// With `constraints` (lambda = 1, an equilibrium where constraint rows carry load) the equality
-// constraints that act are held rigid: the eigenproblem is N'K N y = omega^2 N'M N y on the
-// directions dq = N y they leave free (free_directions), K the smooth stiffness plus that of the
-// loads the rows carry (StaticProblem::equality_loads: a twisted rod's end moment at a weld, a
-// column's end load at a connect). The rows' own soft stiffness (MuJoCo's solref and solimp, most
-// often far stiffer than a rod) is left out: in K its entries would set the noise scale of
-// unstable_mode far above a buckling mode's quotient. Contacts and limits are left out as in the
-// smooth test (their rows are one-sided). (Until the twenty-eighth session equilibria where
-// constraint rows carried load were not checked: outside probe AG's rod twisted 11 times past
-// Greenhill's load by a weld came back straight and "converged".)
+// With `constraints` (lambda = 1, an equilibrium where constraint rows carry load) the rows that
+// can carry load are held rigid (Held::Loaded: equalities, limits that act, contacts as pins):
+// the eigenproblem is N'K N y = omega^2 N'M N y on the directions dq = N y they leave free
+// (free_directions), K the smooth stiffness plus that of the loads the rows carry
+// (StaticProblem::held_loads: a twisted rod's end moment at a weld, a column's end load at a
+// connect, a standing rod's weight on the floor). The rows' own soft stiffness (MuJoCo's solref and
+// solimp, most often far stiffer than a rod) is left out: in K its entries would set the noise
+// scale of unstable_mode far above a buckling mode's quotient. A contact held as a pin cannot
+// lift off: an instability by lifting off is not seen. Where a held row is gone at a perturbed
+// configuration (a contact at the edge of its margin) there is no verdict (stable). (Until the
+// twenty-eighth session equilibria where constraint rows carried load were not checked: outside
+// probe AG's rod twisted 11 times past Greenhill's load by a weld came back straight and
+// "converged".)
 bool stable_equilibrium(StaticProblem& p, const Scene& s, SceneData& sd, double lambda, double& omega2_min,
                         VectorXd* mode = nullptr, bool constraints = false) {
   const int n = p.nv();
@@ -383,7 +444,11 @@ bool stable_equilibrium(StaticProblem& p, const Scene& s, SceneData& sd, double 
   p.stiffness(lambda, Kt);
   MatrixXd N = MatrixXd::Identity(n, n);
   if (constraints) {
-    p.equality_loads(J, Kc);  // leaves the stages (and qM) at the equilibrium
+    try {
+      p.held_loads(Held::Loaded, J, Kc);  // leaves the stages (and qM) at the equilibrium
+    } catch (const std::runtime_error&) {
+      return true;
+    }
     Kt += Kc;
     N = free_directions(J);
   } else {
@@ -408,13 +473,6 @@ bool stable_equilibrium(StaticProblem& p, const Scene& s, SceneData& sd, double 
       return false;
     }
   return true;
-}
-
-// Whether equality constraint rows act after an evaluation (stable_equilibrium's `constraints`).
-bool equality_rows(const mjData* d) {
-  for (int i = 0; i < d->nefc; ++i)
-    if (d->efc_type[i] == mjCNSTR_EQUALITY) return true;
-  return false;
 }
 
 // An unstable equilibrium the solve came across: where, under which load factor, and the
@@ -716,8 +774,8 @@ SceneStaticsResult equilibrium(const Scene& s, SceneData& sd, const SceneStatics
   // state Newton's continuation had met, wherever the user's start was: outside probe AG's rod
   // leaning on a hinge was sent from its upright state, by the sign of an eigenvector, onto a wall
   // on the other side instead of the floor on its own side, and a stretched soft rod diverged.)
-  // Where equality constraints carry load at the start (a rod twisted between two welds), its
-  // stability is that of the total force with them held rigid (stable_equilibrium).
+  // Where constraint rows carry load at the start (a rod twisted between two welds, a rod standing
+  // on its end), its stability is that with them held rigid (stable_equilibrium).
   std::vector<mjtNum> q_relax = q_start;
   std::string from;
   if (opt.stable) {
@@ -725,7 +783,7 @@ SceneStaticsResult equilibrium(const Scene& s, SceneData& sd, const SceneStatics
     mju_zero(d->qvel, m->nv);
     forward(s, sd);
     const bool rows = load_bearing_rows(d) > 0;
-    if (!rows || equality_rows(d)) {
+    {
       StaticProblem p(s, sd);
       VectorXd f(m->nv), mode;
       double w2 = 0.0, residual = 0.0;
@@ -757,11 +815,11 @@ SceneStaticsResult equilibrium(const Scene& s, SceneData& sd, const SceneStatics
     forward(s, sd);
     res.constraint_rows = load_bearing_rows(d);
     // relaxation settles where the motion stops, which a symmetric start can do on an unstable
-    // equilibrium (a straight column above its buckling load): without constraint rows carrying
-    // load its stability is the smooth one's, with equality rows the total force's with them held
-    // rigid; contacts and limits alone give no verdict (their rows are one-sided)
+    // equilibrium (a straight column above its buckling load, a rod standing on its end): without
+    // constraint rows carrying load its stability is the smooth one's, with them that of the rows
+    // held rigid (stable_equilibrium)
     const bool rows = res.constraint_rows > 0;
-    if (!res.converged || !opt.stable || (rows && !equality_rows(d))) return res;
+    if (!res.converged || !opt.stable) return res;
     StaticProblem p(s, sd);
     double w2 = 0.0;
     VectorXd mode;
@@ -804,10 +862,10 @@ SceneLinearization linearize(const Scene& s, SceneData& sd, const SceneLinearize
 
   if (opt.rigid_equalities) {
     // the equality constraints that act, held rigid: coordinates y with dq = N y, J N = 0, and
-    // the stiffness of the loads they carry (StaticProblem::equality_loads); their own damping and
+    // the stiffness of the loads they carry (StaticProblem::held_loads); their own damping and
     // their response to the controls act along J only, which N' removes
     MatrixXd J, Kc;
-    p.equality_loads(J, Kc);
+    p.held_loads(Held::Equalities, J, Kc);
     if (J.rows() > 0) {
       const MatrixXd N = free_directions(J);
       L.Kt = N.transpose() * (L.Kt + Kc) * N;

@@ -690,6 +690,58 @@ TEST(SceneStatics, ATwistedRodBetweenTwoClampsIsUnstablePastGreenhillsMoment) {
   }
 }
 
+// Contacts that carry load are held as pins for the stability check: a rod (rigid, and soft)
+// standing upright on its end on the floor, in a plane (slide x, slide z, hinge y), is an
+// equilibrium the relaxation settles on (the start is symmetric), and an unstable one: the solve
+// leaves it along its mode, and the rod lies on the floor. A box standing on its face stays.
+// (Until the twenty-eighth session both rods were reported standing, "converged".)
+TEST(SceneStatics, ARodStandingOnItsEndOnTheFloorFallsOver) {
+  const std::string planar = R"(<joint type="slide" axis="1 0 0"/><joint type="slide" axis="0 0 1"/>
+      <joint type="hinge" axis="0 1 0"/>)";
+  const std::string head = R"(<mujoco><option gravity="0 0 -9.81" timestep="0.001"/><worldbody>
+    <geom type="plane" size="2 2 0.1"/>)";
+  struct Case {
+    std::string xml;
+    bool falls;
+  };
+  const Case cases[] = {
+      {head + R"(<body name="b" pos="0 0 0.51">)" + planar +
+           R"(<geom type="capsule" fromto="0 0 -0.5 0 0 0.5" size="0.01" mass="1"/></body></worldbody></mujoco>)",
+       true},
+      {head + R"(<body name="b" pos="0 0 0.011">)" + planar + R"(<geom type="sphere" size="0.01" mass="0.01"/>
+         <cosserat name="rod" euler="0 -90 0" length="0.5" sections="4" strain="kl" radius="0.01" density="1000"
+                   young="1e7"/></body></worldbody></mujoco>)",
+       true},
+      {head + R"(<body name="b" pos="0 0 0.5">)" + planar +
+           R"(<geom type="box" size="0.05 0.05 0.5" mass="1"/></body></worldbody></mujoco>)",
+       false},
+  };
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.xml);
+    auto s = load_scene_string(c.xml, kPath);
+    SceneData sd(*s);
+    const SceneStaticsResult r = equilibrium(*s, sd);
+    ASSERT_TRUE(r.converged) << r.message;
+    EXPECT_EQ(r.message.find("moved along its unstable mode") != std::string::npos, c.falls) << r.message;
+    // the body's highest point: the rod's tip, or the top of the stick or box
+    double top = 0.0;
+    for (int g = 0; g < s->m->ngeom; ++g) {
+      if (s->m->geom_bodyid[g] == 0) continue;
+      const mjtNum *R = sd.d->geom_xmat + 9 * g, *size = s->m->geom_size + 3 * g;
+      const double reach = s->m->geom_type[g] == mjGEOM_BOX
+                               ? std::abs(R[6]) * size[0] + std::abs(R[7]) * size[1] + std::abs(R[8]) * size[2]
+                           : s->m->geom_type[g] == mjGEOM_CAPSULE ? std::abs(R[8]) * size[1] + size[0]
+                                                                   : size[0];
+      top = std::max(top, sd.d->geom_xpos[3 * g + 2] + reach);
+    }
+    if (!s->rods.empty()) top = std::max(top, rod_frame(*s, sd, 0, 0.5).u.z());
+    if (c.falls)
+      EXPECT_LT(top, 0.1) << "lying on the floor";
+    else
+      EXPECT_GT(top, 0.99) << "standing";
+  }
+}
+
 // Probe O: a cable pulling a soft rod at 300 N (T/EA = 0.95) has no equilibrium the continuation
 // reaches, and the dynamic relaxation that follows blows up (sections inverted). The positions
 // reported must then be Newton's last converged load step, an equilibrium at the load factor where
