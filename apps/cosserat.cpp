@@ -670,6 +670,11 @@ int cmd_linearize(int argc, char** argv) {
   cl.options.push_back(flag_option("--matrices", "include M, D, K and Bu in the JSON (and the basis of the coordinates)", matrices));
   mj::SceneLinearizeOptions lopt;
   bool without_equalities = false;
+  int modes = 0;
+  cl.options.push_back(int_option("--modes", "N",
+                                  "add the first N mode shapes to the JSON: dq, and the displacements of every rod's "
+                                  "centreline (17 points), named site and body, scaled to a largest displacement of 1",
+                                  modes, 0));
   cl.options.push_back(flag_option("--without-equalities",
                                    "leave the equality constraints out (default: held rigid, a weld a clamped end)",
                                    without_equalities));
@@ -677,6 +682,7 @@ int cmd_linearize(int argc, char** argv) {
   const auto pos = cl.parse(argc, argv);
   if (!pos) return 0;
   check_writable("--json", json_path);
+  if (modes > 0 && json_path.empty()) fail("--modes: the mode shapes go into the JSON: give --json F too");
   lopt.rigid_equalities = !without_equalities;
   const Equilibrium eq(pos->front(), state);
   if (!eq.result.converged) fail("no static equilibrium to linearise about: " + eq.result.message);
@@ -722,6 +728,28 @@ int cmd_linearize(int argc, char** argv) {
     if (lin.unstable_modes > 0)
       warnings.push_back(std::to_string(lin.unstable_modes) + " unstable mode(s) (omega2 < 0): the equilibrium is unstable");
     if (!warnings.empty()) j["warnings"] = warnings;
+    if (modes > 0) {
+      const Outputs named = named_outputs(*eq.scene);
+      json list = json::array();
+      for (int k = 0; k < std::min<int>(modes, static_cast<int>(lin.omega2.size())); ++k) {
+        const mj::ModeShape shape = mj::mode_shape(*eq.scene, *eq.data, lin, k);
+        json mode = {{"mode", k + 1}, {"frequency_hz", shape.frequency_hz}, {"omega2", shape.omega2},
+                     {"dq", std::vector<double>(shape.dq.data(), shape.dq.data() + shape.dq.size())}};
+        if (k < lin.damping_ratios.size() && std::isfinite(lin.damping_ratios(k))) mode["damping_ratio"] = lin.damping_ratios(k);
+        mode["rods"] = json::object();
+        for (size_t r = 0; r < eq.scene->rods.size(); ++r) {
+          json points = json::array();
+          for (const Vec3& v : shape.rods[r]) points.push_back(vec_json(v));
+          mode["rods"][eq.scene->rods[r].decl.name] = points;
+        }
+        mode["sites"] = json::object();
+        for (const auto& n : named.sites) mode["sites"][n.name] = vec_json(shape.sites[n.id]);
+        mode["bodies"] = json::object();
+        for (const auto& n : named.bodies) mode["bodies"][n.name] = vec_json(shape.bodies[n.id]);
+        list.push_back(mode);
+      }
+      j["modes"] = list;
+    }
     if (matrices) {
       j["M"] = matrix_json(lin.M);
       j["D"] = matrix_json(lin.D);

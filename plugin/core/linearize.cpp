@@ -62,6 +62,7 @@ void state_space(Linearization& L) {
   L.unstable_modes = 0;
   if ((L.Kt - Ks).norm() <= 1e-6 * Ks.norm()) {
     Eigen::GeneralizedSelfAdjointEigenSolver<MatX> es(Ks, L.M);  // ascending, x^T M x = 1
+    L.modes = es.eigenvectors();
     L.damping_ratios.resize(n);
     for (int i = 0; i < n; ++i) {
       L.omega2(i) = es.eigenvalues()(i);
@@ -77,7 +78,10 @@ void state_space(Linearization& L) {
     std::vector<std::pair<double, VecX>> modes;
     for (int i = 0; i < n; ++i) modes.emplace_back(es.eigenvalues()(i).real(), es.eigenvectors().col(i).real());
     std::sort(modes.begin(), modes.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+    L.modes.resize(n, n);
     for (int i = 0; i < n; ++i) {
+      const double mass = modes[i].second.dot(L.M * modes[i].second);
+      L.modes.col(i) = mass > 0 ? VecX(modes[i].second / std::sqrt(mass)) : modes[i].second;
       L.omega2(i) = modes[i].first;
       L.frequencies_hz(i) = std::sqrt(std::max(modes[i].first, 0.0)) / (2.0 * M_PI);
       if (modes[i].first < 0 && unstable_mode(modes[i].second, Ks, L.M)) ++L.unstable_modes;

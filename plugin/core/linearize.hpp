@@ -17,6 +17,8 @@ struct Linearization {
   int unstable_modes = 0;  // modes with w^2 below the noise (unstable_mode): the equilibrium is unstable
   VecX damping_ratios;  // modal damping x^T D x / (2 w x^T M x) of those modes (NaN for w = 0);
                         // empty when Kt is not symmetric (follower loads)
+  MatX modes;           // their eigenvectors (columns, in the order of omega2; x^T M x = 1), in the
+                        // coordinates below (real parts where Kt is not symmetric)
   // Constrained coordinates (a MuJoCo scene's equality constraints held rigid): dq = basis y, the
   // matrices above in y. Empty (and constraint_rows 0): the coordinates are dq itself.
   MatX basis;

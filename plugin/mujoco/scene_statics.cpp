@@ -883,4 +883,69 @@ SceneLinearization linearize(const Scene& s, SceneData& sd, const SceneLinearize
   return L;
 }
 
+ModeShape mode_shape(const Scene& s, SceneData& sd, const SceneLinearization& L, int k, int points) {
+  const mjModel* m = s.m;
+  mjData* d = sd.d;
+  if (k < 0 || k >= L.modes.cols()) throw std::invalid_argument("mode_shape: no mode " + std::to_string(k));
+  ModeShape shape;
+  shape.omega2 = L.omega2(k);
+  shape.frequency_hz = L.frequencies_hz(k);
+  shape.dq = L.basis.size() ? VectorXd(L.basis * L.modes.col(k)) : VectorXd(L.modes.col(k));
+  const std::vector<mjtNum> q0(d->qpos, d->qpos + m->nq);
+  const double big = shape.dq.cwiseAbs().maxCoeff();
+  if (!(big > 0)) throw std::invalid_argument("mode_shape: mode " + std::to_string(k) + " is zero");
+  const double eps = 1e-6 / big;
+  struct Poses {
+    std::vector<std::vector<Vec3>> rods;
+    std::vector<Vec3> sites, bodies;
+  };
+  auto poses_at = [&](double a) {
+    std::copy(q0.begin(), q0.end(), d->qpos);
+    mj_integratePos(m, d->qpos, shape.dq.data(), a);
+    mju_zero(d->qvel, m->nv);
+    fwd_position(s, sd, Need::SmoothStaticForces);
+    Poses p;
+    for (size_t r = 0; r < s.rods.size(); ++r) p.rods.push_back(rod_centerline(s, sd, static_cast<int>(r), points));
+    for (int i = 0; i < m->nsite; ++i) p.sites.push_back(Eigen::Map<const Vec3>(d->site_xpos + 3 * i));
+    for (int b = 0; b < m->nbody; ++b) p.bodies.push_back(Eigen::Map<const Vec3>(d->xpos + 3 * b));
+    return p;
+  };
+  const Poses plus = poses_at(eps), minus = poses_at(-eps);
+  std::copy(q0.begin(), q0.end(), d->qpos);
+  forward(s, sd);
+  auto diff = [&](const std::vector<Vec3>& a, const std::vector<Vec3>& b) {
+    std::vector<Vec3> v(a.size());
+    for (size_t i = 0; i < a.size(); ++i) v[i] = (a[i] - b[i]) / (2 * eps);
+    return v;
+  };
+  for (size_t r = 0; r < plus.rods.size(); ++r) shape.rods.push_back(diff(plus.rods[r], minus.rods[r]));
+  shape.sites = diff(plus.sites, minus.sites);
+  shape.bodies = diff(plus.bodies, minus.bodies);
+  // scale: the largest displacement to 1, its largest component positive (dq's largest entry where
+  // nothing moves, e.g. a rod's pure twist)
+  Vec3 largest = Vec3::Zero();
+  auto consider = [&](const std::vector<Vec3>& v) {
+    for (const Vec3& x : v)
+      if (x.norm() > largest.norm()) largest = x;
+  };
+  for (const auto& r : shape.rods) consider(r);
+  consider(shape.sites);
+  consider(shape.bodies);
+  int i = 0;
+  double scale = 0.0;
+  if (largest.norm() > 1e-9 * big) {
+    largest.cwiseAbs().maxCoeff(&i);
+    scale = (largest(i) < 0 ? -1.0 : 1.0) / largest.norm();
+  } else {
+    shape.dq.cwiseAbs().maxCoeff(&i);
+    scale = 1.0 / shape.dq(i);
+  }
+  shape.dq *= scale;
+  for (auto* v : {&shape.sites, &shape.bodies})
+    for (Vec3& x : *v) x *= scale;
+  for (auto& r : shape.rods)
+    for (Vec3& x : r) x *= scale;
+  return shape;
+}
+
 }  // namespace cosserat::mj

@@ -19,6 +19,7 @@
 
 #include <functional>
 #include <string>
+#include <vector>
 
 #include <Eigen/Core>
 
@@ -92,5 +93,18 @@ struct SceneLinearizeOptions {
 // are not linearised (the frequencies are those without them).
 using SceneLinearization = cosserat::Linearization;  // the core's: A, B, M, D, Kt, Bu, frequencies
 SceneLinearization linearize(const Scene& s, SceneData& sd, const SceneLinearizeOptions& opt = {});
+
+// The shape of mode k of L (from linearize at the current qpos; k in the order of L.omega2): the
+// direction dq = basis x_k in the tangent space of qpos, and the displacements it gives every
+// rod's centreline (`points` samples from base to tip), every site and every body (by id; the
+// world body's is 0), by central differences of the poses. Scaled so that the largest of those
+// displacements is 1 (dimensionless: the shape, not an amplitude), its largest component positive.
+struct ModeShape {
+  double omega2 = 0.0, frequency_hz = 0.0;
+  Eigen::VectorXd dq;
+  std::vector<std::vector<Vec3>> rods;
+  std::vector<Vec3> sites, bodies;
+};
+ModeShape mode_shape(const Scene& s, SceneData& sd, const SceneLinearization& L, int k, int points = 17);
 
 }  // namespace cosserat::mj

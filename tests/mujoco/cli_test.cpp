@@ -569,6 +569,35 @@ TEST_F(Cli, LinearizeHoldsEqualitiesRigidAndSaysWhatItLeavesOut) {
   EXPECT_EQ(free.out.find("held rigid"), std::string::npos) << free.out;
 }
 
+// linearize --modes N adds the first N mode shapes to the JSON, each scaled to a largest
+// displacement of 1 (the cantilever's first: sideways, out of the plane it sags in, largest at the
+// tip weight), at the frequencies listed; without --json it is refused.
+TEST_F(Cli, LinearizeWritesModeShapes) {
+  const std::string model = std::string(COSSERAT_SOURCE_DIR) + "/models/cantilever.xml";
+  const Result r = cosserat("linearize '" + model + "' --modes 3 --json -");
+  ASSERT_EQ(r.status, 0) << r.err;
+  const json j = json::parse(r.out);
+  ASSERT_EQ(j["modes"].size(), 3u);
+  for (int k = 0; k < 3; ++k) {
+    const json& m = j["modes"][k];
+    EXPECT_EQ(m["mode"], k + 1);
+    EXPECT_DOUBLE_EQ(m["frequency_hz"].get<double>(), j["frequencies_hz"][k].get<double>());
+    EXPECT_EQ(m["dq"].size(), j["nv"].get<size_t>());
+    ASSERT_EQ(m["rods"]["beam"].size(), 17u);
+    double largest = 0.0;
+    for (const auto* group : {&m["sites"], &m["bodies"]})
+      for (const auto& [name, v] : group->items()) largest = std::max(largest, std::hypot(v[0].get<double>(), v[1].get<double>(), v[2].get<double>()));
+    for (const auto& v : m["rods"]["beam"]) largest = std::max(largest, std::hypot(v[0].get<double>(), v[1].get<double>(), v[2].get<double>()));
+    EXPECT_NEAR(largest, 1.0, 1e-12) << k;
+    const json& base = m["rods"]["beam"][0];
+    EXPECT_NEAR(std::hypot(base[0].get<double>(), base[1].get<double>(), base[2].get<double>()), 0.0, 1e-12);  // clamped
+  }
+  EXPECT_NEAR(j["modes"][0]["bodies"]["weight"][1].get<double>(), 1.0, 1e-12);  // sideways, at the weight
+  const Result no_json = cosserat("linearize '" + model + "' --modes 2");
+  EXPECT_EQ(no_json.status, 1);
+  EXPECT_NE(no_json.err.find("--modes"), std::string::npos) << no_json.err;
+}
+
 TEST_F(Cli, EquilibriumWithKeyframeAndControls) {
   const fs::path m = scratch() / "motor.xml";
   std::ofstream(m) << R"(<mujoco><worldbody><body name="arm"><joint name="h" type="hinge" axis="0 -1 0" stiffness="2"/>

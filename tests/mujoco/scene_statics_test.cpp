@@ -595,6 +595,54 @@ TEST(SceneStatics, AClampedRodPinnedByAConnectHasTheClampedPinnedFrequencies) {
   EXPECT_NEAR(free.frequencies_hz(0) / hz(1.87510407), 1.0, 1e-3);
 }
 
+// Mode shapes (mode_shape): the centreline displacement of a clamped-free rod's first three modes,
+// and of the clamped-pinned rod's (its tip pinned by a `connect`, held rigid), against
+// Euler-Bernoulli's phi(x) = cosh bx - cos bx - sigma (sinh bx - sin bx), sigma = (cosh bL + cos bL)
+// / (sinh bL + sin bL) clamped-free and (cosh bL - cos bL) / (sinh bL - sin bL) clamped-pinned,
+// both scaled to a largest displacement of 1 over the same 17 points.
+TEST(SceneStatics, ModeShapesAreEulerBernoullis) {
+  const std::string rod = R"(<mujoco><option gravity="0 0 0"/><worldbody>
+    <cosserat name="b" length="1" sections="4" order="4" dofs="0 0 1 0 0 0" radius="0.005" density="1000"
+              young="1e9" poisson="0.5">
+      <body name="tip"><inertial pos="0 0 0" mass="1e-9" diaginertia="1e-15 1e-15 1e-15"/></body></cosserat>
+    </worldbody>)";
+  for (const bool pinned : {false, true}) {
+    SCOPED_TRACE(pinned ? "clamped-pinned" : "clamped-free");
+    auto s = load_scene_string(
+        rod + (pinned ? R"(<equality><connect body1="tip" anchor="0 0 0"/></equality></mujoco>)" : "</mujoco>"), kPath);
+    SceneData sd(*s);
+    ASSERT_TRUE(equilibrium(*s, sd).converged);
+    const SceneLinearization lin = linearize(*s, sd);
+    const double cf[3] = {1.87510407, 4.69409113, 7.85475744}, cp[3] = {3.92660231, 7.06858275, 10.21017612};
+    for (int k = 0; k < 3; ++k) {
+      SCOPED_TRACE(k + 1);
+      const double b = pinned ? cp[k] : cf[k];
+      const double sigma = pinned ? (std::cosh(b) - std::cos(b)) / (std::sinh(b) - std::sin(b))
+                                  : (std::cosh(b) + std::cos(b)) / (std::sinh(b) + std::sin(b));
+      const ModeShape shape = mode_shape(*s, sd, lin, k, 17);
+      EXPECT_DOUBLE_EQ(shape.frequency_hz, lin.frequencies_hz(k));
+      ASSERT_EQ(shape.rods.size(), 1u);
+      ASSERT_EQ(shape.rods[0].size(), 17u);
+      std::vector<double> ref(17);
+      double top = 0.0;
+      for (int i = 0; i < 17; ++i) {
+        const double x = b * i / 16.0;
+        ref[i] = std::cosh(x) - std::cos(x) - sigma * (std::sinh(x) - std::sin(x));
+        top = std::abs(ref[i]) > std::abs(top) ? ref[i] : top;
+      }
+      double largest = 0.0, sign = 0.0;
+      for (int i = 0; i < 17; ++i)
+        if (std::abs(shape.rods[0][i].y()) > largest) largest = std::abs(shape.rods[0][i].y()), sign = shape.rods[0][i].y() * top;
+      EXPECT_NEAR(largest, 1.0, 1e-9);  // scaled to 1, in the bending plane
+      for (int i = 0; i < 17; ++i) {
+        EXPECT_NEAR(shape.rods[0][i].y(), (sign > 0 ? 1 : -1) * ref[i] / std::abs(top), 2e-3) << "point " << i;
+        EXPECT_NEAR(shape.rods[0][i].z(), 0.0, 1e-9);
+      }
+      EXPECT_NEAR(shape.bodies[body(*s, "tip")].norm(), pinned ? 0.0 : 1.0, 1e-3);
+    }
+  }
+}
+
 // A column pinned at its foot (a hinge) and at its top, where a `connect` joins its tip to a load
 // on a vertical slide: the compression is a constraint force. Its stiffness enters the held-rigid
 // linearisation, omega_1^2(P) / omega_1^2(0) = 1 - P / P_cr (the pinned-pinned beam's mode does not
