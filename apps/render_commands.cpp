@@ -26,6 +26,7 @@
 #include "png_io.hpp"
 #include "renderer.hpp"
 #include "scene.hpp"
+#include "scene_statics.hpp"
 #include "video.hpp"
 
 namespace {
@@ -161,23 +162,81 @@ int guarded(const std::function<int()>& body) {
   return 1;
 }
 
+// `render --mode K`: the frames of one cycle of mode K at the static equilibrium of the scene's
+// initial state (the physics, equilibrium, linearisation and mode shape, is the coupling's; the
+// frames only pose the scene along the mode and draw it).
+int render_mode(Simulation& sim, const PictureOptions& o, int mode, double amplitude, long frames, const std::string& video) {
+  const mj::Scene& s = *sim.scene;
+  mj::SceneData& sd = *sim.data;
+  const mjModel* m = s.m;
+  const mj::SceneStaticsResult eq = mj::equilibrium(s, sd);
+  if (!eq.converged) fail("--mode: no static equilibrium to linearise about: " + eq.message);
+  const mj::SceneLinearization lin = mj::linearize(s, sd);
+  if (mode > lin.omega2.size())
+    fail("--mode " + std::to_string(mode) + ": the linearisation has " + std::to_string(lin.omega2.size()) + " modes");
+  const mj::ModeShape shape = mj::mode_shape(s, sd, lin, mode - 1);
+  if (amplitude == 0.0) {
+    amplitude = 0.05;
+    for (const auto& r : s.rods) amplitude = std::max(amplitude, 0.1 * r.model.rods.front().length);
+  }
+  const std::vector<mjtNum> q0(sd.d->qpos, sd.d->qpos + m->nq);
+  auto pose = [&](double phase) {
+    std::copy(q0.begin(), q0.end(), sd.d->qpos);
+    mj_integratePos(m, sd.d->qpos, shape.dq.data(), amplitude * std::sin(phase));
+    mju_zero(sd.d->qvel, m->nv);
+    mj::fwd_position(s, sd);
+  };
+  rd::Renderer renderer(s, o.render);
+  std::error_code ec;
+  fs::create_directories(o.out, ec);
+  if (!fs::is_directory(o.out)) fail("--out: cannot create directory " + o.out + (ec ? " (" + ec.message() + ")" : ""));
+  if (renderer.free_camera() && o.render.camera.track.empty()) {  // framed on the cycle's extremes
+    rd::Extent e;
+    for (const double phase : {0.0, M_PI / 2, -M_PI / 2}) {
+      pose(phase);
+      e.add(rd::scene_extent(s, sd, renderer.option()));
+    }
+    renderer.frame(e);
+  }
+  rd::remove_frames(o.out);
+  Progress progress("render", frames, "frame");
+  for (long k = 0; k < frames; ++k) {
+    pose(2 * M_PI * static_cast<double>(k) / static_cast<double>(frames));
+    rd::write_png(rd::frame_path(o.out, static_cast<int>(k)), renderer.render(sd));
+    progress.update(k + 1, 0.0);
+  }
+  progress.clear();
+  if (!video.empty()) rd::encode_video(o.out, 30.0, video);
+  std::printf("render: mode %d (%s) at the equilibrium, amplitude %g m: %ld frames %dx%d in %s%s\n", mode,
+              shape.omega2 < 0 ? ("unstable, omega^2 = " + format(shape.omega2) + " 1/s^2").c_str()
+                               : (format(shape.frequency_hz) + " Hz").c_str(),
+              amplitude, frames, renderer.width(), renderer.height(), o.out.c_str(), video.empty() ? "" : (", video " + video).c_str());
+  return 0;
+}
+
 }  // namespace
 
 int render_command(int argc, char** argv) {
   return guarded([&] {
     PictureOptions o;
-    double duration = 1.0, fps = 30.0;
+    double duration = 1.0, fps = 30.0, amplitude = 0.0;
+    int mode = 0;
     std::string video;
     CommandLine cl{"render",
                    "simulate and write frames DIR/frame_00000.png ... at t = k/fps, k = 0 .. duration*fps - 1",
                    {"MODEL.xml"},
                    {},
                    "Frames left in DIR by an earlier render are removed first. Rendering is headless (OSMesa):\n"
-                   "no display is needed. A progress bar is shown when stderr is a terminal.\n",
+                   "no display is needed. A progress bar is shown when stderr is a terminal.\n"
+                   "With --mode K the frames animate mode K of the linearisation at the static equilibrium\n"
+                   "(`cosserat linearize`) instead: one cycle, q = q_eq + A sin(2 pi k / frames) x_K, over the\n"
+                   "duration * fps frames (the time step and integrator serve the equilibrium's relaxation).\n",
                    "MODEL.xml --out DIR [options]"};
     cl.options.push_back(text_option("--out", "DIR", "directory of the frames (created)", o.out));
     cl.options.push_back(positive_option("--duration", "T", "simulated time [s] (default 1)", duration));
     cl.options.push_back(positive_option("--fps", "F", "frames per simulated second (default 30)", fps));
+    cl.options.push_back(int_option("--mode", "K", "animate mode K (1: the lowest) at the static equilibrium instead of simulating", mode, 1));
+    cl.options.push_back(positive_option("--amplitude", "A", "--mode: the largest displacement [m] (default: a tenth of the longest rod, else 0.05)", amplitude));
     cl.options.push_back(text_option("--video", "F.mp4", "also encode the frames into a video with ffmpeg (must be installed)", video));
     o.add_to(cl);
     const auto pos = cl.parse(argc - 1, argv + 1);  // after the command name
@@ -203,7 +262,9 @@ int render_command(int argc, char** argv) {
     }
     check_writable("--video", video);
 
+    if (amplitude > 0 && mode == 0) fail("--amplitude is the amplitude of --mode K's animation: give --mode too");
     Simulation sim((*pos)[0], o);
+    if (mode > 0) return render_mode(sim, o, mode, amplitude, frames, video);
     const double h = sim.scene->m->opt.timestep;
     step_count((frames - 1) / fps, h, "--duration");  // before any frame is written
     if (frames > 1 && fps * h > 1.0 + 1e-9)  // frames closer than a step: repeated pictures, or none at all

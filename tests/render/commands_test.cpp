@@ -83,6 +83,30 @@ TEST_F(CommandsTest, RenderWritesDurationTimesFpsFramesNumberedWithoutGaps) {
   EXPECT_EQ(frames_in(dir / "b"), (std::vector<std::string>{"frame_00000.png", "frame_00001.png", "frame_00002.png"}));
 }
 
+// render --mode K animates mode K at the static equilibrium: one cycle over the frames, the first
+// and the half-cycle at the equilibrium, the quarter and three-quarter cycles on either side.
+TEST_F(CommandsTest, RenderModeAnimatesOneCycleOfAMode) {
+  testing::internal::CaptureStdout();
+  ASSERT_EQ(run(render_command, {"render", kModels + "cantilever.xml", "--out", (dir / "m").string(), "--mode", "2",
+                                 "--duration", "0.4", "--fps", "10", "--width", "160", "--height", "120", "--amplitude", "0.1"}),
+            0);
+  const std::string out = testing::internal::GetCapturedStdout();
+  EXPECT_NE(out.find("mode 2 (2.28"), std::string::npos) << out;  // linearize's second frequency
+  ASSERT_EQ(frames_in(dir / "m").size(), 4u);
+  const std::string f0 = bytes(dir / "m" / "frame_00000.png"), f1 = bytes(dir / "m" / "frame_00001.png"),
+                    f2 = bytes(dir / "m" / "frame_00002.png"), f3 = bytes(dir / "m" / "frame_00003.png");
+  EXPECT_NE(f0, f1);
+  EXPECT_NE(f1, f3);
+  EXPECT_NE(f0, f3);
+  EXPECT_EQ(f0, f2);  // sin(pi) A: 1e-17 m off the equilibrium
+  EXPECT_NE(failure(render_command, {"render", kModels + "cantilever.xml", "--out", (dir / "n").string(), "--amplitude", "0.1"})
+                .find("--amplitude"),
+            std::string::npos);
+  EXPECT_NE(failure(render_command, {"render", kModels + "cantilever.xml", "--out", (dir / "n").string(), "--mode", "1000"})
+                .find("modes"),
+            std::string::npos);
+}
+
 TEST_F(CommandsTest, TwoRunsOfTheSameCommandGiveIdenticalImages) {
   for (const char* run_dir : {"one", "two"})
     ASSERT_EQ(run(render_command, {"render", kModels + "octopus_arm.xml", "--out", (dir / run_dir).string(), "--duration",
