@@ -573,8 +573,14 @@ int load_bearing_rows(const mjData* d) {
 }
 
 // The full residual at rest: |M qacc| = |qfrc_smooth + qfrc_constraint|, after forward().
+// `negligible`: a force below which nothing counts, 1e-12 of the largest of the rods' elastic
+// forces at unit strain, the joints' and tendons' springs' at unit stretch and the weight's scale,
+// or the force of a violation of 1e-15 of the model's extent in the stiffest constraint row
+// (k imp / R, MuJoCo's soft rows at rest), whichever is larger: where every force vanishes (an unloaded rod welded where it lies) the scale goes
+// to zero with them, and a weld's round-off (2e-16 m, 1e-12 N) had counted as a load and as a
+// residual of order 1 that no relaxation brings down (outside probe AH).
 struct FullResidual {
-  double force = 0.0, constraint = 0.0, scale = 1e-300;
+  double force = 0.0, constraint = 0.0, scale = 1e-300, negligible = 0.0;
 };
 FullResidual full_residual(const Scene& s, SceneData& sd) {
   const mjModel* m = s.m;
@@ -590,8 +596,17 @@ FullResidual full_residual(const Scene& s, SceneData& sd) {
   const VectorXd rods = rods_passive(s, sd);
   // the weight's scale: gravity's generalised force vanishes at a hanging equilibrium (outside
   // probe AG: a rigid double pendulum's relaxation stayed at residual 1)
-  r.scale = std::max({rods.norm(), (passive - rods).norm(), (smooth - passive).norm(), r.constraint,
-                      weight_force_scale(s, d, m->opt.gravity), 1e-300});
+  const double weight = weight_force_scale(s, d, m->opt.gravity);
+  r.scale = std::max({rods.norm(), (passive - rods).norm(), (smooth - passive).norm(), r.constraint, weight, 1e-300});
+  double stiffness = weight;
+  for (const auto& rb : s.rods)
+    if (rb.model.K.size()) stiffness = std::max(stiffness, rb.model.K.diagonal().cwiseAbs().maxCoeff());
+  for (int j = 0; j < m->njnt; ++j) stiffness = std::max(stiffness, m->jnt_stiffness[j]);
+  for (int t = 0; t < m->ntendon; ++t) stiffness = std::max(stiffness, m->tendon_stiffness[t]);
+  double rows = 0.0;  // the force of a round-off violation, 1e-15 of the extent, of the stiffest row
+  for (int i = 0; i < d->nefc; ++i)
+    if (d->efc_R[i] > 0) rows = std::max(rows, d->efc_KBIP[4 * i] * d->efc_KBIP[4 * i + 2] / d->efc_R[i]);
+  r.negligible = std::max(1e-12 * stiffness, 1e-15 * rows * std::max(m->stat.extent, 1e-3));
   return r;
 }
 
@@ -651,6 +666,50 @@ double kinetic_energy(const Scene& s, SceneData& sd) {
   return 0.5 * mju_dot(Mv.data(), sd.d->qvel, s.m->nv);
 }
 
+// Whether the straight path in configuration space from q0 to q1 opens an equality constraint
+// wider on the way than at either end: some equality row's violation at one of 17 samples along
+// it (at fractions k/18, which no whole number of turns lines up with) beyond both ends' by 1e-6 of
+// the model's extent (or radians). The smooth solution ignores the constraints: outside probe AG's
+// rod twisted 27 turns between a clamp and a weld untwists in it, through the weld, which sees
+// whole turns as closed at both ends. Leaves qpos at q1; `where` gets the path fraction.
+bool path_opens_equality(const Scene& s, SceneData& sd, const std::vector<mjtNum>& q0, const std::vector<mjtNum>& q1,
+                         double& where) {
+  const mjModel* m = s.m;
+  mjData* d = sd.d;
+  if (m->neq == 0) return false;
+  auto violations = [&](const std::vector<mjtNum>& q) {
+    mju_copy(d->qpos, q.data(), m->nq);
+    fwd_position(s, sd, Need::SmoothStaticForces);
+    std::vector<RowKey> keys = row_keys(d);
+    std::vector<std::pair<RowKey, double>> v;
+    for (int i = 0; i < d->nefc; ++i)
+      if (d->efc_type[i] == mjCNSTR_EQUALITY) v.emplace_back(keys[i], std::abs(d->efc_pos[i]));
+    return v;
+  };
+  const auto v0 = violations(q0), v1 = violations(q1);
+  const double tol = 1e-6 * std::max(m->stat.extent, 1e-3);
+  std::vector<mjtNum> dq(m->nv), q(m->nq);
+  mj_differentiatePos(m, dq.data(), 1.0, q0.data(), q1.data());
+  bool opens = false;
+  for (int k = 1; k <= 17 && !opens; ++k) {
+    q = q0;
+    mj_integratePos(m, q.data(), dq.data(), k / 18.0);
+    for (const auto& [key, v] : violations(q)) {
+      double ends = 0.0;
+      for (const auto* e : {&v0, &v1})
+        for (const auto& [k2, w] : *e)
+          if (k2 == key) ends = std::max(ends, w);
+      if (v > ends + tol) {
+        opens = true;
+        where = k / 18.0;
+        break;
+      }
+    }
+  }
+  mju_copy(d->qpos, q1.data(), m->nq);
+  return opens;
+}
+
 // Dynamic relaxation with kinetic damping from qpos = q_start: the scene's own dynamics, with all
 // velocities zeroed whenever the kinetic energy passes a peak; converged when |M qacc| at rest is
 // below the tolerance. Contacts, limits and equality constraints take part exactly as in a run.
@@ -695,7 +754,7 @@ bool relax(const Scene& s, SceneData& sd, const std::vector<mjtNum>& q_start, co
       const FullResidual r = full_residual(s, sd);
       res.residual = r.force / r.scale;
       res.scale = r.scale;
-      converged = res.residual <= opt.relaxation_tolerance;
+      converged = res.residual <= opt.relaxation_tolerance || r.force <= r.negligible;
       ke_prev = 0.0;
     } else {
       ke_prev = ke;
@@ -728,13 +787,32 @@ SceneStaticsResult equilibrium(const Scene& s, SceneData& sd, const SceneStatics
   const mjModel* m = s.m;
   mjData* d = sd.d;
   SceneStaticsResult res;
-  for (int j = 0; j < m->njnt; ++j)
-    if (m->jnt_type[j] == mjJNT_FREE) {
-      res.message = "a free-floating body has no static equilibrium";
-      mju_zero(d->qvel, m->nv);
-      forward(s, sd);
-      return res;
-    }
+  // A free body has an equilibrium only where something holds it: an equality constraint on its
+  // subtree, or, under gravity, a contact (a box on a table); otherwise it floats or falls for ever
+  // (a swimmer). (Outside probe AH: a box hanging from a `connect` on its free joint was refused.)
+  auto in_subtree = [m](int b, int root) {
+    for (; b > 0; b = m->body_parentid[b])
+      if (b == root) return true;
+    return false;
+  };
+  const bool gravity = !(m->opt.disableflags & mjDSBL_GRAVITY) && mju_norm3(m->opt.gravity) > 0;
+  for (int j = 0; j < m->njnt; ++j) {
+    if (m->jnt_type[j] != mjJNT_FREE) continue;
+    const int b = m->jnt_bodyid[j];
+    bool held = false;
+    for (int e = 0; e < m->neq && !held; ++e)
+      if (m->eq_type[e] == mjEQ_CONNECT || m->eq_type[e] == mjEQ_WELD)
+        held = in_subtree(m->eq_obj1id[e], b) || in_subtree(m->eq_obj2id[e], b);
+    for (int g = 0; g < m->ngeom && !held; ++g)
+      held = gravity && s.may_collide && (m->geom_contype[g] || m->geom_conaffinity[g]) && in_subtree(m->geom_bodyid[g], b);
+    if (held) continue;
+    const char* name = mj_id2name(m, mjOBJ_BODY, b);
+    res.message = std::string("a free-floating body has no static equilibrium: '") + (name ? name : "?") +
+                  "' (free joint) is held by no weld or connect" + (gravity ? " and touches nothing" : "");
+    mju_zero(d->qvel, m->nv);
+    forward(s, sd);
+    return res;
+  }
   const std::vector<mjtNum> q_start(d->qpos, d->qpos + m->nq);
   UnstableState unstable;
   {
@@ -745,26 +823,34 @@ SceneStaticsResult equilibrium(const Scene& s, SceneData& sd, const SceneStatics
   // the smooth solution ignores constraint forces: check that none is needed there, and that the
   // way there does not pass through a support
   double where = 0.0;
-  const bool through = res.converged && path_runs_into_contact(s, sd, q_start, std::vector<mjtNum>(d->qpos, d->qpos + m->nq), where);
+  const std::vector<mjtNum> q_smooth(d->qpos, d->qpos + m->nq);
+  const bool through = res.converged && path_runs_into_contact(s, sd, q_start, q_smooth, where);
+  double where_open = 0.0;
+  const bool opens = res.converged && !through && path_opens_equality(s, sd, q_start, q_smooth, where_open);
   mju_zero(d->qvel, m->nv);
   forward(s, sd);
   const FullResidual r = full_residual(s, sd);
   res.constraint_rows = load_bearing_rows(d);
-  const bool constrained = res.constraint_rows > 0 && r.constraint > std::max(1e-8, 100 * opt.tolerance) * r.scale;
-  if (res.converged && !constrained && !through) return res;
+  const bool constrained =
+      res.constraint_rows > 0 && r.constraint > std::max(std::max(1e-8, 100 * opt.tolerance) * r.scale, r.negligible);
+  if (res.converged && !constrained && !through && !opens) return res;
   const std::string why =
       constrained ? std::to_string(res.constraint_rows) +
                         " constraint rows (contacts, limits, equalities) carry load at the smooth equilibrium, which "
                         "ignores them"
       : through ? "the way from the start to the smooth equilibrium, which ignores contacts, runs into a contact (at " +
                       std::to_string(static_cast<int>(std::lround(100 * where))) + "% of the way)"
-                : "Newton failed (" + res.message + ")";
+      : opens ? "the way from the start to the smooth equilibrium, which ignores equality constraints, opens one (at " +
+                    std::to_string(static_cast<int>(std::lround(100 * where_open))) + "% of the way)"
+              : "Newton failed (" + res.message + ")";
   res.converged = false;
   if (!opt.relaxation) {
     res.message = why;
     return res;
   }
-  const std::vector<mjtNum> q_newton(d->qpos, d->qpos + m->nq);  // Newton's last converged load step
+  // Newton's last converged load step, reported if the relaxation fails; not where its way there
+  // passed through a contact or an equality constraint (the start then)
+  const std::vector<mjtNum> q_newton = through || opens ? q_start : std::vector<mjtNum>(d->qpos, d->qpos + m->nq);
   // The relaxation starts from the user's state; if that state is itself an unstable equilibrium
   // under the full loads (a straight column above its buckling load: the symmetric start's
   // dynamics leave it only as fast as round-off grows, a heavy column at 1.25 times its load not
@@ -881,6 +967,40 @@ SceneLinearization linearize(const Scene& s, SceneData& sd, const SceneLinearize
 
   state_space(L);
   return L;
+}
+
+std::vector<std::string> open_equalities(const Scene& s, const SceneData& sd) {
+  const mjModel* m = s.m;
+  const mjData* d = sd.d;
+  const std::vector<RowKey> keys = row_keys(d);
+  std::vector<double> gap(m->neq, 0.0);
+  std::vector<char> angle(m->neq, 0);
+  const double length = 1e-3 * std::max(m->stat.extent, 1e-3);
+  for (int i = 0; i < d->nefc; ++i) {
+    if (d->efc_type[i] != mjCNSTR_EQUALITY) continue;
+    const int e = d->efc_id[i];
+    const bool rotation = (m->eq_type[e] == mjEQ_WELD && keys[i].row >= 3) ||
+                          (m->eq_type[e] == mjEQ_JOINT && m->jnt_type[m->eq_obj1id[e]] != mjJNT_SLIDE);
+    const double v = std::abs(d->efc_pos[i]) / (rotation ? 1e-3 : length);  // in units of the tolerance
+    if (v > gap[e]) gap[e] = v, angle[e] = rotation;
+  }
+  std::vector<std::string> out;
+  for (int e = 0; e < m->neq; ++e) {
+    if (gap[e] <= 1.0) continue;
+    const char* name = mj_id2name(m, mjOBJ_EQUALITY, e);
+    const char* type = m->eq_type[e] == mjEQ_CONNECT ? "connect"
+                       : m->eq_type[e] == mjEQ_WELD  ? "weld"
+                       : m->eq_type[e] == mjEQ_JOINT ? "joint"
+                       : m->eq_type[e] == mjEQ_TENDON ? "tendon"
+                                                      : "distance";
+    char buf[160];
+    std::snprintf(buf, sizeof buf, "equality constraint %s%s%s (%s) is open by %.3g %s", name && *name ? "'" : "#",
+                  name && *name ? name : std::to_string(e).c_str(), name && *name ? "'" : "", type,
+                  gap[e] * (angle[e] ? 1e-3 : length),
+                  angle[e] ? "rad" : m->eq_type[e] == mjEQ_TENDON ? "(the tendon's length units)" : "m");
+    out.push_back(buf);
+  }
+  return out;
 }
 
 ModeShape mode_shape(const Scene& s, SceneData& sd, const SceneLinearization& L, int k, int points) {

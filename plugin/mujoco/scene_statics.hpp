@@ -94,6 +94,13 @@ struct SceneLinearizeOptions {
 using SceneLinearization = cosserat::Linearization;  // the core's: A, B, M, D, Kt, Bu, frequencies
 SceneLinearization linearize(const Scene& s, SceneData& sd, const SceneLinearizeOptions& opt = {});
 
+// The equality constraints that are open at the current state (after forward()): a row's
+// violation beyond 1e-3 of the model's extent, or 1e-3 rad for a weld's rotation and a joint
+// equality on hinges or balls. MuJoCo's constraints are soft (solref, solimp, and the inverse
+// weights of what they join: a light rod's weld can open by centimetres under load); linearize
+// holds them rigid where they are. One line per constraint, naming it and the gap.
+std::vector<std::string> open_equalities(const Scene& s, const SceneData& sd);
+
 // The shape of mode k of L (from linearize at the current qpos; k in the order of L.omega2): the
 // direction dq = basis x_k in the tangent space of qpos, and the displacements it gives every
 // rod's centreline (`points` samples from base to tip), every site and every body (by id; the
