@@ -666,7 +666,7 @@ int cmd_linearize(int argc, char** argv) {
                  "Equality constraints (weld, connect, joint, tendon) are held rigid: the form is then in the\n"
                  "coordinates y of the motions they leave free, dq = basis y, and K includes the stiffness of\n"
                  "the loads they carry. Contacts and limits are left out (a warning says when they carry load).\n"};
-  cl.options.push_back(text_option("--json", "F", "write {frequencies_hz: [ascending], damping_ratios, omega2, unstable_modes, ...} ('-': stdout)", json_path));
+  cl.options.push_back(text_option("--json", "F", "write {frequencies_hz: [ascending], damping_ratios, omega2, unstable_modes, nv, coordinates, equality_rows, equilibrium, warnings, ...} ('-': stdout)", json_path));
   cl.options.push_back(flag_option("--matrices", "include M, D, K and Bu in the JSON (and the basis of the coordinates)", matrices));
   mj::SceneLinearizeOptions lopt;
   bool without_equalities = false;
