@@ -589,11 +589,12 @@ struct Equilibrium {
   std::unique_ptr<mj::SceneData> data;
   mj::SceneStaticsResult result;
 
-  Equilibrium(const std::string& path, const StateOptions& state)
+  Equilibrium(const std::string& path, const StateOptions& state, double relaxation_time = 30.0)
       : scene(load(path)), data(std::make_unique<mj::SceneData>(*scene)) {
     state.apply(*scene, *data);
     Progress progress("equilibrium", 1);
     mj::SceneStaticsOptions opt;
+    opt.relaxation_time = relaxation_time;
     opt.progress = [&progress](const std::string& where) { progress.note(where); };
     try {
       result = mj::equilibrium(*scene, *data, opt);
@@ -628,11 +629,15 @@ int cmd_equilibrium(int argc, char** argv) {
                  "rows carry load, stability is judged with them held rigid (contacts as pins).\n"
                  "Exit status 1 when no equilibrium is found.\n"};
   cl.options.push_back(text_option("--json", "F", "write {converged, iterations, residual, sites, bodies, ...} ('-': stdout)", json_path));
+  double relaxation_time = 30.0;
+  cl.options.push_back(positive_option("--relaxation-time", "T",
+                                       "simulated time [s] the dynamic relaxation may take before it gives up (default 30)",
+                                       relaxation_time));
   state.add_to(cl);
   const auto pos = cl.parse(argc, argv);
   if (!pos) return 0;
   check_writable("--json", json_path);
-  const Equilibrium eq(pos->front(), state);
+  const Equilibrium eq(pos->front(), state, relaxation_time);
   const Outputs out = named_outputs(*eq.scene);
   if (!json_path.empty()) {
     json j = eq.report();
@@ -670,6 +675,10 @@ int cmd_linearize(int argc, char** argv) {
   cl.options.push_back(flag_option("--matrices", "include M, D, K and Bu in the JSON (and the basis of the coordinates)", matrices));
   mj::SceneLinearizeOptions lopt;
   bool without_equalities = false;
+  double relaxation_time = 30.0;
+  cl.options.push_back(positive_option("--relaxation-time", "T",
+                                       "simulated time [s] the equilibrium's dynamic relaxation may take (default 30)",
+                                       relaxation_time));
   int modes = 0;
   cl.options.push_back(int_option("--modes", "N",
                                   "add the first N mode shapes to the JSON: dq, and the displacements of every rod's "
@@ -684,7 +693,7 @@ int cmd_linearize(int argc, char** argv) {
   check_writable("--json", json_path);
   if (modes > 0 && json_path.empty()) fail("--modes: the mode shapes go into the JSON: give --json F too");
   lopt.rigid_equalities = !without_equalities;
-  const Equilibrium eq(pos->front(), state);
+  const Equilibrium eq(pos->front(), state, relaxation_time);
   if (!eq.result.converged) fail("no static equilibrium to linearise about: " + eq.result.message);
   const mj::SceneLinearization lin = [&] {
     try {

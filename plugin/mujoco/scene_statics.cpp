@@ -763,8 +763,10 @@ bool relax(const Scene& s, SceneData& sd, const std::vector<mjtNum>& q_start, co
   d->time = t0;
   mju_zero(d->qvel, s.m->nv);
   if (!converged && res.message.empty()) {
-    char buf[160];
-    std::snprintf(buf, sizeof buf, "dynamic relaxation did not settle within %g s of simulated time (residual %.3g, target %g)",
+    char buf[320];
+    std::snprintf(buf, sizeof buf,
+                  "dynamic relaxation did not settle within %g s of simulated time (residual %.3g, target %g; "
+                  "SceneStaticsOptions::relaxation_time, the command line's --relaxation-time, allows more)",
                   opt.relaxation_time, res.residual, opt.relaxation_tolerance);
     res.message = buf;
   }

@@ -587,6 +587,25 @@ TEST_F(Cli, LinearizeWarnsOfAnOpenEqualityItHoldsRigid) {
   }
 }
 
+// equilibrium --relaxation-time T bounds the dynamic relaxation's simulated time, and the failure
+// names the option (a soft structure, such as a long twisted rod, needs more than the default 30 s).
+TEST_F(Cli, EquilibriumRelaxationTimeIsAnOption) {
+  const fs::path model = scratch() / "box.xml";
+  std::ofstream(model) << R"(<mujoco><option gravity="0 0 -9.81" timestep="0.002"/><worldbody>
+    <geom type="plane" size="1 1 0.1"/>
+    <body name="box" pos="0 0 0.2"><freejoint/><geom type="box" size="0.1 0.1 0.05" mass="1"/></body>
+    </worldbody></mujoco>)";
+  const Result ok = cosserat("equilibrium '" + model.string() + "'");
+  EXPECT_EQ(ok.status, 0) << ok.err;
+  const Result short_ = cosserat("equilibrium '" + model.string() + "' --relaxation-time 0.01");
+  EXPECT_EQ(short_.status, 1);
+  EXPECT_NE(short_.err.find("did not settle within 0.01 s"), std::string::npos) << short_.err;
+  EXPECT_NE(short_.err.find("--relaxation-time"), std::string::npos) << short_.err;
+  EXPECT_NE(cosserat("linearize '" + model.string() + "' --relaxation-time 0.01").err.find("--relaxation-time"),
+            std::string::npos);
+  EXPECT_EQ(cosserat("equilibrium '" + model.string() + "' --relaxation-time 0").status, 1);
+}
+
 // linearize --modes N adds the first N mode shapes to the JSON, each scaled to a largest
 // displacement of 1 (the cantilever's first: sideways, out of the plane it sags in, largest at the
 // tip weight), at the frequencies listed; without --json it is refused.
