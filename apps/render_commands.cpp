@@ -207,10 +207,11 @@ int render_mode(Simulation& sim, const PictureOptions& o, int mode, double ampli
   }
   progress.clear();
   if (!video.empty()) rd::encode_video(o.out, 30.0, video);
-  std::printf("render: mode %d (%s) at the equilibrium, amplitude %g m: %ld frames %dx%d in %s%s\n", mode,
+  std::printf("render: mode %d (%s) at the equilibrium, amplitude %g %s: %ld frames %dx%d in %s%s\n", mode,
               shape.omega2 < 0 ? ("unstable, omega^2 = " + format(shape.omega2) + " 1/s^2").c_str()
                                : (format(shape.frequency_hz) + " Hz").c_str(),
-              amplitude, frames, renderer.width(), renderer.height(), o.out.c_str(), video.empty() ? "" : (", video " + video).c_str());
+              amplitude, shape.displaces ? "m" : "in its largest coordinate (it moves no rod centreline, site or body)",
+              frames, renderer.width(), renderer.height(), o.out.c_str(), video.empty() ? "" : (", video " + video).c_str());
   return 0;
 }
 

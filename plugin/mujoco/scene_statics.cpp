@@ -57,8 +57,11 @@ VectorXd rods_passive(const Scene& s, const SceneData& sd) {
 
 // Which constraint rows an analysis with constraints held rigid holds: the equality constraints'
 // (welds, connects, joint and tendon couplings), or every row that can carry load at rest: the
-// equalities, the limits that act, and every row of a contact one of whose rows acts (its point
-// then held to the other geom with its friction, a pin; friction loss only resists motion).
+// equalities, the limits that act, and every row of every contact (its point then held to the
+// other geom with its friction, a pin; friction loss only resists motion). A contact at exactly
+// zero distance carries no force, but holds all the same: outside probe AI's capsule lying on a
+// floor at exactly its radius had one end's contact held and the other free, and pivoting about the
+// held end into the floor read as unstable.
 enum class Held { Equalities, Loaded };
 
 bool is_contact(int type) {
@@ -93,16 +96,12 @@ std::vector<RowKey> row_keys(const mjData* d) {
 
 // The rows `held` holds after an evaluation (their indices).
 std::vector<int> held_rows(const mjData* d, Held held) {
-  std::vector<char> contact_acts(d->ncon, 0);
-  for (int i = 0; i < d->nefc; ++i)
-    if (is_contact(d->efc_type[i]) && d->efc_state[i] != mjCNSTRSTATE_SATISFIED) contact_acts[d->efc_id[i]] = 1;
   std::vector<int> rows;
   for (int i = 0; i < d->nefc; ++i) {
     const int t = d->efc_type[i];
     const bool hold = t == mjCNSTR_EQUALITY ||
-                      (held == Held::Loaded && (is_contact(t) ? contact_acts[d->efc_id[i]] != 0
-                                                : (t == mjCNSTR_LIMIT_JOINT || t == mjCNSTR_LIMIT_TENDON) &&
-                                                      d->efc_state[i] != mjCNSTRSTATE_SATISFIED));
+                      (held == Held::Loaded && (is_contact(t) || ((t == mjCNSTR_LIMIT_JOINT || t == mjCNSTR_LIMIT_TENDON) &&
+                                                                  d->efc_state[i] != mjCNSTRSTATE_SATISFIED)));
     if (hold) rows.push_back(i);
   }
   return rows;
@@ -467,7 +466,13 @@ bool stable_equilibrium(StaticProblem& p, const Scene& s, SceneData& sd, double 
   if (es.info() != Eigen::Success) return true;  // M not positive definite: no verdict
   const VectorXd& w = es.eigenvalues();
   omega2_min = w(0);
-  for (int i = 0; i < w.size() && w(i) < 0; ++i)
+  // under gravity, a fall slower than an e-folding time of 1000 sqrt(extent / g) is no instability
+  // to act on: outside probe AI's capsule lying on a floor, held at one contact, had a neutral
+  // direction at omega^2 = -1e-7 1/s^2, the noise of a stiffness that is all noise there (no
+  // elastic forces, gravity's constant), and was reported unstable
+  const bool gravity = !(s.m->opt.disableflags & mjDSBL_GRAVITY);
+  const double slowest = gravity ? 1e-6 * mju_norm3(s.m->opt.gravity) / std::max(s.m->stat.extent, 1e-6) : 0.0;
+  for (int i = 0; i < w.size() && w(i) < -slowest; ++i)
     if (cosserat::unstable_mode(es.eigenvectors().col(i), Ks, M)) {
       if (mode) *mode = N * es.eigenvectors().col(i);
       return false;
@@ -573,14 +578,17 @@ int load_bearing_rows(const mjData* d) {
 }
 
 // The full residual at rest: |M qacc| = |qfrc_smooth + qfrc_constraint|, after forward().
-// `negligible`: a force below which nothing counts, 1e-12 of the largest of the rods' elastic
-// forces at unit strain, the joints' and tendons' springs' at unit stretch and the weight's scale,
-// or the force of a violation of 1e-15 of the model's extent in the stiffest constraint row
-// (k imp / R, MuJoCo's soft rows at rest), whichever is larger: where every force vanishes (an unloaded rod welded where it lies) the scale goes
-// to zero with them, and a weld's round-off (2e-16 m, 1e-12 N) had counted as a load and as a
-// residual of order 1 that no relaxation brings down (outside probe AH).
+// `loaded`: whether some constraint row carries more than its round-off: a force beyond what a
+// violation of 1e-15 of the model's extent makes in that row (k imp / R, MuJoCo's soft row at
+// rest). Where every force vanishes (an unloaded rod welded where it lies) the scale goes to zero
+// with them, and a weld's round-off (2e-16 m, 8e-15 N) had counted as a load, with a residual of
+// order 1 that no relaxation brings down (outside probe AH). The test is per row: a threshold from
+// the stiffest row anywhere (a locked rotor's weld, R at MuJoCo's floor 1e-15: 5e3 N) hid a
+// connect's real load elsewhere, and the smooth solution that tore it open 0.47 m was reported
+// (outside probe AI).
 struct FullResidual {
-  double force = 0.0, constraint = 0.0, scale = 1e-300, negligible = 0.0;
+  double force = 0.0, constraint = 0.0, scale = 1e-300;
+  bool loaded = false;
 };
 FullResidual full_residual(const Scene& s, SceneData& sd) {
   const mjModel* m = s.m;
@@ -596,17 +604,14 @@ FullResidual full_residual(const Scene& s, SceneData& sd) {
   const VectorXd rods = rods_passive(s, sd);
   // the weight's scale: gravity's generalised force vanishes at a hanging equilibrium (outside
   // probe AG: a rigid double pendulum's relaxation stayed at residual 1)
-  const double weight = weight_force_scale(s, d, m->opt.gravity);
-  r.scale = std::max({rods.norm(), (passive - rods).norm(), (smooth - passive).norm(), r.constraint, weight, 1e-300});
-  double stiffness = weight;
-  for (const auto& rb : s.rods)
-    if (rb.model.K.size()) stiffness = std::max(stiffness, rb.model.K.diagonal().cwiseAbs().maxCoeff());
-  for (int j = 0; j < m->njnt; ++j) stiffness = std::max(stiffness, m->jnt_stiffness[j]);
-  for (int t = 0; t < m->ntendon; ++t) stiffness = std::max(stiffness, m->tendon_stiffness[t]);
-  double rows = 0.0;  // the force of a round-off violation, 1e-15 of the extent, of the stiffest row
-  for (int i = 0; i < d->nefc; ++i)
-    if (d->efc_R[i] > 0) rows = std::max(rows, d->efc_KBIP[4 * i] * d->efc_KBIP[4 * i + 2] / d->efc_R[i]);
-  r.negligible = std::max(1e-12 * stiffness, 1e-15 * rows * std::max(m->stat.extent, 1e-3));
+  r.scale = std::max({rods.norm(), (passive - rods).norm(), (smooth - passive).norm(), r.constraint,
+                      weight_force_scale(s, d, m->opt.gravity), 1e-300});
+  const double roundoff = 1e-15 * std::max(m->stat.extent, 1e-3);
+  for (int i = 0; i < d->nefc && !r.loaded; ++i) {
+    if (d->efc_type[i] == mjCNSTR_FRICTION_DOF || d->efc_type[i] == mjCNSTR_FRICTION_TENDON) continue;
+    const double stiffness = d->efc_R[i] > 0 ? d->efc_KBIP[4 * i] * d->efc_KBIP[4 * i + 2] / d->efc_R[i] : HUGE_VAL;
+    r.loaded = std::abs(d->efc_force[i]) > roundoff * stiffness;
+  }
   return r;
 }
 
@@ -668,7 +673,7 @@ double kinetic_energy(const Scene& s, SceneData& sd) {
 
 // Whether the straight path in configuration space from q0 to q1 opens an equality constraint
 // wider on the way than at either end: some equality row's violation at one of 17 samples along
-// it (at fractions k/18, which no whole number of turns lines up with) beyond both ends' by 1e-6 of
+// it (at the fractions k phi mod 1, which no whole number of turns lines up with) beyond both ends' by 1e-6 of
 // the model's extent (or radians). The smooth solution ignores the constraints: outside probe AG's
 // rod twisted 27 turns between a clamp and a weld untwists in it, through the weld, which sees
 // whole turns as closed at both ends. Leaves qpos at q1; `where` gets the path fraction.
@@ -692,8 +697,11 @@ bool path_opens_equality(const Scene& s, SceneData& sd, const std::vector<mjtNum
   mj_differentiatePos(m, dq.data(), 1.0, q0.data(), q1.data());
   bool opens = false;
   for (int k = 1; k <= 17 && !opens; ++k) {
+    // fractions k phi mod 1 (phi the golden ratio's 0.618...): irrational, so no whole number of
+    // turns puts every sample on a whole turn (at k/18, 18 and 36 turns did: outside probe AI)
+    const double t = std::fmod(k * 0.6180339887498949, 1.0);
     q = q0;
-    mj_integratePos(m, q.data(), dq.data(), k / 18.0);
+    mj_integratePos(m, q.data(), dq.data(), t);
     for (const auto& [key, v] : violations(q)) {
       double ends = 0.0;
       for (const auto* e : {&v0, &v1})
@@ -701,7 +709,7 @@ bool path_opens_equality(const Scene& s, SceneData& sd, const std::vector<mjtNum
           if (k2 == key) ends = std::max(ends, w);
       if (v > ends + tol) {
         opens = true;
-        where = k / 18.0;
+        where = t;
         break;
       }
     }
@@ -754,7 +762,7 @@ bool relax(const Scene& s, SceneData& sd, const std::vector<mjtNum>& q_start, co
       const FullResidual r = full_residual(s, sd);
       res.residual = r.force / r.scale;
       res.scale = r.scale;
-      converged = res.residual <= opt.relaxation_tolerance || r.force <= r.negligible;
+      converged = res.residual <= opt.relaxation_tolerance;
       ke_prev = 0.0;
     } else {
       ke_prev = ke;
@@ -802,9 +810,10 @@ SceneStaticsResult equilibrium(const Scene& s, SceneData& sd, const SceneStatics
     if (m->jnt_type[j] != mjJNT_FREE) continue;
     const int b = m->jnt_bodyid[j];
     bool held = false;
+    // (a weld inside the subtree, to its own child, holds nothing: outside probe AI)
     for (int e = 0; e < m->neq && !held; ++e)
       if (m->eq_type[e] == mjEQ_CONNECT || m->eq_type[e] == mjEQ_WELD)
-        held = in_subtree(m->eq_obj1id[e], b) || in_subtree(m->eq_obj2id[e], b);
+        held = in_subtree(m->eq_obj1id[e], b) != in_subtree(m->eq_obj2id[e], b);
     for (int g = 0; g < m->ngeom && !held; ++g)
       held = gravity && s.may_collide && (m->geom_contype[g] || m->geom_conaffinity[g]) && in_subtree(m->geom_bodyid[g], b);
     if (held) continue;
@@ -834,7 +843,7 @@ SceneStaticsResult equilibrium(const Scene& s, SceneData& sd, const SceneStatics
   const FullResidual r = full_residual(s, sd);
   res.constraint_rows = load_bearing_rows(d);
   const bool constrained =
-      res.constraint_rows > 0 && r.constraint > std::max(std::max(1e-8, 100 * opt.tolerance) * r.scale, r.negligible);
+      res.constraint_rows > 0 && r.loaded && r.constraint > std::max(1e-8, 100 * opt.tolerance) * r.scale;
   if (res.converged && !constrained && !through && !opens) return res;
   const std::string why =
       constrained ? std::to_string(res.constraint_rows) +
@@ -923,7 +932,7 @@ SceneStaticsResult equilibrium(const Scene& s, SceneData& sd, const SceneStatics
     res.converged = false;
     res.omega2_min = w2;
     res.message += "; the state it settled in is an unstable equilibrium (omega^2_min = " + std::to_string(w2) +
-                   "): the rod would fall away from it (start from a perturbed state, e.g. a keyframe)";
+                   "): the scene would fall away from it (start from a perturbed state, e.g. a keyframe)";
     return res;
   }
 }
@@ -983,7 +992,8 @@ std::vector<std::string> open_equalities(const Scene& s, const SceneData& sd) {
     const int e = d->efc_id[i];
     const bool rotation = (m->eq_type[e] == mjEQ_WELD && keys[i].row >= 3) ||
                           (m->eq_type[e] == mjEQ_JOINT && m->jnt_type[m->eq_obj1id[e]] != mjJNT_SLIDE);
-    const double v = std::abs(d->efc_pos[i]) / (rotation ? 1e-3 : length);  // in units of the tolerance
+    // (a weld's rotation rows hold the sine of half the angle: the angle, to first order, is twice)
+    const double v = (rotation && m->eq_type[e] == mjEQ_WELD ? 2.0 : 1.0) * std::abs(d->efc_pos[i]) / (rotation ? 1e-3 : length);
     if (v > gap[e]) gap[e] = v, angle[e] = rotation;
   }
   std::vector<std::string> out;
@@ -999,7 +1009,7 @@ std::vector<std::string> open_equalities(const Scene& s, const SceneData& sd) {
     std::snprintf(buf, sizeof buf, "equality constraint %s%s%s (%s) is open by %.3g %s", name && *name ? "'" : "#",
                   name && *name ? name : std::to_string(e).c_str(), name && *name ? "'" : "", type,
                   gap[e] * (angle[e] ? 1e-3 : length),
-                  angle[e] ? "rad" : m->eq_type[e] == mjEQ_TENDON ? "(the tendon's length units)" : "m");
+                  angle[e] ? "rad" : "length units (MuJoCo's measure of its violation)");
     out.push_back(buf);
   }
   return out;
@@ -1044,20 +1054,28 @@ ModeShape mode_shape(const Scene& s, SceneData& sd, const SceneLinearization& L,
   shape.sites = diff(plus.sites, minus.sites);
   shape.bodies = diff(plus.bodies, minus.bodies);
   // scale: the largest displacement to 1, its largest component positive (dq's largest entry where
-  // nothing moves, e.g. a rod's pure twist)
+  // nothing moves, e.g. a rod's pure twist). Of the rods' centrelines and the named sites and
+  // bodies, what the command line's JSON lists (outside probe AI: an unnamed body at a rod's tip
+  // set the scale, and the JSON's largest displacement was 0.49)
   Vec3 largest = Vec3::Zero();
-  auto consider = [&](const std::vector<Vec3>& v) {
-    for (const Vec3& x : v)
-      if (x.norm() > largest.norm()) largest = x;
+  auto consider = [&](const Vec3& x) {
+    if (x.norm() > largest.norm()) largest = x;
   };
-  for (const auto& r : shape.rods) consider(r);
-  consider(shape.sites);
-  consider(shape.bodies);
+  for (const auto& r : shape.rods)
+    for (const Vec3& x : r) consider(x);
+  for (int i = 0; i < m->nsite; ++i)
+    if (const char* n = mj_id2name(m, mjOBJ_SITE, i); n && *n) consider(shape.sites[i]);
+  for (int b = 1; b < m->nbody; ++b) {
+    const bool generated = std::any_of(s.rods.begin(), s.rods.end(),
+                                       [b](const RodBinding& r) { return b >= r.base_body && b < r.below_begin; });
+    if (const char* n = mj_id2name(m, mjOBJ_BODY, b); n && *n && !generated) consider(shape.bodies[b]);
+  }
   int i = 0;
   double scale = 0.0;
   if (largest.norm() > 1e-9 * big) {
     largest.cwiseAbs().maxCoeff(&i);
     scale = (largest(i) < 0 ? -1.0 : 1.0) / largest.norm();
+    shape.displaces = true;
   } else {
     shape.dq.cwiseAbs().maxCoeff(&i);
     scale = 1.0 / shape.dq(i);

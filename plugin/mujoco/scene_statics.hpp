@@ -95,8 +95,9 @@ using SceneLinearization = cosserat::Linearization;  // the core's: A, B, M, D, 
 SceneLinearization linearize(const Scene& s, SceneData& sd, const SceneLinearizeOptions& opt = {});
 
 // The equality constraints that are open at the current state (after forward()): a row's
-// violation beyond 1e-3 of the model's extent, or 1e-3 rad for a weld's rotation and a joint
-// equality on hinges or balls. MuJoCo's constraints are soft (solref, solimp, and the inverse
+// violation (MuJoCo's efc_pos: for a weld's position rows, its anchor's offset, which includes the
+// rotation times the distance from the world origin) beyond 1e-3 of the model's extent, or 1e-3 rad
+// for a weld's rotation and a joint equality on hinges or balls. MuJoCo's constraints are soft (solref, solimp, and the inverse
 // weights of what they join: a light rod's weld can open by centimetres under load); linearize
 // holds them rigid where they are. One line per constraint, naming it and the gap.
 std::vector<std::string> open_equalities(const Scene& s, const SceneData& sd);
@@ -104,10 +105,13 @@ std::vector<std::string> open_equalities(const Scene& s, const SceneData& sd);
 // The shape of mode k of L (from linearize at the current qpos; k in the order of L.omega2): the
 // direction dq = basis x_k in the tangent space of qpos, and the displacements it gives every
 // rod's centreline (`points` samples from base to tip), every site and every body (by id; the
-// world body's is 0), by central differences of the poses. Scaled so that the largest of those
-// displacements is 1 (dimensionless: the shape, not an amplitude), its largest component positive.
+// world body's is 0), by central differences of the poses. Scaled so that the largest
+// displacement of the rods' centrelines and the named sites and bodies is 1 (dimensionless: the
+// shape, not an amplitude), its largest component positive; where the mode moves none of them (a
+// rod's pure twist), so that dq's largest entry is 1 (displaces false).
 struct ModeShape {
   double omega2 = 0.0, frequency_hz = 0.0;
+  bool displaces = false;
   Eigen::VectorXd dq;
   std::vector<std::vector<Vec3>> rods;
   std::vector<Vec3> sites, bodies;

@@ -630,6 +630,25 @@ TEST_F(Cli, LinearizeWritesModeShapes) {
     EXPECT_NEAR(std::hypot(base[0].get<double>(), base[1].get<double>(), base[2].get<double>()), 0.0, 1e-12);  // clamped
   }
   EXPECT_NEAR(j["modes"][0]["bodies"]["weight"][1].get<double>(), 1.0, 1e-12);  // sideways, at the weight
+  // an unnamed body (not in the JSON) does not set the scale (outside probe AI: the JSON's largest
+  // displacement was 0.49)
+  const fs::path unnamed = scratch() / "unnamed.xml";
+  std::ofstream(unnamed) << R"(<mujoco><option timestep="0.001" gravity="0 0 0"/><worldbody>
+    <cosserat name="rod" pos="0 0 1" length="0.5" sections="4" strain="kl" radius="0.005" density="1000" young="1e8">
+      <body pos="0.3 0 0"><geom type="sphere" size="0.02" mass="0.05"/></body></cosserat></worldbody></mujoco>)";
+  const Result u = cosserat("linearize '" + unnamed.string() + "' --modes 4 --json -");
+  ASSERT_EQ(u.status, 0) << u.err;
+  int bending = 0;
+  const json uj = json::parse(u.out);
+  for (const auto& mode : uj["modes"]) {
+    double largest = 0.0;
+    for (const auto& v : mode["rods"]["rod"])
+      largest = std::max(largest, std::hypot(v[0].get<double>(), v[1].get<double>(), v[2].get<double>()));
+    if (largest < 1e-9) continue;  // a pure twist moves no point
+    ++bending;
+    EXPECT_NEAR(largest, 1.0, 1e-12) << mode["mode"];
+  }
+  EXPECT_GE(bending, 2);
   const Result no_json = cosserat("linearize '" + model + "' --modes 2");
   EXPECT_EQ(no_json.status, 1);
   EXPECT_NE(no_json.err.find("--modes"), std::string::npos) << no_json.err;
