@@ -687,12 +687,20 @@ int cmd_linearize(int argc, char** argv) {
   cl.options.push_back(flag_option("--without-equalities",
                                    "leave the equality constraints out (default: held rigid, a weld a clamped end)",
                                    without_equalities));
+  bool contacts_as_pins = false;
+  cl.options.push_back(flag_option("--contacts-as-pins",
+                                   "hold every contact rigid as a pin (with its friction), and the limits that act: the "
+                                   "frequencies of a rod resting on its supports (default: contacts and limits left out)",
+                                   contacts_as_pins));
   state.add_to(cl);
   const auto pos = cl.parse(argc, argv);
   if (!pos) return 0;
   check_writable("--json", json_path);
   if (modes > 0 && json_path.empty()) fail("--modes: the mode shapes go into the JSON: give --json F too");
   lopt.rigid_equalities = !without_equalities;
+  lopt.rigid_contacts = contacts_as_pins;
+  if (contacts_as_pins && without_equalities)
+    fail("--contacts-as-pins holds the equality constraints rigid too: it cannot go with --without-equalities");
   const Equilibrium eq(pos->front(), state, relaxation_time);
   if (!eq.result.converged) fail("no static equilibrium to linearise about: " + eq.result.message);
   const mj::SceneLinearization lin = [&] {
@@ -700,6 +708,8 @@ int cmd_linearize(int argc, char** argv) {
       return mj::linearize(*eq.scene, *eq.data, lopt);
     } catch (const MujocoError& e) {
       throw error_while(pos->front(), e, "linearising at the equilibrium");
+    } catch (const std::runtime_error& e) {
+      fail(pos->front() + ": " + e.what());
     }
   }();
   const mjModel* m = eq.scene->m;
@@ -715,7 +725,9 @@ int cmd_linearize(int argc, char** argv) {
                          ") act at the equilibrium (found by " + eq.result.method +
                          "); the linearisation leaves them out: these are the frequencies without them";
   if (lin.constraint_rows > 0)
-    constraint_note = std::to_string(lin.constraint_rows) + " equality constraint rows held rigid: " +
+    constraint_note = std::to_string(lin.constraint_rows) +
+                      (contacts_as_pins ? " constraint rows (equalities, contacts as pins, limits) held rigid: "
+                                        : " equality constraint rows held rigid: ") +
                       std::to_string(lin.M.rows()) + " coordinates of the " + std::to_string(m->nv) +
                       " degrees of freedom remain free";
   // a rigid hold of a constraint MuJoCo's soft rows left open (outside probe AH: a weld open by 0.1

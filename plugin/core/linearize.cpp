@@ -46,6 +46,14 @@ bool unstable_mode(const VecX& x, const MatX& K, const MatX& M) {
 
 void state_space(Linearization& L) {
   const int n = static_cast<int>(L.M.rows()), nu = static_cast<int>(L.Bu.cols());
+  if (n == 0) {  // nothing moves (every motion held by constraints): no modes (Eigen's solvers fail on 0 x 0)
+    L.A = MatX(0, 0);
+    L.B = MatX(0, nu);
+    L.frequencies_hz = L.omega2 = L.damping_ratios = VecX(0);
+    L.modes = MatX(0, 0);
+    L.unstable_modes = 0;
+    return;
+  }
   Eigen::PartialPivLU<MatX> lu(L.M);
   L.A = MatX::Zero(2 * n, 2 * n);
   L.A.topRightCorner(n, n).setIdentity();

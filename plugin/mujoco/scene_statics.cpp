@@ -957,12 +957,19 @@ SceneLinearization linearize(const Scene& s, SceneData& sd, const SceneLinearize
     for (int j = 0; j < n; ++j) L.M(i, j) = full[static_cast<size_t>(i) * n + j];
   L.Bu = p.actuation_matrix();
 
-  if (opt.rigid_equalities) {
-    // the equality constraints that act, held rigid: coordinates y with dq = N y, J N = 0, and
-    // the stiffness of the loads they carry (StaticProblem::held_loads); their own damping and
-    // their response to the controls act along J only, which N' removes
+  if (opt.rigid_equalities || opt.rigid_contacts) {
+    // the equality constraints that act (and with rigid_contacts the contacts and limits), held
+    // rigid: coordinates y with dq = N y, J N = 0, and the stiffness of the loads they carry
+    // (StaticProblem::held_loads); their own damping and their response to the controls act along
+    // J only, which N' removes
     MatrixXd J, Kc;
-    p.held_loads(Held::Equalities, J, Kc);
+    try {
+      p.held_loads(opt.rigid_contacts ? Held::Loaded : Held::Equalities, J, Kc);
+    } catch (const std::runtime_error&) {
+      throw std::runtime_error(
+          "linearize: a contact held rigid comes and goes under the finite differences' perturbations (1e-6): it "
+          "is at the edge of its margin; leave the contacts out, or start from a state where it is closed");
+    }
     if (J.rows() > 0) {
       const MatrixXd N = free_directions(J);
       L.Kt = N.transpose() * (L.Kt + Kc) * N;

@@ -78,8 +78,13 @@ struct SceneLinearizeOptions {
   // the linearisation is then in coordinates y of the motions they leave free, dq = basis y, with
   // the stiffness of the loads they carry (a weld's end moment on a twisted rod, a connect's end
   // load on a column), the frequencies those of a clamped or pinned end. False: they are left out
-  // (the frequencies without them), as contacts and limits always are.
+  // (the frequencies without them).
   bool rigid_equalities = true;
+  // Hold every contact rigid as a pin (all its rows: its point held to the other geom, with its
+  // friction), and the limits that act, with the equalities: the frequencies of a rod resting on
+  // its supports, as long as they hold it (a contact that would lift off is held all the same).
+  // False (the default): contacts and limits are left out (the frequencies without them).
+  bool rigid_contacts = false;
 };
 
 // Linearisation at the current qpos (call equilibrium() first), qvel = 0 and the current ctrl:
@@ -88,9 +93,10 @@ struct SceneLinearizeOptions {
 // tendon damping, Kt the tangent stiffness. With a control callback (mjcb_control, called at every
 // force evaluation), D and Kt hold its dependence on the state (the closed loop), and Bu =
 // d qfrc_actuator / d ctrl at its controls: the input matrix of a perturbation added to them.
-// Constraint forces: equality constraints as opt says (with rows held rigid, every matrix is in
-// the coordinates y, dq = L.basis y, and L.constraint_rows counts the rows); contacts and limits
-// are not linearised (the frequencies are those without them).
+// Constraint forces: equality constraints, contacts and limits as opt says (with rows held rigid,
+// every matrix is in the coordinates y, dq = L.basis y, and L.constraint_rows counts the rows).
+// Throws std::runtime_error where a contact held rigid comes and goes under the finite
+// differences' perturbations (one at the edge of its margin).
 using SceneLinearization = cosserat::Linearization;  // the core's: A, B, M, D, Kt, Bu, frequencies
 SceneLinearization linearize(const Scene& s, SceneData& sd, const SceneLinearizeOptions& opt = {});
 

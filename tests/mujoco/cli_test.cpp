@@ -559,6 +559,20 @@ TEST_F(Cli, LinearizeHoldsEqualitiesRigidAndSaysWhatItLeavesOut) {
   const Result contact = cosserat("linearize '" + model.string() + "'");
   ASSERT_EQ(contact.status, 0) << contact.err;
   EXPECT_NE(contact.out.find("(contacts, limits) act at the equilibrium"), std::string::npos) << contact.out;
+  // ... unless held as pins
+  const Result pinned = cosserat("linearize '" + model.string() + "' --contacts-as-pins");
+  ASSERT_EQ(pinned.status, 0) << pinned.err;
+  EXPECT_NE(pinned.out.find("(equalities, contacts as pins, limits) held rigid"), std::string::npos) << pinned.out;
+  EXPECT_EQ(pinned.out.find("leaves them out"), std::string::npos) << pinned.out;
+  EXPECT_EQ(cosserat("linearize '" + model.string() + "' --contacts-as-pins --without-equalities").status, 1);
+  // a scene held entirely (its one dof welded): no coordinates, no modes (Eigen's solvers crashed
+  // on the 0 x 0 matrices)
+  std::ofstream(model) << R"(<mujoco><worldbody><body name="b"><joint type="hinge"/>
+    <geom size="0.1" mass="1" contype="0" conaffinity="0"/></body></worldbody><equality><weld body1="b"/></equality></mujoco>)";
+  const Result held_all = cosserat("linearize '" + model.string() + "' --json -");
+  ASSERT_EQ(held_all.status, 0) << held_all.err;
+  EXPECT_EQ(json::parse(held_all.out)["coordinates"], 0);
+  EXPECT_EQ(json::parse(held_all.out)["frequencies_hz"].size(), 0u);
   // without any constraint: no such warning
   std::ofstream(model) << R"(<mujoco><option gravity="0 0 -9.81"/><worldbody>
     <cosserat name="beam" pos="0 0 1" length="1.0" sections="8" strain="kl" radius="0.01" young="1e10"/>

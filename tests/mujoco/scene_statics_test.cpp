@@ -642,6 +642,42 @@ TEST(SceneStatics, AClampedRodPinnedByAConnectHasTheClampedPinnedFrequencies) {
   EXPECT_NEAR(free.frequencies_hz(0) / hz(1.87510407), 1.0, 1e-3);
 }
 
+// Contacts held as pins (SceneLinearizeOptions::rigid_contacts, `linearize --contacts-as-pins`): a
+// rod with a sphere at each end resting on a frictionless floor (condim 1: the contacts hold the
+// ends up only) vibrates vertically as a pinned-pinned beam, f_n = n^2 pi / (2 L^2) sqrt(EI / rho A)
+// = 7.854 and 31.416 Hz; with the contacts left out no frequency is near either (a free rod).
+TEST(SceneStatics, ARodRestingOnItsEndsOnAFloorIsPinnedPinnedWithContactsAsPins) {
+  auto s = load_scene_string(R"(<mujoco><option gravity="0 0 -9.81" timestep="0.001"/><worldbody>
+      <geom type="plane" size="3 3 0.1" condim="1"/>
+      <body name="b" pos="0 0 0.02"><freejoint/><geom type="sphere" size="0.02" density="1000" condim="1"/>
+        <cosserat name="rod" length="1" sections="4" order="4" strain="kl" radius="0.01" density="1000" young="1e9"
+                  poisson="0.5" contype="0" conaffinity="0">
+          <body name="tip"><geom type="sphere" size="0.02" density="1000" condim="1"/></body></cosserat></body>
+      </worldbody></mujoco>)",
+                             kPath);
+  SceneData sd(*s);
+  const SceneStaticsResult r = equilibrium(*s, sd);
+  ASSERT_TRUE(r.converged) << r.message;
+  const double f1 = M_PI / 2 * std::sqrt(1e9 * M_PI * 1e-8 / 4 / (1000 * M_PI * 1e-4));
+  auto nearest = [](const SceneLinearization& lin, double f) {
+    double best = HUGE_VAL;
+    for (int i = 0; i < lin.frequencies_hz.size(); ++i)
+      if (std::abs(lin.frequencies_hz(i) - f) < std::abs(best - f)) best = lin.frequencies_hz(i);
+    return best;
+  };
+  SceneLinearizeOptions pins;
+  pins.rigid_contacts = true;
+  const SceneLinearization held = linearize(*s, sd, pins);
+  EXPECT_EQ(held.constraint_rows, 2);  // one normal row per contact
+  EXPECT_EQ(held.M.rows(), s->m->nv - 2);
+  // (the end spheres' rotary inertia and the rod's: 3.3e-4 and 1.8e-3 below)
+  EXPECT_NEAR(nearest(held, f1) / f1, 1.0, 1e-3);
+  EXPECT_NEAR(nearest(held, 4 * f1) / (4 * f1), 1.0, 3e-3);
+  const SceneLinearization free = linearize(*s, sd);
+  EXPECT_EQ(free.constraint_rows, 0);
+  EXPECT_GT(std::abs(nearest(free, f1) / f1 - 1.0), 0.1);
+}
+
 // Mode shapes (mode_shape): the centreline displacement of a clamped-free rod's first three modes,
 // and of the clamped-pinned rod's (its tip pinned by a `connect`, held rigid), against
 // Euler-Bernoulli's phi(x) = cosh bx - cos bx - sigma (sinh bx - sin bx), sigma = (cosh bL + cos bL)
