@@ -860,6 +860,40 @@ TEST(SceneStatics, ATwistHeldByAWeldIsNotUndoneThroughIt) {
   }
 }
 
+// MuJoCo's soft friction cannot hold a tangential load at zero velocity: the contact creeps
+// (um/s), and where friction carries load the relaxation's residual stalls near 1e-5 to 1e-4. Once it
+// has stopped falling, the residual is taken up by the contacts' static friction where forces in
+// their friction cones can cancel it (outside probe AI: a box over a step's edge, its centre of mass
+// over the step, and a stiff rod across two supports were reported "no equilibrium" after 30 s).
+TEST(SceneStatics, StaticFrictionHoldsWhatMuJoCosSoftFrictionLetsCreep) {
+  struct Case {
+    const char* xml;
+    const char* body;
+  };
+  const Case cases[] = {
+      {R"(<mujoco><option timestep="0.001" gravity="0 0 -9.81"/><worldbody><geom name="floor" type="plane" size="3 3 0.1"/>
+          <geom type="box" pos="-0.5 0 0.05" size="0.5 0.5 0.05"/>
+          <body name="c" pos="-0.05 0 0.15"><freejoint/><geom type="box" size="0.1 0.1 0.05"/></body></worldbody></mujoco>)",
+       "c"},
+      {R"(<mujoco><option timestep="0.001" gravity="0 0 -9.81"/><worldbody><geom name="floor" type="plane" size="3 3 0.1"/>
+          <geom type="box" pos="0.05 0 0.05" size="0.02 0.1 0.05"/><geom type="box" pos="0.45 0 0.05" size="0.02 0.1 0.05"/>
+          <body name="rod_b" pos="0 0 0.105"><freejoint/><inertial pos="0 0 0" mass="0.001" diaginertia="1e-7 1e-7 1e-7"/>
+            <cosserat name="rod" length="0.5" sections="4" strain="kl" radius="0.005" density="1000" young="1e9"
+                      poisson="0.5"/></body></worldbody></mujoco>)",
+       "rod_b"},
+  };
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.body);
+    auto s = load_scene_string(c.xml, kPath);
+    SceneData sd(*s);
+    const Vec3 start = Eigen::Map<const Vec3>(s->m->body_pos + 3 * body(*s, c.body));
+    const SceneStaticsResult r = equilibrium(*s, sd);
+    ASSERT_TRUE(r.converged) << r.message;
+    EXPECT_NE(r.message.find("taken up by the contacts' static friction"), std::string::npos) << r.message;
+    EXPECT_LT((body_pos(*s, sd, c.body) - start).norm(), 1e-3);  // where it was put, on its supports
+  }
+}
+
 // Round bodies lying on a floor at exactly their radius are at rest, not unstable (outside probe AI:
 // a capsule and a cylinder on their sides, held at one contact, had a neutral direction at
 // omega^2 = -1e-7 1/s^2, stiffness noise, and were reported unstable; a fall slower than an
