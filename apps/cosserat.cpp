@@ -122,17 +122,13 @@ struct Outputs {
   std::vector<Named> sites, bodies;
 };
 
-bool generated_body(const mj::Scene& s, int b) {
-  return std::any_of(s.rods.begin(), s.rods.end(), [b](const mj::RodBinding& r) { return b >= r.base_body && b < r.below_begin; });
-}
-
 Outputs named_outputs(const mj::Scene& s) {
   const mjModel* m = s.m;
   Outputs o;
   for (int i = 0; i < m->nsite; ++i)
     if (const char* n = mj_id2name(m, mjOBJ_SITE, i); n && *n) o.sites.push_back({n, i});
   for (int b = 1; b < m->nbody; ++b)
-    if (const char* n = mj_id2name(m, mjOBJ_BODY, b); n && *n && !generated_body(s, b)) o.bodies.push_back({n, b});
+    if (const char* n = mj_id2name(m, mjOBJ_BODY, b); n && *n && !mj::generated_body(s, b)) o.bodies.push_back({n, b});
   return o;
 }
 

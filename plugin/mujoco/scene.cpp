@@ -3302,6 +3302,10 @@ int rod_index(const Scene& s, const std::string& name) {
   return -1;
 }
 
+bool generated_body(const Scene& s, int b) {
+  return std::any_of(s.rods.begin(), s.rods.end(), [b](const RodBinding& r) { return b >= r.base_body && b < r.below_begin; });
+}
+
 SE3 rod_frame(const Scene& s, const SceneData& sd, int r, double X) { return rod_pose(s.rods[r].model, sd.rod[r], 0, X); }
 
 Vec6 rod_strain(const Scene& s, const SceneData& sd, int r, double X) {

@@ -449,6 +449,9 @@ Vec6 momentum(const Scene& s, const SceneData& sd);
 
 // Rod shapes, after forward (rod: index in Scene::rods; rod_index finds it by name, -1 if none):
 int rod_index(const Scene& s, const std::string& name);
+// Whether body b is one the loader generated for a rod (its base or a section's proxy) rather than
+// one of the model's own bodies.
+bool generated_body(const Scene& s, int b);
 // sampled centreline: n points from base to tip (world frame)
 std::vector<Vec3> rod_centerline(const Scene& s, const SceneData& sd, int rod, int n);
 // world pose of the cross-section at abscissa X (x axis: the tangent)

@@ -14,6 +14,7 @@
 #include <Eigen/QR>
 #include <Eigen/SVD>
 
+#include "scene_sites.hpp"
 #include "statics.hpp"
 
 namespace cosserat::mj {
@@ -587,6 +588,7 @@ int load_bearing_rows(const mjData* d) {
 // connect's real load elsewhere, and the smooth solution that tore it open 0.47 m was reported
 // (outside probe AI).
 struct FullResidual {
+  VectorXd Ma;  // M qacc
   double force = 0.0, constraint = 0.0, scale = 1e-300;
   bool loaded = false;
 };
@@ -594,12 +596,12 @@ FullResidual full_residual(const Scene& s, SceneData& sd) {
   const mjModel* m = s.m;
   mjData* d = sd.d;
   const int n = m->nv;
-  std::vector<mjtNum> Ma(n);
-  mj_mulM(m, d, Ma.data(), d->qacc);
   const Eigen::Map<const VectorXd> passive(d->qfrc_passive, n), smooth(d->qfrc_smooth, n),
       constraint(d->qfrc_constraint, n);
   FullResidual r;
-  r.force = Eigen::Map<const VectorXd>(Ma.data(), n).norm();
+  r.Ma.resize(n);
+  mj_mulM(m, d, r.Ma.data(), d->qacc);
+  r.force = r.Ma.norm();
   r.constraint = constraint.norm();
   const VectorXd rods = rods_passive(s, sd);
   // the weight's scale: gravity's generalised force vanishes at a hanging equilibrium (outside
@@ -729,43 +731,36 @@ bool path_opens_equality(const Scene& s, SceneData& sd, const std::vector<mjtNum
 bool friction_takes_up(const mjModel* m, const mjData* d, const VectorXd& r, double tolerance) {
   if (d->ncon == 0) return false;
   struct Frame {
-    int col = 0, dims = 0;  // its columns in G: normal, then tangents
+    int col = 0;  // its columns in G: normal, then tangents
     bool elliptic = false;
     double fn = 0.0;
     std::vector<double> ft, mu;
   };
   std::vector<Frame> frames;
   std::vector<VectorXd> cols;
-  for (int i = 0; i < d->nefc;) {
-    const int t = d->efc_type[i];
-    if (!is_contact(t)) {
-      ++i;
-      continue;
-    }
-    const mjContact& c = d->contact[d->efc_id[i]];
-    const int dim = c.dim;
-    const int rows = t == mjCNSTR_CONTACT_PYRAMIDAL ? 2 * (dim - 1) : dim;
-    auto row = [&](int k) { return VectorXd(constraint_jacobian(m, d, {i + k}).row(0).transpose()); };
+  for (int c = 0; c < d->ncon; ++c) {
+    const mjContact& con = d->contact[c];
+    if (con.efc_address < 0) continue;
+    const int row0 = con.efc_address, t = d->efc_type[row0];
+    auto row = [&](int k) { return VectorXd(constraint_jacobian(m, d, {row0 + k}).row(0).transpose()); };
     Frame f;
     f.col = static_cast<int>(cols.size());
-    f.dims = dim;
     f.elliptic = t == mjCNSTR_CONTACT_ELLIPTIC;
     if (t == mjCNSTR_CONTACT_PYRAMIDAL) {
       cols.push_back(0.5 * (row(0) + row(1)));
-      for (int k = 0; k < dim - 1; ++k) {
-        const double mu = c.friction[k];
+      for (int k = 0; k < con.dim - 1; ++k) {
+        const double mu = con.friction[k];
         cols.push_back((row(2 * k) - row(2 * k + 1)) / (2 * mu));
         f.mu.push_back(mu);
-        f.ft.push_back(mu * (d->efc_force[i + 2 * k] - d->efc_force[i + 2 * k + 1]));
-        f.fn += d->efc_force[i + 2 * k] + d->efc_force[i + 2 * k + 1];
+        f.ft.push_back(mu * (d->efc_force[row0 + 2 * k] - d->efc_force[row0 + 2 * k + 1]));
+        f.fn += d->efc_force[row0 + 2 * k] + d->efc_force[row0 + 2 * k + 1];
       }
-    } else {
-      for (int k = 0; k < dim; ++k) cols.push_back(row(k));
-      f.fn = d->efc_force[i];
-      for (int k = 1; k < dim; ++k) f.ft.push_back(d->efc_force[i + k]), f.mu.push_back(c.friction[k - 1]);
+    } else {  // frictionless or elliptic: one row per contact-frame direction
+      for (int k = 0; k < con.dim; ++k) cols.push_back(row(k));
+      f.fn = d->efc_force[row0];
+      for (int k = 1; k < con.dim; ++k) f.ft.push_back(d->efc_force[row0 + k]), f.mu.push_back(con.friction[k - 1]);
     }
     frames.push_back(f);
-    i += rows;
   }
   MatrixXd G(r.size(), static_cast<int>(cols.size()));
   for (int k = 0; k < G.cols(); ++k) G.col(k) = cols[k];
@@ -836,10 +831,7 @@ bool relax(const Scene& s, SceneData& sd, const std::vector<mjtNum>& q_start, co
       const double t = (k + 1) * h;
       if (res.residual < 0.9 * best) best = res.residual, best_time = t;
       if (!converged && d->ncon > 0 && res.residual <= 1e3 * opt.relaxation_tolerance && t - best_time > 1.0) {
-        std::vector<mjtNum> Ma(s.m->nv);
-        mj_mulM(s.m, d, Ma.data(), d->qacc);
-        if (friction_takes_up(s.m, d, Eigen::Map<const VectorXd>(Ma.data(), s.m->nv),
-                              opt.relaxation_tolerance * r.scale)) {
+        if (friction_takes_up(s.m, d, r.Ma, opt.relaxation_tolerance * r.scale)) {
           converged = true;
           char buf[200];
           std::snprintf(buf, sizeof buf, "residual %.3g taken up by the contacts' static friction (MuJoCo's soft friction creeps under load)", res.residual);
@@ -883,11 +875,6 @@ SceneStaticsResult equilibrium(const Scene& s, SceneData& sd, const SceneStatics
   // A free body has an equilibrium only where something holds it: an equality constraint on its
   // subtree, or, under gravity, a contact (a box on a table); otherwise it floats or falls for ever
   // (a swimmer). (Outside probe AH: a box hanging from a `connect` on its free joint was refused.)
-  auto in_subtree = [m](int b, int root) {
-    for (; b > 0; b = m->body_parentid[b])
-      if (b == root) return true;
-    return false;
-  };
   const bool gravity = !(m->opt.disableflags & mjDSBL_GRAVITY) && mju_norm3(m->opt.gravity) > 0;
   for (int j = 0; j < m->njnt; ++j) {
     if (m->jnt_type[j] != mjJNT_FREE) continue;
@@ -896,9 +883,9 @@ SceneStaticsResult equilibrium(const Scene& s, SceneData& sd, const SceneStatics
     // (a weld inside the subtree, to its own child, holds nothing: outside probe AI)
     for (int e = 0; e < m->neq && !held; ++e)
       if (m->eq_type[e] == mjEQ_CONNECT || m->eq_type[e] == mjEQ_WELD)
-        held = in_subtree(m->eq_obj1id[e], b) != in_subtree(m->eq_obj2id[e], b);
+        held = is_descendant(m, m->eq_obj1id[e], b) != is_descendant(m, m->eq_obj2id[e], b);
     for (int g = 0; g < m->ngeom && !held; ++g)
-      held = gravity && s.may_collide && (m->geom_contype[g] || m->geom_conaffinity[g]) && in_subtree(m->geom_bodyid[g], b);
+      held = gravity && s.may_collide && (m->geom_contype[g] || m->geom_conaffinity[g]) && is_descendant(m, m->geom_bodyid[g], b);
     if (held) continue;
     const char* name = mj_id2name(m, mjOBJ_BODY, b);
     res.message = std::string("a free-floating body has no static equilibrium: '") + (name ? name : "?") +
@@ -963,21 +950,19 @@ SceneStaticsResult equilibrium(const Scene& s, SceneData& sd, const SceneStatics
     mju_zero(d->qvel, m->nv);
     forward(s, sd);
     const bool rows = load_bearing_rows(d) > 0;
-    {
-      StaticProblem p(s, sd);
-      VectorXd f(m->nv), mode;
-      double w2 = 0.0, residual = 0.0;
-      if (rows) {
-        const FullResidual r = full_residual(s, sd);
-        residual = r.force / r.scale;
-      } else {
-        const double scale = p.force(1.0, f);
-        residual = f.norm() / scale;
-      }
-      if (residual <= opt.relaxation_tolerance && !stable_equilibrium(p, s, sd, 1.0, w2, &mode, rows)) {
-        q_relax = along_mode(m, q_start, mode);
-        from = ", started from the initial state, an unstable equilibrium, moved along its unstable mode";
-      }
+    StaticProblem p(s, sd);
+    VectorXd f(m->nv), mode;
+    double w2 = 0.0, residual = 0.0;
+    if (rows) {
+      const FullResidual r = full_residual(s, sd);
+      residual = r.force / r.scale;
+    } else {
+      const double scale = p.force(1.0, f);
+      residual = f.norm() / scale;
+    }
+    if (residual <= opt.relaxation_tolerance && !stable_equilibrium(p, s, sd, 1.0, w2, &mode, rows)) {
+      q_relax = along_mode(m, q_start, mode);
+      from = ", started from the initial state, an unstable equilibrium, moved along its unstable mode";
     }
   }
   for (int attempt = 0;; ++attempt) {
@@ -1155,11 +1140,8 @@ ModeShape mode_shape(const Scene& s, SceneData& sd, const SceneLinearization& L,
     for (const Vec3& x : r) consider(x);
   for (int i = 0; i < m->nsite; ++i)
     if (const char* n = mj_id2name(m, mjOBJ_SITE, i); n && *n) consider(shape.sites[i]);
-  for (int b = 1; b < m->nbody; ++b) {
-    const bool generated = std::any_of(s.rods.begin(), s.rods.end(),
-                                       [b](const RodBinding& r) { return b >= r.base_body && b < r.below_begin; });
-    if (const char* n = mj_id2name(m, mjOBJ_BODY, b); n && *n && !generated) consider(shape.bodies[b]);
-  }
+  for (int b = 1; b < m->nbody; ++b)
+    if (const char* n = mj_id2name(m, mjOBJ_BODY, b); n && *n && !generated_body(s, b)) consider(shape.bodies[b]);
   int i = 0;
   double scale = 0.0;
   if (largest.norm() > 1e-9 * big) {
