@@ -313,7 +313,13 @@ SectionSpec read_section_spec(const Reader& r, SectionSpec s) {
   if (r.text("quadrature") == "lobatto") {
     s.lobatto = true;
     s.quadrature = 0;
+  } else if (r.text("quadrature") == "gauss") {  // the default rule, named: order + 2 Gauss points
+    s.lobatto = false;
+    s.quadrature = 0;
   } else if (r.has("quadrature")) {
+    const std::string v = r.text("quadrature");
+    r.check(v.find_first_not_of("0123456789+-.eE \t") == std::string::npos, "quadrature",
+            "must be a number of Gauss points, 'gauss' (order + 2 of them, the default) or 'lobatto', got '" + v + "'");
     s.quadrature = r.integer("quadrature", s.quadrature, 1);
     r.check(s.quadrature <= kMaxQuadrature, "quadrature",
             "must be <= " + std::to_string(kMaxQuadrature) + " Gauss points (exact for polynomials of degree " +

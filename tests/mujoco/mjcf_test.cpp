@@ -127,7 +127,9 @@ std::vector<BadCase> bad_cases() {
       {"negative viscosity", in_world(rod + R"( viscosity="-1"/>)"), 3, "'viscosity' must be >= 0"},
       {"zero density", in_world(rod + R"( density="0"/>)"), 3, "'density' must be positive"},
       {"zero quadrature", in_world(rod + R"( quadrature="0"/>)"), 3, "'quadrature' must be >= 1"},
-      {"bad quadrature", in_world(rod + R"( quadrature="simpson"/>)"), 3, "'quadrature'"},
+      {"bad quadrature", in_world(rod + R"( quadrature="simpson"/>)"), 3,
+       "'quadrature' must be a number of Gauss points, 'gauss' (order + 2 of them, the default) or 'lobatto', got "
+       "'simpson'"},
       {"lobatto on GVS", in_world(rod + R"( order="2" quadrature="lobatto"/>)"), 3, "'quadrature' 'lobatto' (the Gauss-Lobatto"},
       {"lobatto, a turn per section", in_world(rod + R"( quadrature="lobatto" reststrain="0 0 6.3 1 0 0"/>)"), 3,
        "section 0 bends through 1.00 turns at rest: quadrature=\"lobatto\" is for sections bending less than half"},
@@ -526,20 +528,23 @@ TEST(MjcfScenes, RodOnTheTipOfAnotherRod) {
 }
 
 // quadrature="lobatto" (PCS: the 3-point Gauss-Lobatto mass rule) is inherited by the sections
-// and replaced by a Gauss point count.
+// and replaced by a Gauss point count, or by "gauss" (the default rule, order + 2 points).
 TEST(MjcfScenes, LobattoMassRule) {
   const std::string xml = in_world(R"(<cosserat name="arm" length="1" quadrature="lobatto">
   <section/>
   <section quadrature="3"/>
+  <section quadrature="gauss"/>
 </cosserat>)");
   const Preprocessed p = preprocess_string(xml, kInline);
   const auto& s = p.rods.at(0).spec.overrides;
-  ASSERT_EQ(s.size(), 2u);
+  ASSERT_EQ(s.size(), 3u);
   EXPECT_TRUE(p.rods.at(0).spec.section.lobatto);
   EXPECT_TRUE(s[0].lobatto);
   EXPECT_EQ(s[0].quadrature, 0);
   EXPECT_FALSE(s[1].lobatto);
   EXPECT_EQ(s[1].quadrature, 3);
+  EXPECT_FALSE(s[2].lobatto);
+  EXPECT_EQ(s[2].quadrature, 0);
 }
 
 TEST(MjcfScenes, SectionOverrides) {
