@@ -198,7 +198,7 @@ json breakdown(const mj::Scene& s, mj::SceneData& sd, Sim& sim, const Ctx& c, st
   mjs["mj_comPos"] = M(stage(mj_comPos));
   mjs["mj_camlight"] = M(stage(mj_camlight));
   mjs["mj_tendon"] = M(stage(mj_tendon));
-  mjs["mj_crb"] = M([&](mjData* x) { mj::crb_skipping_massless(m, x); });
+  mjs["mj_crb"] = M([&](mjData* x) { mj::crb_skipping_massless(m, x, s.payload_body.data()); });
   mjs["mj_factorM"] = unless_skipped([&] { return M(stage(mj_factorM)); });
   mjs["mj_collision"] = s.may_collide ? M(stage(mj_collision)) : 0.0;
   mjs["mj_makeConstraint"] = M(stage(mj_makeConstraint));

@@ -123,11 +123,14 @@ void composite(const Model& m, Data& d, NodeMatrix which, MatX& out_M, Mat6& out
   // (the nodes inside a fixed subtree are not visited: their Ic is left as it was)
   for (int i = nn - 1; i >= 0; --i) {
     const Node& n = m.nodes[i];
+    const bool attached = inertia && i == d.attached_node;  // (Data::attached_inertia)
     if (n.fixed_subtree) {
       if (!inside_fixed_subtree(m, n)) d.Ic[i] = n.*fixed;
+      if (attached) d.Ic[i] += d.attached_inertia;
       continue;
     }
     Mat6 I = n.*field;
+    if (attached) I += d.attached_inertia;
     for (int c : children_of(m, i)) congruence(d.g_rel[c], d.Ic[c], I);
     d.Ic[i] = I;
   }
@@ -206,8 +209,13 @@ void rnea(const Model& m, Data& d, const Eigen::Ref<const VecX>& qacc, bool grav
       // Newton-Euler in the body frame: f = M acc + ad*_eta M eta - f_ext (for the root of a fixed
       // subtree, with the subtree's composite inertia: its parts move rigidly with it)
       const Mat6& I = lumped ? n.inertia_sub : n.inertia;
-      const Vec6 h = I * d.eta[i];
-      f = I * a + coad_apply(d.eta[i], h);
+      Vec6 h = I * d.eta[i];
+      f = I * a;
+      if (i == d.attached_node) {  // (Data::attached_inertia)
+        h.noalias() += d.attached_inertia * d.eta[i];
+        f.noalias() += d.attached_inertia * a;
+      }
+      f += coad_apply(d.eta[i], h);
     }
     if (external && !(d.f_ext_body[i].isZero(0.0) && d.f_ext_world[i].isZero(0.0))) {
       const Mat3 Rt = d.g[i].R.transpose();

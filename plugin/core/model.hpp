@@ -240,6 +240,13 @@ struct Data {
   Vec6 base_twist = Vec6::Zero(), base_accel = Vec6::Zero();  // in the base frame
   std::vector<Vec6> f_ext_body;   // per node: external wrench [m; f] in the node frame
   std::vector<Vec6> f_ext_world;  // per node: [moment; force] in world axes, applied at the node origin
+  // A rigid-body spatial inertia [[I_o, h~], [-h~, m 1]] (about node attached_node's origin, in its
+  // frame) that moves rigidly with that node: a load the caller hangs on the tree for crba and rnea
+  // only (the MuJoCo coupling's payload below a rod's tip, whose inertia and weight are then the
+  // core's rather than MuJoCo's). It is not part of the model: centre of mass, momentum, energy and
+  // the model's own statics leave it out. -1: none.
+  int attached_node = -1;
+  Mat6 attached_inertia = Mat6::Zero();
 
   // outputs
   VecX qacc;          // generalised accelerations (nv)

@@ -147,9 +147,12 @@ void site_kinematics(const mjModel* m, mjData* d, int i) {
                   m->site_bodyid[i], m->site_sameframe[i]);
 }
 
-void crb_skipping_massless(const mjModel* m, mjData* d) {
+void crb_skipping_massless(const mjModel* m, mjData* d, const char* leave_out) {
   mjtNum* crb = d->crb;
   mju_copy(crb, d->cinert, 10 * m->nbody);
+  if (leave_out)
+    for (int i = 1; i < m->nbody; ++i)
+      if (leave_out[i]) mju_zero(crb + 10 * i, 10);
   for (int i = m->nbody - 1; i > 0; --i)
     if (m->body_parentid[i] > 0) mju_addTo(crb + 10 * m->body_parentid[i], crb + 10 * i, 10);
   mju_zero(d->qM, m->nM);

@@ -27,7 +27,9 @@ void kinematics_except(const mjModel* m, mjData* d, const char* skip);
 // mj_crb (composite inertias and qM), without the pass over the ancestors of a dof whose body's
 // composite inertia is zero (a rod's massless proxies with nothing below them): those entries of
 // qM are the dof's armature and zeros, as MuJoCo's products with a zero vector leave them.
-void crb_skipping_massless(const mjModel* m, mjData* d);
+// leave_out (nbody flags, or nullptr): bodies whose inertia is counted elsewhere (a rod's payload,
+// Scene::payload_body): their cinert is taken as zero.
+void crb_skipping_massless(const mjModel* m, mjData* d, const char* leave_out = nullptr);
 
 // mj_fwdVelocity's tendon velocities, d->ten_velocity = ten_J qvel, in either layout of ten_J:
 // mju_mulMatVec on dense rows, a compressed row's entries summed in order (mju_dotSparse as

@@ -304,6 +304,13 @@ RodBinding bind_rod(const mjModel* m, const RodDecl& decl) {
   fix_rigid_placements(m, rb);
   rb.extensible = std::any_of(rb.model.sections.begin(), rb.model.sections.end(),
                               [](const Section& sec) { return sec.axial_free(); });
+  // the node the payload hangs on (RodBinding::payload): the last proxy's frame, or the root of the
+  // fixed subtree holding it (cosserat::crba and rnea lump a fixed subtree at its root)
+  rb.payload_node = rb.model.sections.back().end_node;
+  for (const auto& nodes = rb.model.nodes;
+       nodes[rb.payload_node].fixed_subtree && nodes[rb.payload_node].parent >= 0 &&
+       nodes[nodes[rb.payload_node].parent].fixed_subtree;)
+    rb.payload_node = nodes[rb.payload_node].parent;
   const int last = rb.proxy_body.back();
   rb.below_begin = last + 1;
   rb.below_end = rb.below_begin;
@@ -391,6 +398,28 @@ double chord_sag_bound(const cosserat::Model& m, const cosserat::Data& d, const 
   return (pcs ? 1.0 : 1.25) * kappa * l * l / 8.0;
 }
 
+// The composite spatial inertia of MuJoCo bodies [b0, b1) about the origin of frame g, in g's axes
+// (cosserat's layout [[I_o, h~], [-h~, m 1]], h = m c), from their masses, principal inertias and
+// inertial frames as the kinematics placed them: a rod's payload (RodBinding::payload).
+Mat6 payload_inertia(const mjModel* m, const mjData* d, int b0, int b1, const SE3& g) {
+  Mat6 A = Mat6::Zero();
+  const Mat3 Rt = g.R.transpose();
+  for (int b = b0; b < b1; ++b) {
+    const double mass = m->body_mass[b];
+    const Vec3 I(m->body_inertia[3 * b], m->body_inertia[3 * b + 1], m->body_inertia[3 * b + 2]);
+    if (mass == 0.0 && I.isZero(0.0)) continue;
+    const Mat3 Ri = Rt * Eigen::Map<const Mat3r>(d->ximat + 9 * b);
+    const Vec3 c = Rt * (Vec3(d->xipos[3 * b], d->xipos[3 * b + 1], d->xipos[3 * b + 2]) - g.u);
+    A.topLeftCorner<3, 3>() += Ri * I.asDiagonal() * Ri.transpose() +
+                               mass * (c.squaredNorm() * Mat3::Identity() - c * c.transpose());
+    const Mat3 H = skew(mass * c);
+    A.topRightCorner<3, 3>() += H;
+    A.bottomLeftCorner<3, 3>() -= H;
+    A.bottomRightCorner<3, 3>().diagonal().array() += mass;
+  }
+  return A;
+}
+
 // Patch point 1: proxy poses, rod capsules and sites from the rod solution; then everything below.
 void patch_rod_kinematics(const Scene& s, SceneData& sd, int r) {
   const mjModel* m = s.m;
@@ -457,6 +486,8 @@ void patch_rod_kinematics(const Scene& s, SceneData& sd, int r) {
   for (int i : rb.other_site_id) site_kinematics(m, d, i);
   for (int b = rb.below_begin; b < rb.below_end; ++b) body_kinematics(m, d, b);
   attached_kinematics(m, d, rb.below_begin, rb.below_end);
+  rd.attached_node = rb.payload ? rb.payload_node : -1;
+  if (rb.payload) rd.attached_inertia = payload_inertia(m, d, rb.below_begin, rb.below_end, rd.g[rb.payload_node]);
 }
 
 }  // namespace
@@ -1334,6 +1365,16 @@ void rod_velocity(const Scene& s, SceneData& sd, int r) {
   rd.base_twist = Ad_inv_apply(G, cvel);
   rd.base_accel = Ad_inv_apply(G, cacc);
   cosserat::fwd_velocity(rb.model, rd, rb.cdof_dot_read);  // dS/dt only where cdof_dot is read
+  if (rb.payload != (rd.attached_node >= 0)) {  // decided again since the kinematics (a mass set from C)
+    rd.attached_node = rb.payload ? rb.payload_node : -1;
+    if (rb.payload) rd.attached_inertia = payload_inertia(m, d, rb.below_begin, rb.below_end, rd.g[rb.payload_node]);
+  }
+  if (rb.payload) {  // the payload's cvel (MuJoCo's pass skips it): the rigid twist of its node
+    const Vec6 c = Ad(com_frame(rd.g[rb.payload_node], d->subtree_com + 3 * m->body_rootid[rb.base_body])) *
+                   rd.eta[rb.payload_node];
+    for (int b = rb.below_begin; b < rb.below_end; ++b)
+      for (int e = 0; e < 6; ++e) d->cvel[6 * b + e] = c(e);
+  }
 }
 
 // Patch point 6: rod Coriolis, centrifugal and gravity forces, the reaction on the ancestors,
@@ -1464,6 +1505,7 @@ bool has_acceleration_sensors(const mjModel* m) {
 // the round-off, which had kept a Newton iteration from converging once a sensor was added.
 bool smooth_only(const SceneData& sd) { return sd.forces_only || sd.d->nefc == 0; }
 
+void refresh_velocity_skips(const Scene& s);
 }  // namespace
 
 // MuJoCo 2.2.2's mj_fwdAcceleration without its solve for qacc_smooth: qfrc_smooth = passive -
@@ -1505,6 +1547,7 @@ void widen_contact_margins(const Scene& s, const SceneData& sd) {
 void fwd_inertia(const Scene& s, SceneData& sd, bool mass) {
   const mjModel* m = s.m;
   mjData* d = sd.d;
+  refresh_velocity_skips(s);  // (before the payloads are hung on their rods and left out of crb)
   kinematics_except(m, d, s.body_by_rod.data());
   for (size_t r = 0; r < s.rods.size(); ++r) patch_rod_kinematics(s, sd, static_cast<int>(r));
   mj_comPos(m, d);
@@ -1513,7 +1556,7 @@ void fwd_inertia(const Scene& s, SceneData& sd, bool mass) {
     for (size_t r = 0; r < s.rods.size(); ++r) base_columns(s, sd, static_cast<int>(r));
     return;
   }
-  crb_skipping_massless(m, d);
+  crb_skipping_massless(m, d, s.payload_body.data());
   for (size_t r = 0; r < s.rods.size(); ++r) patch_qM(s, sd, static_cast<int>(r));
 }
 
@@ -1573,9 +1616,6 @@ const mjtNum* tendon_jacobian_row(const Scene& s, const SceneData& sd, int t) {
   return s.rods.empty() ? nullptr : sd.ten_J_rows.data() + static_cast<size_t>(t) * s.m->nv;
 }
 
-namespace {
-void refresh_velocity_skips(const Scene& s);
-}  // namespace
 
 void fwd_velocity(const Scene& s, SceneData& sd) {
   const mjModel* m = s.m;
@@ -1824,13 +1864,29 @@ bool mass_or_rod_below(const Scene& s, const RodBinding& rb) {
   return false;
 }
 
-// RodBinding::cdof_dot_read and Scene::velocity_skip from the model's sensors and body masses.
+// Whether the bodies below rod rb can be its rigid payload (RodBinding::payload): none has a dof, and
+// no rod hangs below it.
+bool rigid_payload(const Scene& s, const RodBinding& rb) {
+  for (int b = rb.below_begin; b < rb.below_end; ++b)
+    if (s.m->body_dofnum[b] > 0) return false;
+  for (const RodBinding& other : s.rods)
+    if (other.base_body > rb.base_body && other.base_body < rb.below_end) return false;
+  return true;
+}
+
+// RodBinding::cdof_dot_read and payload, and Scene::velocity_skip and payload_body, from the
+// model's sensors, bodies and body masses.
 void decide_velocity_skips(const Scene& s) {
   // acceleration sensors read every cdof_dot (mj_rnePostConstraint; whatever the sensor flags say now)
   const bool acceleration_sensors = has_sensor_from(s.m, mjSTAGE_ACC);
+  const bool velocity_sensors = has_sensor_from(s.m, mjSTAGE_VEL);
+  s.payload_body.assign(s.m->nbody, 0);
   for (const RodBinding& rb : s.rods) {
     rb.massless_below = !mass_or_rod_below(s, rb);
-    rb.cdof_dot_read = acceleration_sensors || !rb.massless_below;
+    rb.payload = !velocity_sensors && !rb.massless_below && rigid_payload(s, rb);
+    rb.cdof_dot_read = acceleration_sensors || !(rb.massless_below || rb.payload);
+    if (rb.payload)
+      for (int b = rb.below_begin; b < rb.below_end; ++b) s.payload_body[b] = 1;
   }
   s.velocity_skip.assign(s.m->nbody, 0);
   if (!has_sensor_from(s.m, mjSTAGE_VEL))  // sensors of velocities or accelerations read cvel, cdof_dot

@@ -76,6 +76,17 @@ struct RodBinding {
   // whether the bodies below the rod were massless (and no rod hung below it) when cdof_dot_read
   // was last decided: the ones refresh_velocity_skips watches
   mutable bool massless_below = false;
+  // Whether the bodies below the rod (RodBinding::below_begin..below_end) are a rigid payload whose
+  // inertia and weight the rod's solver carries (set with cdof_dot_read): they have mass but no
+  // dofs, no rod hangs below, and no sensor reads velocities or accelerations. Their composite
+  // inertia, taken each evaluation from MuJoCo's body masses, inertias and poses, is hung on the
+  // rod's node payload_node (cosserat::Data::attached_inertia), and MuJoCo's composite-inertia and
+  // bias passes leave them out (Scene::payload_body, velocity_skip): a tip weight then costs a 6 x 6
+  // inertia more in the rod's recursions instead of MuJoCo's O(nv^2) composite walk over the
+  // proxies and the rod's cdof_dot. Their d->cvel is set from the rod's tip twist.
+  mutable bool payload = false;
+  // the tip node, or the root of the fixed subtree (a rigid last section) holding it (set at load)
+  int payload_node = -1;
 };
 
 // Rod capsules' geom_size and geom_rbound follow the state (their chords): a Scene steps one
@@ -122,6 +133,9 @@ struct Scene {
   // a mass given to a body below such a rod since (refresh_velocity_skips: a payload's mass
   // randomised at run time; outside probe AB found its weight left out when this was set at load only).
   mutable std::vector<char> velocity_skip;
+  // per MuJoCo body: 1 for the bodies of a rod's payload (RodBinding::payload), whose inertia the
+  // rod's recursions carry: MuJoCo's composite-inertia pass (crb_skipping_massless) leaves them out
+  mutable std::vector<char> payload_body;
   // velocity sensors (velocimeter, gyro, framelinvel, frameangvel) whose object or reference frame
   // is a rod site off a rigid section (set at load): MuJoCo moves such a site rigidly with its
   // section's proxy, so the step evaluates them again with the site's material velocity

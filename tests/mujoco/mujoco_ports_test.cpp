@@ -124,11 +124,13 @@ TEST(MujocoPorts, CompositeInertiaIsMujocos) {
 }
 
 // Without a skip list, com_velocity_except and rne_except are mj_comVel and mj_rne bit for bit.
-// With the scene's (Scene::velocity_skip: the bodies of rods with nothing massive below them),
-// the bodies they compute keep MuJoCo's cvel and cdof_dot bit for bit, and the bias forces equal
-// MuJoCo's (a skipped body's zero may differ in sign from MuJoCo's product with its zero inertia).
+// With the scene's (Scene::velocity_skip: the bodies of rods with nothing massive below them, or
+// with a rigid payload whose inertia the rod's solver carries, RodBinding::payload), the bodies
+// they compute keep MuJoCo's cvel and cdof_dot bit for bit, and the bias forces equal MuJoCo's on
+// the same data with the payloads' inertias left out (a skipped body's zero may differ in sign
+// from MuJoCo's product with its zero inertia).
 TEST(MujocoPorts, VelocityAndBiasAreMujocos) {
-  int skipped = 0, kept_rod_bodies = 0;
+  int skipped = 0, kept_rod_bodies = 0, payloads = 0;
   for (const std::string& src : sources()) {
     auto s = load(src);
     SceneData sd(*s);
@@ -146,13 +148,20 @@ TEST(MujocoPorts, VelocityAndBiasAreMujocos) {
     EXPECT_TRUE(same(ref->cdof_dot, all->cdof_dot, 6 * m->nv)) << what;
     EXPECT_TRUE(same(ref->qfrc_bias, all->qfrc_bias, m->nv)) << what;
     ASSERT_EQ(s->velocity_skip.size(), static_cast<size_t>(m->nbody));
+    ASSERT_EQ(s->payload_body.size(), static_cast<size_t>(m->nbody));
+    for (int b = 1; b < m->nbody; ++b)  // the rods carry their payloads' inertia
+      if (s->payload_body[b]) {
+        ++payloads;
+        mju_zero(ref->cinert + 10 * b, 10);
+      }
+    mj_rne(m, ref.get(), 0, ref->qfrc_bias);
     const DataCopy part = copy_of(m, sd.d);
     com_velocity_except(m, part.get(), s->velocity_skip.data());
     rne_except(m, part.get(), 0, part->qfrc_bias, s->velocity_skip.data());
     for (int b = 1; b < m->nbody; ++b) {
       if (s->velocity_skip[b]) {
         ++skipped;
-        EXPECT_EQ(m->body_mass[b], 0.0) << what << ": skipped body " << b << " has mass";
+        if (!s->payload_body[b]) EXPECT_EQ(m->body_mass[b], 0.0) << what << ": skipped body " << b << " has mass";
         continue;
       }
       kept_rod_bodies += s->body_by_rod[b];
@@ -164,6 +173,7 @@ TEST(MujocoPorts, VelocityAndBiasAreMujocos) {
   }
   EXPECT_GT(skipped, 0);          // the skip happened
   EXPECT_GT(kept_rod_bodies, 0);  // and rods with massive bodies below kept their passes
+  EXPECT_GT(payloads, 0);         // and some rods carried their payloads
 }
 
 }  // namespace

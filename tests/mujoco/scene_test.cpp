@@ -1355,11 +1355,19 @@ std::string swinging_rod_xml(const std::string& tip, const std::string& sensors 
 }
 
 // The state after 100 implicit steps, with the rod's cdof_dot patch as detected or forced, and
-// with or without the velocity passes' skip (Scene::velocity_skip).
+// with or without the velocity passes' skip (Scene::velocity_skip); without it, MuJoCo's passes
+// carry the bodies below the rods too (no RodBinding::payload: every cdof_dot patched).
 std::vector<double> swing(const std::string& xml, int force_rod = -1, bool force_to = true, bool no_skip = false) {
   auto s = load_scene_string(xml, kPath);
   if (force_rod >= 0) s->rods[force_rod].cdof_dot_read = force_to;
-  if (no_skip) s->velocity_skip.assign(s->m->nbody, 0);
+  if (no_skip) {
+    s->velocity_skip.assign(s->m->nbody, 0);
+    s->payload_body.assign(s->m->nbody, 0);
+    for (const RodBinding& rb : s->rods) {
+      if (rb.payload) rb.cdof_dot_read = true;  // (MuJoCo's bias pass accelerates the payload with them)
+      rb.payload = false;
+    }
+  }
   SceneData sd(*s);
   sd.d->qvel[0] = 2.0;
   for (int k = 0; k < 100; ++k) EXPECT_EQ(step(*s, sd, Integrator::Implicit), Status::Ok);
@@ -1370,36 +1378,85 @@ std::vector<double> swing(const std::string& xml, int force_rod = -1, bool force
 }
 
 // Where the load says nothing reads the rod's cdof_dot, patching it anyway changes no bit of the
-// motion; where it says something does (a body with mass below the rod, a rod hanging from it, an
-// acceleration sensor), leaving it unpatched changes the motion or the sensor: the test that says
-// "nothing reads it" too often fails here. The com-velocity and bias passes that skip such rods'
-// bodies (Scene::velocity_skip; not with velocity or acceleration sensors) give the motion of
-// MuJoCo's full passes.
+// motion; where it says something does (a body with dofs and mass below the rod, a rod hanging
+// from it, an acceleration sensor), leaving it unpatched changes the motion or the sensor: the
+// test that says "nothing reads it" too often fails here. The com-velocity and bias passes that
+// skip such rods' bodies (Scene::velocity_skip; not with velocity or acceleration sensors) give the
+// motion of MuJoCo's full passes: bit for bit, or, where the rod carries a rigid payload's inertia
+// (RodBinding::payload: a weight at the tip), to round-off.
 TEST(Scene, RodJacobianRatesArePatchedOnlyWhereSomethingReadsThem) {
   struct Row {
     std::string what, xml;
     std::vector<bool> read;  // per rod
     bool velocity_skip;      // some rod's bodies skipped in the com-velocity and bias passes
+    bool payload = false;    // the first rod carries its tip body's inertia
   };
   const std::string inner = R"(<cosserat name="inner" pos="0 0 0" length="0.1" sections="2" strain="kl"
       radius="0.003" density="1000" young="1e6" poisson="0.5" contype="0" conaffinity="0"/>)";
   const std::vector<Row> rows = {
       {"a massless marker at the tip", swinging_rod_xml(R"(<site name="mark"/>)"), {false}, true},
       {"a weight at the tip",
-       swinging_rod_xml(R"(<geom type="sphere" size="0.01" mass="0.05" contype="0" conaffinity="0"/>)"), {true},
-       false},
+       swinging_rod_xml(R"(<geom type="sphere" size="0.01" mass="0.05" contype="0" conaffinity="0"/>)"), {false},
+       true, true},
+      {"an offset, tilted box at the tip and a ball below it",
+       swinging_rod_xml(R"(<geom type="box" pos="0.03 0.01 -0.02" euler="20 30 40" size="0.02 0.01 0.005" mass="0.05"
+                                 contype="0" conaffinity="0"/>
+                           <body pos="0.05 -0.01 0.01" euler="0 0 30">
+                             <geom type="sphere" pos="0.01 0 0" size="0.01" mass="0.02" contype="0" conaffinity="0"/>
+                           </body>)"),
+       {false}, true, true},
+      {"a weight on a hinge at the tip",
+       swinging_rod_xml(R"(<joint type="hinge" axis="0 0 1" damping="0.001"/>
+                           <geom type="sphere" pos="0.02 0 0" size="0.01" mass="0.05" contype="0" conaffinity="0"/>)"),
+       {true}, false},
+      {"a weight at the tip, a velocimeter on it",
+       swinging_rod_xml(R"(<geom type="sphere" size="0.01" mass="0.05" contype="0" conaffinity="0"/><site name="w"/>)",
+                        R"(<sensor><velocimeter site="w"/></sensor>)"),
+       {true}, false},
       {"a rod hanging from the tip", swinging_rod_xml(inner), {true, false}, true},
       {"an accelerometer at the massless tip",
        swinging_rod_xml(R"(<site name="mark"/>)", R"(<sensor><accelerometer site="mark"/></sensor>)"), {true}, false},
       {"a velocimeter at the massless tip",
        swinging_rod_xml(R"(<site name="mark"/>)", R"(<sensor><velocimeter site="mark"/></sensor>)"), {false}, false},
   };
-  for (const Row& row : rows) {
+  // a rigid last section: the payload hangs on the root of its fixed subtree
+  std::string rigid_end = swinging_rod_xml(R"(<geom type="box" pos="0.02 0 0.01" size="0.01 0.01 0.01" mass="0.05"
+                                                    contype="0" conaffinity="0"/>)");
+  const std::string open = R"(contype="0" conaffinity="0">)";
+  rigid_end.replace(rigid_end.find(open), open.size(),
+                    open + R"(<section/><section/><section strain="rigid" reststrain="0 0.5 1 1 0 0"/>)");
+  std::vector<Row> all = rows;
+  all.push_back({"a weight at the tip of a rigid last section", rigid_end, {false}, true, true});
+  for (const Row& row : all) {
     auto s = load_scene_string(row.xml, kPath);
     ASSERT_EQ(s->rods.size(), row.read.size()) << row.what;
     const std::vector<double> as_loaded = swing(row.xml);
     // MuJoCo's full com-velocity and bias passes, and every rod's cdof_dot patched: the same motion
-    EXPECT_EQ(swing(row.xml, -1, true, true), as_loaded) << row.what << ": skipping the velocity passes must be exact";
+    const std::vector<double> full = swing(row.xml, -1, true, true);
+    EXPECT_EQ(s->rods[0].payload, row.payload) << row.what;
+    if (row.xml == rigid_end)  // (the rigid section's end lies inside a fixed subtree)
+      EXPECT_NE(s->rods[0].payload_node, s->rods[0].model.sections.back().end_node);
+    if (row.payload) {  // the payload's cvel (MuJoCo's pass skips it) is the one mj_comVel gives
+      SceneData sd(*s);
+      sd.d->qvel[0] = 2.0;
+      for (int k = 0; k < 20; ++k) ASSERT_EQ(step(*s, sd, Integrator::Implicit), Status::Ok);
+      forward(*s, sd);
+      mjData* ref = mj_copyData(nullptr, s->m, sd.d);
+      mj_comVel(s->m, ref);
+      for (int b = s->rods[0].below_begin; b < s->rods[0].below_end; ++b)
+        for (int e = 0; e < 6; ++e)
+          EXPECT_NEAR(sd.d->cvel[6 * b + e], ref->cvel[6 * b + e], 1e-12 * (1 + std::abs(ref->cvel[6 * b + e])))
+              << row.what << ", body " << b;
+      mj_deleteData(ref);
+    }
+    if (row.payload) {
+      ASSERT_EQ(full.size(), as_loaded.size());
+      for (size_t k = 0; k < full.size(); ++k)
+        EXPECT_NEAR(full[k], as_loaded[k], 1e-10 * (1 + std::abs(full[k]))) << row.what << ", state entry " << k;
+      EXPECT_NE(full, swing(row.xml, -1, true, false)) << "(the payload changes the arithmetic: the test compares two paths)";
+    } else {
+      EXPECT_EQ(full, as_loaded) << row.what << ": skipping the velocity passes must be exact";
+    }
     bool any_skip = false;
     for (char k : s->velocity_skip) any_skip |= k != 0;
     EXPECT_EQ(any_skip, row.velocity_skip) << row.what;
@@ -1437,6 +1494,8 @@ TEST(Scene, AMassGivenAtRunTimeCountsAsTheModelsOwn) {
   const int b = mj_name2id(run->m, mjOBJ_BODY, "payload");
   ASSERT_EQ(b, mj_name2id(ref->m, mjOBJ_BODY, "payload"));
   ASSERT_FALSE(run->rods[0].cdof_dot_read);  // skipped at load: nothing massive below the rod
+  ASSERT_FALSE(run->rods[0].payload);
+  ASSERT_TRUE(ref->rods[0].payload);  // the massive body without dofs: the rod carries its inertia
   SceneData dr(*ref), da(*run);
   for (int i = 0; i < 300; ++i) {
     if (i == 100) {  // the payload's mass given between steps
@@ -1449,7 +1508,7 @@ TEST(Scene, AMassGivenAtRunTimeCountsAsTheModelsOwn) {
     ASSERT_EQ(step(*run, da), Status::Ok);
   }
   const int p = mj_name2id(run->m, mjOBJ_SITE, "p");
-  EXPECT_TRUE(run->rods[0].cdof_dot_read);
+  EXPECT_TRUE(run->rods[0].payload);
   // from the same state with the same mass, the same motion (with the load-time skip kept, the
   // payload 4 cm higher after 0.2 s)
   for (int k = 0; k < 3; ++k) EXPECT_NEAR(da.d->site_xpos[3 * p + k], dr.d->site_xpos[3 * p + k], 1e-12);
