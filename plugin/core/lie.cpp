@@ -397,36 +397,6 @@ Mat6 coad(const Vec6& e) {
   return m;
 }
 
-Vec6 Ad_inv_apply(const SE3& g, const Vec6& e) {
-  const Vec3 w = e.head<3>(), v = e.tail<3>();
-  Vec6 r;
-  r.head<3>() = g.R.transpose() * w;
-  r.tail<3>() = g.R.transpose() * (v - g.u.cross(w));
-  return r;
-}
-
-Vec6 coAd_apply(const SE3& g, const Vec6& F) {
-  const Vec3 n = g.R * F.tail<3>();
-  Vec6 r;
-  r.head<3>() = g.R * F.head<3>() + g.u.cross(n);
-  r.tail<3>() = n;
-  return r;
-}
-
-Vec6 ad_apply(const Vec6& a, const Vec6& b) {
-  Vec6 r;
-  r.head<3>() = a.head<3>().cross(b.head<3>());
-  r.tail<3>() = a.tail<3>().cross(b.head<3>()) + a.head<3>().cross(b.tail<3>());
-  return r;
-}
-
-Vec6 coad_apply(const Vec6& a, const Vec6& F) {
-  Vec6 r;
-  r.head<3>() = a.head<3>().cross(F.head<3>()) + a.tail<3>().cross(F.tail<3>());
-  r.tail<3>() = a.head<3>().cross(F.tail<3>());
-  return r;
-}
-
 namespace {
 // Every matrix below is block lower triangular with equal diagonal blocks, [[X, 0], [Y, X]]:
 // ad_eta = [[w~, 0], [v~, w~]], its powers, their sums and their derivatives. With the identities
