@@ -616,5 +616,8 @@ int main(int argc, char** argv) {
     return run_stage_cost(argc, argv);
   } catch (const cosserat::cli::Failure& f) {
     return cosserat::cli::report("bench_stage_cost", f);
+  } catch (const std::exception& e) {  // (a timed step that diverged: the figures would be a reset's)
+    std::fprintf(stderr, "bench_stage_cost: %s\n", e.what());
+    return 1;
   }
 }

@@ -17,12 +17,6 @@ ChildRange children_of(const Model& m, int p) {
   return {m.children.data() + m.children_begin[p + 1], m.children.data() + m.children_begin[p + 2]};
 }
 
-// A node below the root of a fixed subtree (Node::fixed_subtree): it moves rigidly with that root,
-// whose cached composites stand for it.
-bool inside_fixed_subtree(const Model& m, const Node& n) {
-  return n.fixed_subtree && n.parent >= 0 && m.nodes[n.parent].fixed_subtree;
-}
-
 // M U with U = u~ (row by row: (M U)_i = (m_i x u)^T, m_i the i-th row of M).
 inline Mat3 mul_skew(const Mat3& M, const Vec3& u) {
   Mat3 r;

@@ -225,6 +225,12 @@ struct Model {
   std::vector<int> joint_dof_;
 };
 
+// A node below the root of a fixed subtree (Node::fixed_subtree): it moves rigidly with that root,
+// whose cached composites stand for it (crba and rnea lump the subtree there).
+inline bool inside_fixed_subtree(const Model& m, const Node& n) {
+  return n.fixed_subtree && n.parent >= 0 && m.nodes[n.parent].fixed_subtree;
+}
+
 enum class Status { Ok, Diverged };
 
 // State, outputs and all scratch memory, sized once by the constructor (no allocation when

@@ -307,10 +307,8 @@ RodBinding bind_rod(const mjModel* m, const RodDecl& decl) {
   // the node the payload hangs on (RodBinding::payload): the last proxy's frame, or the root of the
   // fixed subtree holding it (cosserat::crba and rnea lump a fixed subtree at its root)
   rb.payload_node = rb.model.sections.back().end_node;
-  for (const auto& nodes = rb.model.nodes;
-       nodes[rb.payload_node].fixed_subtree && nodes[rb.payload_node].parent >= 0 &&
-       nodes[nodes[rb.payload_node].parent].fixed_subtree;)
-    rb.payload_node = nodes[rb.payload_node].parent;
+  while (cosserat::inside_fixed_subtree(rb.model, rb.model.nodes[rb.payload_node]))
+    rb.payload_node = rb.model.nodes[rb.payload_node].parent;
   const int last = rb.proxy_body.back();
   rb.below_begin = last + 1;
   rb.below_end = rb.below_begin;
@@ -410,14 +408,16 @@ Mat6 payload_inertia(const mjModel* m, const mjData* d, int b0, int b1, const SE
     if (mass == 0.0 && I.isZero(0.0)) continue;
     const Mat3 Ri = Rt * Eigen::Map<const Mat3r>(d->ximat + 9 * b);
     const Vec3 c = Rt * (Vec3(d->xipos[3 * b], d->xipos[3 * b + 1], d->xipos[3 * b + 2]) - g.u);
-    A.topLeftCorner<3, 3>() += Ri * I.asDiagonal() * Ri.transpose() +
-                               mass * (c.squaredNorm() * Mat3::Identity() - c * c.transpose());
-    const Mat3 H = skew(mass * c);
-    A.topRightCorner<3, 3>() += H;
-    A.bottomLeftCorner<3, 3>() -= H;
-    A.bottomRightCorner<3, 3>().diagonal().array() += mass;
+    A += cosserat::spatial_inertia(mass, c, Ri * I.asDiagonal() * Ri.transpose());
   }
   return A;
+}
+
+// The rod's payload, if it carries one, hung on its node for cosserat::crba and rnea (after the
+// kinematics of the bodies below the rod).
+void hang_payload(const mjModel* m, const mjData* d, const RodBinding& rb, cosserat::Data& rd) {
+  rd.attached_node = rb.payload ? rb.payload_node : -1;
+  if (rb.payload) rd.attached_inertia = payload_inertia(m, d, rb.below_begin, rb.below_end, rd.g[rb.payload_node]);
 }
 
 // Patch point 1: proxy poses, rod capsules and sites from the rod solution; then everything below.
@@ -486,8 +486,7 @@ void patch_rod_kinematics(const Scene& s, SceneData& sd, int r) {
   for (int i : rb.other_site_id) site_kinematics(m, d, i);
   for (int b = rb.below_begin; b < rb.below_end; ++b) body_kinematics(m, d, b);
   attached_kinematics(m, d, rb.below_begin, rb.below_end);
-  rd.attached_node = rb.payload ? rb.payload_node : -1;
-  if (rb.payload) rd.attached_inertia = payload_inertia(m, d, rb.below_begin, rb.below_end, rd.g[rb.payload_node]);
+  hang_payload(m, d, rb, rd);
 }
 
 }  // namespace
@@ -1365,10 +1364,7 @@ void rod_velocity(const Scene& s, SceneData& sd, int r) {
   rd.base_twist = Ad_inv_apply(G, cvel);
   rd.base_accel = Ad_inv_apply(G, cacc);
   cosserat::fwd_velocity(rb.model, rd, rb.cdof_dot_read);  // dS/dt only where cdof_dot is read
-  if (rb.payload != (rd.attached_node >= 0)) {  // decided again since the kinematics (a mass set from C)
-    rd.attached_node = rb.payload ? rb.payload_node : -1;
-    if (rb.payload) rd.attached_inertia = payload_inertia(m, d, rb.below_begin, rb.below_end, rd.g[rb.payload_node]);
-  }
+  if (rb.payload != (rd.attached_node >= 0)) hang_payload(m, d, rb, rd);  // decided again since the kinematics
   if (rb.payload) {  // the payload's cvel (MuJoCo's pass skips it): the rigid twist of its node
     const Vec6 c = Ad(com_frame(rd.g[rb.payload_node], d->subtree_com + 3 * m->body_rootid[rb.base_body])) *
                    rd.eta[rb.payload_node];
