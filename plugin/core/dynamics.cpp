@@ -203,13 +203,17 @@ void rnea(const Model& m, Data& d, const Eigen::Ref<const VecX>& qacc, bool grav
       // Newton-Euler in the body frame: f = M acc + ad*_eta M eta - f_ext (for the root of a fixed
       // subtree, with the subtree's composite inertia: its parts move rigidly with it)
       const Mat6& I = lumped ? n.inertia_sub : n.inertia;
-      Vec6 h = I * d.eta[i];
-      f = I * a;
-      if (i == d.attached_node) {  // (Data::attached_inertia)
-        h.noalias() += d.attached_inertia * d.eta[i];
-        f.noalias() += d.attached_inertia * a;
+      // (a massless node, e.g. a Gauss-rule section's end frame, carries no inertial force: a
+      // spatial inertia is positive semi-definite, so a zero diagonal means a zero matrix)
+      if (i == d.attached_node || !I.diagonal().isZero(0.0)) {
+        Vec6 h = I * d.eta[i];
+        f = I * a;
+        if (i == d.attached_node) {  // (Data::attached_inertia)
+          h.noalias() += d.attached_inertia * d.eta[i];
+          f.noalias() += d.attached_inertia * a;
+        }
+        f += coad_apply(d.eta[i], h);
       }
-      f += coad_apply(d.eta[i], h);
     }
     if (external && !(d.f_ext_body[i].isZero(0.0) && d.f_ext_world[i].isZero(0.0))) {
       const Mat3 Rt = d.g[i].R.transpose();
