@@ -10,6 +10,12 @@ DIR/elastica_convergence.txt (whichever exist) and writes
                                         credit_errors; every run's own error as a faint dot);
   DIR/stage_cost.png                    per-step cost by stage for each shipped model.
 Plots need matplotlib (Debian: python3-matplotlib); without it only RESULTS.md is written.
+
+       report.py DIR --readme README.md        also rewrites the README's generated blocks
+       report.py DIR --check-readme README.md  only checks them (exit 1 and a diff if they differ)
+The README's benchmark tables sit between `<!-- report.py:NAME -->` and `<!-- report.py:end -->`
+lines and are generated from DIR's JSON (readme_blocks below), so that they cannot drift from the
+shipped data; a test (Bench.ReadmeTablesAreTheShippedJson) runs the check.
 """
 import glob
 import json
@@ -413,11 +419,193 @@ def kernels_section(path):
     return out
 
 
+# ---- the README's generated blocks ----------------------------------------------------------------
+
+# the README's label for each work-precision problem (its error measure and simulated time)
+PROBLEM_LABELS = {
+    "cantilever": "cantilever released under gravity (RMS tip and mid-point / L, 2 s)",
+    "circle": "rod rolled into a circle (max point error / L)",
+    "flagellate_rigid": "rigid flagellate (mean swimming speed, 4 s)",
+    "flagellate": "soft flagellate (mean swimming speed, 4 s)",
+    "octopus": "octopus arm curling under cable tension (RMS tip and mid-site / L, 0.2 s)",
+}
+# the goal's problems: at equal error at least 10x faster than the best native chain
+GOAL_PROBLEMS = ("cantilever", "circle", "flagellate_rigid", "flagellate")
+
+
+def fmt_us(x):
+    """A wall time for the README: 2-3 significant figures in us, ms or s."""
+    if x is None:
+        return "-"
+    if x < 1e-3:
+        return f"{x * 1e6:.0f} µs"
+    if x < 1e-2:
+        return f"{x * 1e3:.1f} ms"
+    if x < 1:
+        return f"{x * 1e3:.0f} ms"
+    return f"{x:.2f} s"
+
+
+def fmt_ratio(r):
+    return "-" if r is None else (f"{r:.1f}×" if r < 10 else f"{r:.0f}×")
+
+
+def short_machine(m):
+    return f"{m.get('cpu', '?')}, {m.get('date', '?')[:10]}"
+
+
+def wp_files(outdir):
+    order = list(PROBLEM_LABELS)
+    js = [load(p) for p in glob.glob(os.path.join(outdir, "work_precision_*.json"))]
+    js = [j for j in js if "error" not in j]
+    return sorted(js, key=lambda j: order.index(j["problem"]) if j["problem"] in order else len(order))
+
+
+def reaching(points, e):
+    """The label of the cheapest run whose credited error is at most e (the front point that
+    reaches e; the table's time interpolates between it and the one before), or '-'."""
+    ok = [p for p in points if credited(p) is not None and 0 < credited(p) <= e]
+    return min(ok, key=lambda p: p["wall_s"])["label"] if ok else "-"
+
+
+def block_work_precision(outdir):
+    out = ["| problem (error measure) | error | ours | native chain | native / ours | our run reaching it | native run reaching it |",
+           "|---|---|---|---|---|---|---|"]
+    for j in wp_files(outdir):
+        rows, _, _ = equal_error_rows(j)
+        ours = [p for f in j["families"] if not f["native"] for p in f["points"]]
+        nat = [p for f in j["families"] if f["native"] for p in f["points"]]
+        label = PROBLEM_LABELS.get(j["problem"], j["problem"])
+        res = j.get("reference", {}).get("check_difference")
+        if res and res > 1e-6:
+            label = label[:-1] + f"; the reference resolves {res:.1e})"
+        for k, (e, to, tn, sp) in enumerate(rows):
+            out.append(f"| {label if k == 0 else ''} | {e:.0e} | {fmt_us(to)} | {fmt_us(tn)} | {fmt_ratio(sp)} | "
+                       f"{reaching(ours, e)} | {reaching(nat, e) if tn is not None else '-'} |")
+    out += ["", "Least error reached (ours / native chain): " + "; ".join(
+        f"{j['problem']} {fmt_e(j['summary'].get('best_error_ours'))} / {fmt_e(j['summary'].get('best_error_native'))}"
+        for j in wp_files(outdir)) + ".", "",
+        "Runs: " + "; ".join(f"{j['problem']} {short_machine(j['machine'])}" for j in wp_files(outdir)) +
+        " (`machine` in each `docs/bench/work_precision_*.json`)."]
+    return out
+
+
+def block_goal(outdir):
+    """Where the 10x goal is met and where it is missed, problem by problem."""
+    out = []
+    for j in wp_files(outdir):
+        if j["problem"] not in GOAL_PROBLEMS:
+            continue
+        rows, _, _ = equal_error_rows(j)
+        met = [f"{e:.0e} ({fmt_ratio(sp)})" for e, to, tn, sp in rows if sp is not None and sp >= 10]
+        missed = [f"{e:.0e} ({fmt_ratio(sp)})" for e, to, tn, sp in rows if sp is not None and sp < 10]
+        never = [e for e, to, tn, sp in rows if to is not None and tn is None]
+        parts = []
+        if met:
+            parts.append("met at " + ", ".join(met))
+        if never:
+            parts.append(f"{'' if met else 'met '}from {max(never):.0e} down{'' if met else ','} where only ours gets "
+                         f"(the native chain's least error {fmt_e(j['summary'].get('best_error_native'))})")
+        if missed:
+            parts.append("missed at " + ", ".join(missed))
+        out.append(f"- {PROBLEM_LABELS.get(j['problem'], j['problem']).split(' (')[0]}: " + "; ".join(parts) + ".")
+    return out
+
+
+def block_coupling(outdir, path="stage_cost.json"):
+    j = load(os.path.join(outdir, path))
+    out = ["| model (nv, ncon) | ours | mj_step, same model | ratio | native chain nv / ncon | h | mj_step, native | ratio (ours with euler) |",
+           "|---|---|---|---|---|---|---|---|"]
+    for m in j["models"]:
+        o = m["coupling_overhead"]
+        h = o.get("native_chain_timestep")
+        out.append(f"| {m['model']} (nv {m['nv']}, ncon {m['ncon']}) | {o['ours_step_us']:.3g} µs | "
+                   f"{o['same_model_mj_step_us']:.3g} µs (ncon {o.get('same_model_ncon', '?')}) | {o['ratio_same_model']:.2f}× | "
+                   f"{o.get('native_chain_nv', '-')} / {o.get('native_chain_ncon', '-')} | "
+                   f"{'-' if h is None else f'{h * 1e3:g} ms'} | {o.get('native_chain_mj_step_us', float('nan')):.3g} µs | "
+                   f"{o.get('ratio_native_chain', float('nan')):.2f}× ({o.get('ratio_native_chain_euler', float('nan')):.2f}×) |")
+    rn = [m["coupling_overhead"].get("ratio_native_chain") for m in j["models"]]
+    rs = [m["coupling_overhead"]["ratio_same_model"] for m in j["models"]]
+    rn = [r for r in rn if r is not None]
+    out += ["", f"Against the native chain {min(rn):.2f}-{max(rn):.2f}×, against the same compiled model "
+                f"{min(rs):.2f}-{max(rs):.2f}×; {j['models'][0]['coupling_overhead']['rounds']} interleaved rounds, "
+                f"medians; {short_machine(j['machine'])} (`docs/bench/{path}`)."]
+    return out
+
+
+def block_stress(outdir):
+    j = load(os.path.join(outdir, "stress.json"))
+    n = sum(len(j.get(k, [])) for k in ("material", "tipmass", "contact", "turns", "long", "soft_string"))
+    out = [f"{n} cases ({len(j.get('material', []))} material and slenderness × integrator, "
+           f"{len(j.get('tipmass', []))} tip masses, {len(j.get('contact', []))} contact, {len(j.get('turns', []))} "
+           f"bent or straight sections, {len(j.get('long', []))} long runs, {len(j.get('soft_string', []))} soft string); "
+           f"{j.get('failures', 0)} fail ({short_machine(j['machine'])}, `docs/bench/stress.json`):", ""]
+    out += [f"- {f}" for f in j.get("failure_list", [])]
+    return out
+
+
+README_BLOCKS = {
+    "work-precision": block_work_precision,
+    "goal": block_goal,
+    "coupling": block_coupling,
+    # bench_stage_cost --models docs/bench/repro/short_rods --out docs/bench/short_rods
+    "coupling-short-rods": lambda outdir: block_coupling(outdir, "short_rods/stage_cost.json"),
+    "stress-failures": block_stress,
+}
+
+
+def readme_blocks(readme_text, outdir):
+    """The README's text with every generated block rewritten from outdir's JSON."""
+    lines = readme_text.split("\n")
+    out, k = [], 0
+    while k < len(lines):
+        line = lines[k]
+        out.append(line)
+        k += 1
+        if line.startswith("<!-- report.py:") and line.rstrip().endswith("-->") and "report.py:end" not in line:
+            name = line.strip()[len("<!-- report.py:"):-len("-->")].strip()
+            if name not in README_BLOCKS:
+                raise SystemExit(f"report.py: unknown README block '{name}' (known: {', '.join(README_BLOCKS)})")
+            end = k
+            while end < len(lines) and not lines[end].startswith("<!-- report.py:end"):
+                end += 1
+            if end == len(lines):
+                raise SystemExit(f"report.py: README block '{name}' has no '<!-- report.py:end -->' line")
+            out += README_BLOCKS[name](outdir)
+            out.append(lines[end])
+            k = end + 1
+    return "\n".join(out)
+
+
 def main():
     if len(sys.argv) < 2:
         print(__doc__)
         return 1
     outdir = sys.argv[1]
+    for flag in ("--readme", "--check-readme"):
+        if flag in sys.argv:
+            k = sys.argv.index(flag)
+            if k + 1 >= len(sys.argv):
+                print(f"report.py: {flag} needs the README's path")
+                return 2
+            path = sys.argv[k + 1]
+            text = open(path).read()
+            new = readme_blocks(text, outdir)
+            if flag == "--check-readme":
+                if new == text:
+                    print(f"{path}: the generated blocks are those of {outdir}'s JSON")
+                    return 0
+                import difflib
+                sys.stdout.writelines(difflib.unified_diff(text.splitlines(True), new.splitlines(True), path,
+                                                           "generated from " + outdir))
+                print(f"\n{path}: generated blocks differ from {outdir}'s JSON: rerun "
+                      f"`python3 bench/report.py {outdir} --readme {path}`")
+                return 1
+            with open(path, "w") as f:
+                f.write(new)
+            print(f"rewrote the generated blocks of {path}")
+    if "--check-readme" in sys.argv:
+        return 0
     plots = "--no-plots" not in sys.argv
     if plots:
         try:

@@ -436,8 +436,12 @@ std::vector<Problem> flagellates(const Options& o) {
       p.families.erase(std::remove_if(p.families.begin(), p.families.end(),
                                       [](const Family& fm) { return fm.method == Method::RK4; }),
                        p.families.end());
+      // the native chain's Euler keeps its joint springs explicit: it starts at small steps. Its
+      // `implicit` families (joint springs, damping, fluid drag and servo implicit: the scene's
+      // implicit step) start where ours do (until the thirtieth session they started at h0 / 2
+      // too, a limit of the explicit springs they no longer have: outside probe AJ)
       for (Family& fm : p.families)
-        if (fm.native) fm.steps = {h0 / 2, h0 / 4, h0 / 8, h0 / 16};  // explicit elasticity: small steps
+        if (fm.native && fm.method == Method::Euler) fm.steps = {h0 / 2, h0 / 4, h0 / 8, h0 / 16};
       p.reference = ours(2, 0, Method::Implicit, h0 / 16);
       p.reference_check = ours(1, 0, Method::Implicit, h0 / 8);
     } else {
