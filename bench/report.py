@@ -504,8 +504,8 @@ def block_goal(outdir):
         if met:
             parts.append("met at " + ", ".join(met))
         if never:
-            parts.append(f"{'' if met else 'met '}from {max(never):.0e} down{'' if met else ','} where only ours gets "
-                         f"(the native chain's least error {fmt_e(j['summary'].get('best_error_native'))})")
+            parts.append(f"{'from' if met else 'met from'} {max(never):.0e} down{'' if met else ', where'} only ours gets "
+                         f"there (the native chain's least error {fmt_e(j['summary'].get('best_error_native'))})")
         if missed:
             parts.append("missed at " + ", ".join(missed))
         out.append(f"- {PROBLEM_LABELS.get(j['problem'], j['problem']).split(' (')[0]}: " + "; ".join(parts) + ".")
