@@ -69,6 +69,9 @@ fi
 if wants stage_cost; then
   stamp "stage_cost $q"
   "$bin/bench_stage_cost" $q --out "$out"
+  # short clamped rods, default Gauss and Lobatto mass rules (the README's short-rod table)
+  stamp "stage_cost $q (short rods)"
+  "$bin/bench_stage_cost" $q --models "$root/docs/bench/repro/short_rods" --out "$out/short_rods"
 fi
 if wants kernels && [ -x "$bin/bench_kernels" ]; then
   stamp "kernels"
