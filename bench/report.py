@@ -83,6 +83,11 @@ def credited(p):
     return p.get("credited", p["error"])
 
 
+def side_points(j, native):
+    """Every run of our families (native False) or of the native chains' (native True)."""
+    return [p for f in j["families"] if f["native"] == native for p in f["points"]]
+
+
 def front(points):
     """Pareto front (wall time ascending, credited error descending) of points with a finite error."""
     pts = sorted((p["wall_s"], credited(p)) for p in points if credited(p) is not None and credited(p) > 0)
@@ -115,8 +120,8 @@ def equal_error_rows(j):
     native families (credited errors), interpolated (log-log) at errors from the coarsest to the
     finest reached."""
     credit_errors(j)
-    ours = front([p for f in j["families"] if not f["native"] for p in f["points"]])
-    nat = front([p for f in j["families"] if f["native"] for p in f["points"]])
+    ours = front(side_points(j, False))
+    nat = front(side_points(j, True))
     # errors below the reference's own resolution (two fine solutions differ by that much) measure
     # nothing: left out (outside probe Q: the soft flagellate's rows down to 3e-5 were time errors
     # of runs at the reference's own discretisation)
@@ -471,10 +476,10 @@ def reaching(points, e):
 def block_work_precision(outdir):
     out = ["| problem (error measure) | error | ours | native chain | native / ours | our run reaching it | native run reaching it |",
            "|---|---|---|---|---|---|---|"]
-    for j in wp_files(outdir):
+    js = wp_files(outdir)
+    for j in js:
         rows, _, _ = equal_error_rows(j)
-        ours = [p for f in j["families"] if not f["native"] for p in f["points"]]
-        nat = [p for f in j["families"] if f["native"] for p in f["points"]]
+        ours, nat = side_points(j, False), side_points(j, True)
         label = PROBLEM_LABELS.get(j["problem"], j["problem"])
         res = j.get("reference", {}).get("check_difference")
         if res and res > 1e-6:
@@ -485,8 +490,8 @@ def block_work_precision(outdir):
     out += ["", "Least error of any single run (ours / native chain; not credited, and ours below the reference's "
                 "resolution where it has one): " + "; ".join(
         f"{j['problem']} {fmt_e(j['summary'].get('best_error_ours'))} / {fmt_e(j['summary'].get('best_error_native'))}"
-        for j in wp_files(outdir)) + ".", "",
-        "Runs: " + "; ".join(f"{j['problem']} {short_machine(j['machine'])}" for j in wp_files(outdir)) +
+        for j in js) + ".", "",
+        "Runs: " + "; ".join(f"{j['problem']} {short_machine(j['machine'])}" for j in js) +
         " (`machine` in each `docs/bench/work_precision_*.json`)."]
     return out
 
@@ -497,14 +502,13 @@ def block_goal(outdir):
     for j in wp_files(outdir):
         if j["problem"] not in GOAL_PROBLEMS:
             continue
-        rows, _, _ = equal_error_rows(j)
+        rows, _, _ = equal_error_rows(j)  # (credits the errors: credited() below reads them)
         met = [f"{e:.0e} ({fmt_ratio(sp)})" for e, to, tn, sp in rows if sp is not None and sp >= 10]
         missed = [f"{e:.0e} ({fmt_ratio(sp)})" for e, to, tn, sp in rows if sp is not None and sp < 10]
         never = [e for e, to, tn, sp in rows if to is not None and tn is None]
         # the native side's least credited error (what the rows use: a run is credited with the
         # largest error of its own and of its finer steps)
-        credit_errors(j)
-        nat = [credited(p) for f in j["families"] if f["native"] for p in f["points"]]
+        nat = [credited(p) for p in side_points(j, True)]
         nat_least = min((e for e in nat if e is not None and e > 0), default=None)
         parts = []
         if met:
