@@ -98,13 +98,29 @@ inline void add_cross(const double* Sb, int nb, const double* F, int nf, MatX& M
     }
   }
 }
+
+// The node after i in i's dof group, or -1. A group is a run of consecutive nodes sharing one
+// dof block, each the parent of the next (the steps of one rod section; Node::group_first).
+inline int group_next(const Model& m, int i) {
+  const int j = i + 1;
+  if (j >= static_cast<int>(m.nodes.size())) return -1;
+  const Node &a = m.nodes[i], &b = m.nodes[j];
+  return a.ndof > 0 && b.parent == i && b.dof0 == a.dof0 && b.ndof == a.ndof ? j : -1;
+}
+
+bool is_diagonal(const Mat6& A) {
+  for (int c = 0; c < 6; ++c)
+    for (int r = 0; r < 6; ++r)
+      if (r != c && A(r, c) != 0.0) return false;
+  return true;
+}
+
+// Data::Ic_off_kind: what a group node carries besides the rest of its group
+enum : signed char { kOffZero, kOffDiagonal, kOffFull };
 }  // namespace
 
-// The composite-rigid-body recursion for any per-node 6x6 matrix (inertia for crba, fluid
-// resistance for fluid_damping): out_M = sum_i J_i^T A_i J_i, with the base coupling.
-// (For a non-symmetric A only the base coupling and the blocks S_b^T .. S_a, b an ancestor of a,
-// are those of J^T A J: the blocks below are filled as their transposes. Inertia and drag are
-// symmetric.)
+// The composite-rigid-body recursion for any symmetric per-node 6x6 matrix (inertia for crba,
+// fluid resistance for fluid_damping): out_M = sum_i J_i^T A_i J_i, with the base coupling.
 void composite(const Model& m, Data& d, NodeMatrix which, MatX& out_M, Mat6& out_base, Mat6X& out_F_base) {
   const int nn = static_cast<int>(m.nodes.size());
   const bool inertia = which == NodeMatrix::Inertia;
@@ -114,7 +130,9 @@ void composite(const Model& m, Data& d, NodeMatrix which, MatX& out_M, Mat6& out
   // inertias are rigid-body spatial inertias (Model::finalize checks): the cheaper congruence
   auto congruence = inertia ? add_congruence_rigid : add_congruence_Ad_inv;
   // composite matrix in each node frame: Ic_i = A_i + sum_c Ad*_{g_ic} Ic_c Ad^-1_{g_ic}
-  // (the nodes inside a fixed subtree are not visited: their Ic is left as it was)
+  // (the nodes inside a fixed subtree are not visited: their Ic is left as it was). The children
+  // outside the node's group are summed first: that partial sum, Ic_off_i, is what node i adds to
+  // its group's block of M beyond the rest of the group (below).
   for (int i = nn - 1; i >= 0; --i) {
     const Node& n = m.nodes[i];
     const bool attached = inertia && i == d.attached_node;  // (Data::attached_inertia)
@@ -123,22 +141,37 @@ void composite(const Model& m, Data& d, NodeMatrix which, MatX& out_M, Mat6& out
       if (attached) d.Ic[i] += d.attached_inertia;
       continue;
     }
+    const int next = group_next(m, i);
     Mat6 I = n.*field;
     if (attached) I += d.attached_inertia;
-    for (int c : children_of(m, i)) congruence(d.g_rel[c], d.Ic[c], I);
+    bool own = !attached;  // I is the node's own matrix
+    for (int c : children_of(m, i))
+      if (c != next) {
+        congruence(d.g_rel[c], d.Ic[c], I);
+        own = false;
+      }
+    if (n.ndof > 0) {
+      // a rod's mass point (diagonal in its frame) or a massless step: the cheap products below
+      signed char kind = kOffFull;
+      if (own && is_diagonal(I)) kind = I.diagonal().isZero(0.0) ? kOffZero : kOffDiagonal;
+      d.Ic_off_kind[i] = kind;
+      if (kind == kOffFull && next >= 0) d.Ic_off[i] = I;
+    }
+    if (next >= 0) congruence(d.g_rel[next], d.Ic[next], I);
     d.Ic[i] = I;
   }
   out_base.setZero();
   for (int c : children_of(m, -1)) congruence(d.g_rel[c], d.Ic[c], out_base);
   out_M.setZero();
   out_F_base.setZero();
-  // M = sum_a [S_a^T Ic_a S_a + sum_{b ancestor of a} (S_b^T F_ab + F_ab^T S_b)], F_ab = Ad*_{g_ba} Ic_a S_a.
-  // A run of nodes a0..ak that share one dof block, each the parent of the next (the steps of one
-  // rod section), is a group: its force subspaces are summed Horner-like from its last node up,
-  // F <- Ad* F + Ic_a S_a, the cross terms inside the group being S_a^T F + F^T S_a with F
-  // transported to a before adding a's own term, and the walk above the group is done once with
-  // the sum. A node that does not continue the run starts a new group (a group of one node is the
-  // plain per-node walk).
+  // M = sum_i J_i^T A_i J_i over the nodes, a group of nodes a0..ak at a time (a node that does
+  // not continue a run is a group of one). With Jg_a the group Jacobian (Data::Jg) and T_a =
+  // Ic_off_a Jg_a (Ic_off_ak = Ic_ak):
+  //   the group's own block: sum_a Jg_a^T T_a;
+  //   its force subspace in the frame the group hangs from: F = sum_a Ad*_{g_grp_a} T_a;
+  //   the cross terms with an ancestor b: Jg_b^T F, F moved to b's group frame, and so on up.
+  // (A rod section's mass points are diagonal and its Gauss-rule end frame massless: only the
+  // last node of a section takes a full 6 x 6 product.)
   for (int a0 = 0; a0 < nn;) {
     const Node& na = m.nodes[a0];
     if (na.ndof == 0) {
@@ -146,31 +179,40 @@ void composite(const Model& m, Data& d, NodeMatrix which, MatX& out_M, Mat6& out
       continue;
     }
     const int nd = na.ndof, q0 = na.dof0;
-    int ak = a0;
-    while (ak + 1 < nn && m.nodes[ak + 1].parent == ak && m.nodes[ak + 1].dof0 == q0 &&
-           m.nodes[ak + 1].ndof == nd)
-      ++ak;
     double* F = d.Fs.data();  // 6 x nd, column-major
-    for (int a = ak; a >= a0; --a) {
-      const double* Sa = d.S[a].data();
-      if (a < ak) {
-        coAd_cols(d.g_rel[a + 1], F, nd);
-        add_cross(Sa, nd, F, nd, out_M, q0, q0);  // a is an ancestor of the group's nodes below it
+    double* T = d.Ts.data();
+    std::fill(F, F + 6 * nd, 0.0);
+    int a = a0;
+    for (;; ++a) {
+      const signed char kind = d.Ic_off_kind[a];
+      const int next = group_next(m, a);
+      if (kind != kOffZero) {
+        const double* J = d.Jg[a].data();
+        if (kind == kOffDiagonal) {
+          const Vec6 w = (m.nodes[a].*field).diagonal();
+          for (int c = 0; c < nd; ++c)
+            Eigen::Map<Vec6>(T + 6 * c) = w.cwiseProduct(Eigen::Map<const Vec6>(J + 6 * c));
+        } else {
+          const Mat6& A = next >= 0 ? d.Ic_off[a] : d.Ic[a];
+          for (int c = 0; c < nd; ++c) Eigen::Map<Vec6>(T + 6 * c).noalias() = A * Eigen::Map<const Vec6>(J + 6 * c);
+        }
+        for (int c = 0; c < nd; ++c) {  // (a symmetric block: its upper triangle, mirrored)
+          const Eigen::Map<const Vec6> t(T + 6 * c);
+          for (int r = 0; r < c; ++r) {
+            const double x = Eigen::Map<const Vec6>(J + 6 * r).dot(t);
+            out_M(q0 + r, q0 + c) += x;
+            out_M(q0 + c, q0 + r) += x;
+          }
+          out_M(q0 + c, q0 + c) += Eigen::Map<const Vec6>(J + 6 * c).dot(t);
+        }
+        coAd_cols(d.g_grp[a], T, nd);
+        for (int k = 0; k < 6 * nd; ++k) F[k] += T[k];
       }
-      for (int c = 0; c < nd; ++c) {  // F += Ic_a S_a, and the diagonal term S_a^T Ic_a S_a
-        const Vec6 f = d.Ic[a] * Eigen::Map<const Vec6>(Sa + 6 * c);
-        Eigen::Map<Vec6> Fc(F + 6 * c);
-        if (a < ak)
-          Fc += f;
-        else
-          Fc = f;
-        for (int r = 0; r < nd; ++r) out_M(q0 + r, q0 + c) += Eigen::Map<const Vec6>(Sa + 6 * r).dot(f);
-      }
+      if (next < 0) break;
     }
     // the walk above the group, one ancestor group at a time: for an ancestor b, the cross terms
     // of b's group up to b are Jg_b^T F (F in b's frame), and F moves on by g_grp_b to the frame
     // that group hangs from
-    coAd_cols(d.g_rel[a0], F, nd);  // force subspace to the parent frame
     for (int b = na.parent; b >= 0;) {
       const Node& nb = m.nodes[b];
       if (nb.ndof > 0) add_cross(d.Jg[b].data(), nb.ndof, F, nd, out_M, nb.dof0, q0);
@@ -178,7 +220,7 @@ void composite(const Model& m, Data& d, NodeMatrix which, MatX& out_M, Mat6& out
       b = m.nodes[nb.group_first].parent;
     }
     out_F_base.middleCols(q0, nd) += d.Fs.leftCols(nd);
-    a0 = ak + 1;
+    a0 = a + 1;
   }
 }
 

@@ -16,7 +16,7 @@ void crba(const Model& m, Data& d);
 // The same recursion for the nodes' inertia (crba) or fluid resistance Node::drag (fluid.hpp):
 // out_M = sum_i J_i^T A_i J_i over the nodes (A_i = Node::inertia or Node::drag, node frame, angular
 // first), with the base coupling out_base (6 x 6) and out_F_base (6 x nv) as for Ic_base and
-// F_base. Uses d.Ic as scratch. Fixed subtrees take their cached composite (Node::inertia_sub,
+// F_base. Uses d.Ic, d.Ic_off, d.Fs and d.Ts as scratch. Fixed subtrees take their cached composite (Node::inertia_sub,
 // Node::drag_sub). The matrices are symmetric: out_M is filled as a symmetric matrix from its
 // upper blocks.
 enum class NodeMatrix { Inertia, Drag };

@@ -420,7 +420,9 @@ Data::Data(const Model& m) {
   acc.assign(nn, Vec6::Zero());
   F.assign(nn, Vec6::Zero());
   Ic.assign(nn, Mat6::Zero());
-  Fs = Mat6X::Zero(6, m.max_ndof);
+  Ic_off.assign(nn, Mat6::Zero());
+  Ic_off_kind.assign(nn, 0);
+  Fs = Ts = Mat6X::Zero(6, m.max_ndof);
   F_base = Mat6X::Zero(6, n);
   D_fluid = MatX::Zero(n, n);
   DF_base = Mat6X::Zero(6, n);

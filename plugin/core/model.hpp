@@ -281,6 +281,10 @@ struct Data {
   std::vector<Vec6> acc;   // body acceleration (scratch of rnea)
   std::vector<Vec6> F;     // subtree wrench (scratch of rnea)
   std::vector<Mat6> Ic;    // composite inertia (scratch of crba)
+  // (scratch of composite) a node's own matrix plus the composites of its children outside its
+  // dof group, where that is neither zero nor the node's own diagonal matrix (Ic_off_kind)
+  std::vector<Mat6> Ic_off;
+  std::vector<signed char> Ic_off_kind;
   // what the tree transmits to its base (for coupling to a moving parent body):
   Mat6 Ic_base = Mat6::Zero();   // composite inertia of everything, base frame (crba)
   Mat6X F_base;                  // 6 x nv: base-frame wrench per unit qacc (crba): M_base,q
@@ -293,7 +297,7 @@ struct Data {
   Mat6X DF_base;                 // 6 x nv
 
   // scratch
-  Mat6X Fs;                // 6 x max_ndof
+  Mat6X Fs, Ts;            // 6 x max_ndof
   VecX tmp, rhs;
   MatX A;                  // system matrix of the implicit integrator
   Eigen::LDLT<MatX> ldlt;
