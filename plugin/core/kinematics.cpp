@@ -58,7 +58,14 @@ void fwd_position(const Model& m, Data& d) {
       d.S[i] = d.S[n.same_step];
     } else {
       d.Omega[i] = step_twist(n, d.q.segment(n.dof0, n.ndof), &d.G[i]);
-      d.g_rel[i] = n.offset * exp_se3(d.Omega[i]);
+      if (n.keep_mid) {  // (a PCS step: the pose at its middle is offset exp(Omega / 2))
+        const SE3 E = exp_se3(Vec6(0.5 * d.Omega[i]));
+        const SE3 to_mid = n.offset * E;
+        d.g_mid[i] = (n.parent < 0 ? d.base_pose : d.g[n.parent]) * to_mid;
+        d.g_rel[i] = to_mid * E;
+      } else {
+        d.g_rel[i] = n.offset * exp_se3(d.Omega[i]);
+      }
       d.S[i].noalias() = dexp(-d.Omega[i]) * d.G[i];
     }
     d.g[i] = (n.parent < 0 ? d.base_pose : d.g[n.parent]) * d.g_rel[i];
@@ -206,6 +213,7 @@ struct PartialStep {
   double Xp = 0.0;
   bool full = false;  // X is the node itself: the step is the node's own (Data holds it)
   bool empty = false;  // X is the parent frame: a step of length 0 (Om = 0; xa, xb, sp unset unless G was asked for)
+  bool mid = false;    // X is the node's kept midpoint (Node::keep_mid: Data::g_mid; Om, xa, xb, sp unset unless G was asked for)
   StepPoints sp;
   Vec6 Om, xa, xb;
 };
@@ -235,6 +243,8 @@ void partial_step(const Model& m, const Data& d, int r, double X, int section, M
   ps.full = X == n.X;
   if (ps.full && !when_full) return;
   ps.empty = X == ps.Xp;
+  ps.mid = n.keep_mid && X == n.X_mid;
+  if (ps.mid && !G) return;
   if (ps.empty && !G) {  // X is the parent frame: no motion (a rod's start, a capsule's first end)
     ps.Om.setZero();
     return;
@@ -248,6 +258,7 @@ SE3 rod_pose(const Model& m, const Data& d, int r, double X) {
   PartialStep ps;
   partial_step(m, d, r, X, -1, nullptr, ps, false);
   if (ps.full) return d.g[ps.node];
+  if (ps.mid) return d.g_mid[ps.node];
   const SE3& gp = ps.parent < 0 ? d.base_pose : d.g[ps.parent];
   if (ps.empty) return gp * ps.offset;
   return gp * ps.offset * exp_se3(ps.Om);
@@ -375,7 +386,7 @@ PointMotion point_motion_at_rest_acceleration(const Model& m, const Data& d, int
   const Section& sec = m.sections[m.nodes[ps.node].section];
   const SE3 grel = ps.offset * exp_se3(ps.Om);
   PointMotion pm;
-  pm.pose = (ps.parent < 0 ? d.base_pose : d.g[ps.parent]) * grel;
+  pm.pose = ps.mid ? d.g_mid[ps.node] : (ps.parent < 0 ? d.base_pose : d.g[ps.parent]) * grel;  // (rod_pose's)
   pm.eta = Ad_inv_apply(grel, ps.parent < 0 ? d.base_twist : d.eta[ps.parent]);
   pm.acc = Ad_inv_apply(grel, ps.parent < 0 ? d.base_accel : d.acc[ps.parent]);
   if (sec.ndof > 0) {  // the partial step's own motion, as fwd_velocity's for a whole step
@@ -407,6 +418,7 @@ SE3 rod_pose_and_jacobian(const Model& m, const Data& d, int r, double X, int se
   }
   const SE3 E = exp_se3(ps.Om);
   section_jacobian_from(m, d, ps, G, J, nullptr, g_start_X, &E);
+  if (ps.mid) return d.g_mid[ps.node];  // (rod_pose's, to the bit)
   const SE3& gp = ps.parent < 0 ? d.base_pose : d.g[ps.parent];
   return gp * ps.offset * E;
 }

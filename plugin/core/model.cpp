@@ -384,6 +384,18 @@ int Model::rod_node_at(int r, double X) const {
   return lo;
 }
 
+int Model::keep_midpoint_pose(int r, double X) {
+  require(finalized, "keep_midpoint_pose: call finalize() first");
+  require(r >= 0 && r < static_cast<int>(rods.size()), "keep_midpoint_pose: bad rod");
+  const int i = rod_node_at(r, X);
+  Node& n = nodes[i];
+  if (n.ndof == 0 || n.commutator || n.same_step >= 0 || n.rod != r) return -1;
+  if (std::abs(X - (n.X - 0.5 * n.h)) > 1e-13 * rods[r].length) return -1;
+  n.keep_mid = true;
+  n.X_mid = X;
+  return i;
+}
+
 Data::Data(const Model& m) {
   if (!m.finalized) throw std::invalid_argument("Data(model): model not finalized");
   int max_ndof = 0;
@@ -399,6 +411,7 @@ Data::Data(const Model& m) {
   M = MatX::Zero(n, n);
   g.assign(nn, SE3());
   g_rel.assign(nn, SE3());
+  g_mid.assign(nn, SE3());
   Omega.assign(nn, Vec6::Zero());
   Omega_dot.assign(nn, Vec6::Zero());
   Sdot_v.assign(nn, Vec6::Zero());

@@ -105,6 +105,11 @@ struct Node {
   // offset): fwd_position and fwd_velocity copy its step (Omega, g_rel, S, Sdot) instead of
   // recomputing the exponential and its tangents. -1: none. Set by finalize().
   int same_step = -1;
+  // Whether fwd_position also keeps the pose at the middle of this node's step, at abscissa X_mid
+  // (Data::g_mid; Model::keep_midpoint_pose): a PCS step is then E E with E = exp(Omega / 2), the
+  // midpoint's pose coming with it (a collision capsule's end in the middle of a Gauss-rule section).
+  bool keep_mid = false;
+  double X_mid = 0.0;
   double dX = 0.0;        // rod length this node stands for in quadratures (0 for non-rod nodes)
   bool free_joint = false;  // a 6-dof free joint (floating base): no static equilibrium
   int rod = -1, section = -1;
@@ -219,6 +224,11 @@ struct Model {
   int rod_index(const std::string& name) const;  // -1 if absent
   // Node whose step contains abscissa X of rod r (the first node with node.X >= X).
   int rod_node_at(int rod, double X) const;
+  // If abscissa X of rod `rod` is the middle of a PCS step with dofs (to 1e-13 of the rod's
+  // length), has fwd_position keep its pose in Data::g_mid (Node::keep_mid, X_mid = X), which
+  // rod_pose(rod, X) then returns, and returns the node; -1 otherwise (nothing changes). After
+  // finalize().
+  int keep_midpoint_pose(int rod, double X);
 
  private:
   std::vector<double> joint_stiffness_, joint_damping_;
@@ -265,6 +275,7 @@ struct Data {
   // kinematics per node
   std::vector<SE3> g;      // world pose
   std::vector<SE3> g_rel;  // pose in the parent frame
+  std::vector<SE3> g_mid;  // world pose at the middle of the step, where Node::keep_mid
   std::vector<Vec6> Omega, Omega_dot;
   std::vector<Mat6X> G;    // dOmega/dq_i (6 x ndof)
   std::vector<Mat6X> S;    // motion subspace dexp(-Omega) G (6 x ndof)

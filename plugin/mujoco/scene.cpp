@@ -256,6 +256,10 @@ RodBinding bind_rod(const mjModel* m, const RodDecl& decl) {
   rb.model.gravity = Vec3(m->opt.gravity[0], m->opt.gravity[1], m->opt.gravity[2]);
   rb.model.add_rod(-1, SE3::Identity(), decl.spec);
   rb.model.finalize();
+  // capsule ends in the middle of a PCS step (the default two capsules per Gauss-rule section
+  // meet there): their poses come with the kinematics instead of a partial step each
+  for (const RodGeomDecl& gd : decl.geoms)
+    for (double X : {gd.X_begin, gd.X_end}) rb.model.keep_midpoint_pose(0, X);
   rb.base_body = require_id(m, mjOBJ_BODY, decl.name + "/base", decl);
   for (const auto& p : decl.proxies) rb.proxy_body.push_back(require_id(m, mjOBJ_BODY, p, decl));
   // helper bodies: the bodies between a proxy and the previous proxy (or the base)

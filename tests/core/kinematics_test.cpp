@@ -243,4 +243,48 @@ TEST(RodPoseAndJacobian, IsRodPoseAndSectionJacobianBitForBit) {
   EXPECT_GT(compared, 30);
 }
 
+
+// Model::keep_midpoint_pose: the middle of a Gauss-rule PCS section (the middle of its middle
+// step) is kept by fwd_position as exp(Omega / 2) and returned by rod_pose and
+// rod_pose_and_jacobian to the bit; it equals the partial step's pose to round-off, and the
+// section's own steps do not move. Only PCS steps' midpoints are taken.
+TEST(RodPose, KeptMidpointsAreThePartialStepsPose) {
+  Model plain = kl_rod(3, false), kept = plain;
+  const double L = plain.rods[0].length, ds = L / 3;
+  int taken = 0;
+  for (int k = 0; k < 3; ++k) {
+    const double X = (k + 0.5) * ds;
+    const int i = kept.keep_midpoint_pose(0, X);
+    ASSERT_GE(i, 0) << "section " << k;
+    EXPECT_TRUE(kept.nodes[i].keep_mid);
+    ++taken;
+  }
+  EXPECT_EQ(kept.keep_midpoint_pose(0, 0.3 * ds), -1);  // inside the first step, not its middle
+  EXPECT_EQ(kept.keep_midpoint_pose(0, ds), -1);        // a section end
+  Model gvs;
+  gvs.add_rod(-1, SE3::Identity(), rod_spec("kl", 1, 2));
+  gvs.finalize();
+  const Node& gn = gvs.nodes[gvs.rod_node_at(0, 0.5 * gvs.rods[0].length)];
+  EXPECT_EQ(gvs.keep_midpoint_pose(0, gn.X - 0.5 * gn.h), -1);  // a GVS step (commutator)
+  EXPECT_EQ(taken, 3);
+  Data dp(plain), dk(kept);
+  dp.q = dk.q = 2.0 * VecX::Random(plain.nv);  // bent well beyond small angles
+  dk.base_pose = dp.base_pose = SE3{exp_so3(Vec3(0.2, -0.5, 0.3)), Vec3(0.1, 0.2, -0.3)};
+  fwd_position(plain, dp);
+  fwd_position(kept, dk);
+  for (size_t i = 0; i < plain.nodes.size(); ++i) {
+    EXPECT_LT((dk.g[i].matrix() - dp.g[i].matrix()).norm(), 1e-14) << "node " << i;
+    EXPECT_LT((dk.g_rel[i].matrix() - dp.g_rel[i].matrix()).norm(), 1e-14) << "node " << i;
+  }
+  for (int k = 0; k < 3; ++k) {
+    const double X = (k + 0.5) * ds;
+    const SE3 want = rod_pose(plain, dp, 0, X), got = rod_pose(kept, dk, 0, X);
+    EXPECT_LT((got.matrix() - want.matrix()).norm(), 1e-14) << "X " << X;
+    EXPECT_TRUE((got.matrix().array() == dk.g_mid[kept.rod_node_at(0, X)].matrix().array()).all());
+    Mat6X J;
+    const SE3 p = rod_pose_and_jacobian(kept, dk, 0, X, -1, J, nullptr);
+    EXPECT_TRUE((p.matrix().array() == got.matrix().array()).all()) << "X " << X;
+  }
+}
+
 }  // namespace
