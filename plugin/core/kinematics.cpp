@@ -66,7 +66,13 @@ void fwd_position(const Model& m, Data& d) {
       } else {
         d.g_rel[i] = n.offset * exp_se3(d.Omega[i]);
       }
-      d.S[i].noalias() = dexp(-d.Omega[i]) * d.G[i];
+      if (n.selects) {  // (bit for bit the product below: one nonzero h per column of G)
+        const Mat6 D = dexp(-d.Omega[i]);
+        const int* rows = m.sections[n.section].B_row;
+        for (int k = 0; k < n.ndof; ++k) d.S[i].col(k) = n.h * D.col(rows[k]);
+      } else {
+        d.S[i].noalias() = dexp(-d.Omega[i]) * d.G[i];
+      }
     }
     d.g[i] = (n.parent < 0 ? d.base_pose : d.g[n.parent]) * d.g_rel[i];
     if (n.group_first != i) {  // continues its parent's group

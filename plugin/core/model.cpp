@@ -316,6 +316,12 @@ void Model::finalize() {
     const bool continues = n.ndof > 0 && n.parent >= 0 && nodes[n.parent].ndof == n.ndof &&
                            nodes[n.parent].dof0 == n.dof0;
     n.group_first = continues ? nodes[n.parent].group_first : i;
+    n.selects = false;
+    if (n.ndof > 0 && !n.commutator && n.section >= 0 && sections[n.section].order == 0) {
+      const Section& sec = sections[n.section];
+      n.selects = n.Phi_a == sec.B && n.Phi_b == sec.B;
+      for (int c = 0; c < n.ndof; ++c) n.selects = n.selects && sec.B_row[c] >= 0;
+    }
     n.same_step = -1;
     if (n.ndof > 0 && !n.commutator && n.section >= 0)  // PCS: the step is a function of h alone
       for (int j = sections[n.section].first_node; j < i && n.same_step < 0; ++j) {

@@ -110,6 +110,9 @@ struct Node {
   // midpoint's pose coming with it (a collision capsule's end in the middle of a Gauss-rule section).
   bool keep_mid = false;
   double X_mid = 0.0;
+  // A PCS step whose strain basis selects components (Section::B_row): G = h B, and S = dexp(-Omega) G
+  // is h times the selected columns of dexp(-Omega) (fwd_position takes them). Set by finalize().
+  bool selects = false;
   double dX = 0.0;        // rod length this node stands for in quadratures (0 for non-rod nodes)
   bool free_joint = false;  // a 6-dof free joint (floating base): no static equilibrium
   int rod = -1, section = -1;
