@@ -246,8 +246,12 @@ void rnea(const Model& m, Data& d, const Eigen::Ref<const VecX>& qacc, bool grav
       // subtree, with the subtree's composite inertia: its parts move rigidly with it)
       const Mat6& I = lumped ? n.inertia_sub : n.inertia;
       // (a massless node, e.g. a Gauss-rule section's end frame, carries no inertial force: a
-      // spatial inertia is positive semi-definite, so a zero diagonal means a zero matrix)
-      if (i == d.attached_node || !I.diagonal().isZero(0.0)) {
+      // spatial inertia is positive semi-definite, so a zero diagonal means a zero matrix; a rod's
+      // mass point has a diagonal inertia: bit for bit the products below)
+      if (i != d.attached_node && !lumped && n.inertia_shape == Node::Shape::Diagonal) {
+        const Vec6 w = I.diagonal();
+        f = w.cwiseProduct(a) + coad_apply(d.eta[i], Vec6(w.cwiseProduct(d.eta[i])));
+      } else if (i == d.attached_node || !I.diagonal().isZero(0.0)) {
         Vec6 h = I * d.eta[i];
         f = I * a;
         if (i == d.attached_node) {  // (Data::attached_inertia)

@@ -357,6 +357,12 @@ void Model::finalize() {
 
 void Model::update_fixed_composites() {
   const int nn = static_cast<int>(nodes.size());
+  for (Node& n : nodes) {
+    const Mat6& I = n.inertia;
+    n.inertia_shape = I.isZero(0.0) ? Node::Shape::Zero
+                      : (I - Mat6(I.diagonal().asDiagonal())).isZero(0.0) ? Node::Shape::Diagonal
+                                                                          : Node::Shape::Full;
+  }
   for (int i = nn - 1; i >= 0; --i) {
     Node& n = nodes[i];
     if (!n.fixed_subtree) continue;

@@ -97,6 +97,9 @@ struct Node {
   // fluid_damping and rnea use them instead of visiting the subtree.
   bool fixed_subtree = false;
   Mat6 inertia_sub = Mat6::Zero(), drag_sub = Mat6::Zero();  // those composites, in this frame
+  // Whether `inertia` is zero (a massless step), diagonal (a rod's mass point) or neither; set with
+  // the composites (update_fixed_composites). rnea takes the cheaper products where it can.
+  enum class Shape : signed char { Zero, Diagonal, Full } inertia_shape = Shape::Full;
   // First node of this node's group: a run of nodes sharing one dof block, each the parent of the
   // next (the steps of one rod section). A node without dofs, or one that does not continue its
   // parent's block, starts its own group. Set by finalize().

@@ -192,14 +192,17 @@ namespace {
 // cross-section frame Rm at its end (MuJoCo capsules lie along local z; the roll about the axis
 // only shows in rendering); `half` gets the chord's half-length.
 SE3 capsule_frame(const Vec3& a, const Vec3& b, const Mat3& Rm, double& half) {
-  Vec3 z = b - a;
-  z = z.norm() > 1e-300 ? Vec3(z.normalized()) : Vec3(Rm.col(0));
+  // (each norm taken once: the same arithmetic as normalized())
+  const Vec3 ab = b - a;
+  const double len = ab.norm();
+  const Vec3 z = len > 1e-300 ? Vec3(ab / len) : Vec3(Rm.col(0));
   Vec3 x = Rm.col(1) - Rm.col(1).dot(z) * z;
-  x = x.norm() > 1e-9 ? Vec3(x.normalized()) : Vec3(z.unitOrthogonal());
+  const double xn = x.norm();
+  x = xn > 1e-9 ? Vec3(x / xn) : Vec3(z.unitOrthogonal());
   SE3 g;
   g.R << x, z.cross(x), z;
   g.u = 0.5 * (a + b);
-  half = 0.5 * (b - a).norm();
+  half = 0.5 * len;
   return g;
 }
 
