@@ -16,7 +16,7 @@ namespace {
 // the strain rates at its Gauss points (vectors: the matrix dS/dt is not needed for this).
 Vec6 step_Sdot_v(const Vec6& Om, const Vec6& Om_dot, double c, const Vec6& xa_dot, const Vec6& xb_dot) {
   const Vec6 mOm = -Om;
-  Vec6 sv = ddexp_apply(mOm, -Om_dot, Om_dot);
+  Vec6 sv = ddexp_apply_self(mOm, Om_dot);
   if (c != 0.0) sv += dexp_apply(mOm, 2.0 * c * ad_apply(xa_dot, xb_dot));
   return sv;
 }

@@ -548,4 +548,19 @@ Vec6 ddexp_apply(const Vec6& Om, const Vec6& de, const Vec6& x) {
          kdk * (D1 * x1 + D2 * x2 + D3 * x3 + D4 * x4);
 }
 
+Vec6 ddexp_apply_self(const Vec6& Om, const Vec6& x) {
+  // ddexp_apply with delta = -x: y_k = ad_{-x} A^k x, y0 = 0
+  const Vec3 w = Om.head<3>();
+  const double t = w.norm(), t2 = t * t, kdk = -w.dot(x.head<3>());
+  Trig T(t);
+  const Coefficients k = coefficients(T, true);
+  const double C2 = k.C2, C3 = k.C3, C4 = k.C4;
+  const double D3 = k.D3, D4 = k.D4, D1 = t2 * D3, D2 = t2 * D4;
+  const Vec6 x1 = ad_apply(Om, x), x2 = ad_apply(Om, x1), x3 = ad_apply(Om, x2), x4 = ad_apply(Om, x3);
+  const Vec6 mx = -x;
+  const Vec6 y1 = ad_apply(mx, x1), y2 = ad_apply(mx, x2), y3 = ad_apply(mx, x3);
+  const Vec6 z2 = C4 * y1, z1 = C3 * y1 + C4 * y2, z0 = C2 * y1 + C3 * y2 + C4 * y3;
+  return z0 + ad_apply(Om, z1 + ad_apply(Om, z2)) + kdk * (D1 * x1 + D2 * x2 + D3 * x3 + D4 * x4);
+}
+
 }  // namespace cosserat

@@ -118,6 +118,9 @@ Mat6 ddexp(const Vec6& Omega, const Vec6& delta);
 // ddexp(Omega, delta) x (a few ad products each; the kinematics' velocity-product terms).
 Vec6 dexp_apply(const Vec6& Omega, const Vec6& x);
 Vec6 ddexp_apply(const Vec6& Omega, const Vec6& delta, const Vec6& x);
+// ddexp(Omega, -x) x, a step's velocity product dS/dt v = ddexp(-Omega, -Omega_dot) Omega_dot
+// (its term ad_{-x} x = 0 left out: two ad products fewer than ddexp_apply).
+Vec6 ddexp_apply_self(const Vec6& Omega, const Vec6& x);
 
 // The scalar coefficients of the closed forms, each with its own small-angle switch. Exposed for
 // the continuity tests. theta >= 0 is the norm of the angular part.

@@ -263,6 +263,15 @@ RodBinding bind_rod(const mjModel* m, const RodDecl& decl) {
   // meet there): their poses come with the kinematics instead of a partial step each
   for (const RodGeomDecl& gd : decl.geoms)
     for (double X : {gd.X_begin, gd.X_end}) rb.model.keep_midpoint_pose(0, X);
+  for (const RodGeomDecl& gd : decl.geoms) {  // (what rod_pose returns without a partial step)
+    const double X = std::clamp(gd.X_end, 0.0, rb.model.rods[0].length);
+    const int i = rb.model.rod_node_at(0, X);
+    const cosserat::Node& n = rb.model.nodes[i];
+    RodBinding::PoseSource src;
+    if (X == n.X) src.node = i;
+    else if (n.keep_mid && X == n.X_mid) src = {i, true};
+    rb.geom_end.push_back(src);
+  }
   rb.base_body = require_id(m, mjOBJ_BODY, decl.name + "/base", decl);
   for (const auto& p : decl.proxies) rb.proxy_body.push_back(require_id(m, mjOBJ_BODY, p, decl));
   // helper bodies: the bodies between a proxy and the previous proxy (or the base)
@@ -457,7 +466,8 @@ void patch_rod_kinematics(const Scene& s, SceneData& sd, int r) {
       X_prev = -1.0;
     } else {
       const Vec3 a = gd.X_begin == X_prev ? p_prev : rod_pose(rb.model, rd, 0, gd.X_begin).u;
-      const SE3 b = rod_pose(rb.model, rd, 0, gd.X_end);
+      const RodBinding::PoseSource& e = rb.geom_end[k];
+      const SE3 b = e.node < 0 ? rod_pose(rb.model, rd, 0, gd.X_end) : e.mid ? rd.g_mid[e.node] : rd.g[e.node];
       X_prev = gd.X_end;
       p_prev = b.u;
       g = capsule_frame(a, b.u, b.R, half);

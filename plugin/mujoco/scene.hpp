@@ -48,6 +48,14 @@ struct RodBinding {
     double half = 0.0;  // capsules: half-length of the chord
   };
   std::vector<Fixed> geom_fixed;  // per capsule
+  // per capsule: where the kinematics keep the pose of its end (X_end) already, a node's frame
+  // (cosserat::Data::g) or a kept step midpoint (Data::g_mid, Model::keep_midpoint_pose); node -1:
+  // neither (rod_pose's partial step). Set at load.
+  struct PoseSource {
+    int node = -1;
+    bool mid = false;
+  };
+  std::vector<PoseSource> geom_end;
   // per capsule on a section with strain dofs that can collide (its contype or conaffinity, or an
   // explicit <pair>; set at load): the user's margin and gap. MuJoCo detects contacts on the
   // capsule, a chord of the centre line; each step widens its margin and gap by the chord's sag

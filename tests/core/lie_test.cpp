@@ -432,6 +432,8 @@ TEST(LieDdexp, VectorFormsAreTheMatricesApplied) {
       const double scale = std::max(1.0, Om.norm() * Om.norm()) * x.norm() * std::max(1.0, d.norm());
       EXPECT_LT((dexp_apply(Om, x) - dexp(Om) * x).norm() / scale, 1e-13);
       EXPECT_LT((ddexp_apply(Om, d, x) - ddexp(Om, d) * x).norm() / scale, 1e-13);
+      const double sx = std::max(1.0, Om.norm() * Om.norm()) * x.norm() * std::max(1.0, x.norm());
+      EXPECT_LT((ddexp_apply_self(Om, x) - ddexp(Om, Vec6(-x)) * x).norm() / sx, 1e-13);
     }
   }
 }
