@@ -492,6 +492,9 @@ TEST(LieCoefficients, MatchHighPrecisionReferences) {
     ts.push_back(s);
     ts.push_back(s * (1.0 + 1e-9));
   }
+  // just below the angles where the series drop terms (lie.cpp, series_terms: t^2 = 0.25, 1,
+  // 2.25), where the fewest terms meet the largest angle
+  for (double b : {0.5, 1.0, 1.5}) ts.push_back(std::nextafter(b, 0.0));
   for (const CoefSpec& c : coef_specs()) {
     for (double t : ts) {
       SCOPED_TRACE(std::string(c.name) + " at t = " + num(t));
@@ -501,6 +504,16 @@ TEST(LieCoefficients, MatchHighPrecisionReferences) {
       EXPECT_LT(std::fabs(c.f(t) - r) / std::fabs(r), kTolCoef) << "got " << c.f(t) << ", expected " << r;
     }
   }
+}
+
+// Where the series drop terms (series_terms in lie.cpp) the value moves by no more than round-off.
+TEST(LieCoefficients, ContinuousWhereTheSeriesDropTerms) {
+  for (const CoefSpec& c : coef_specs())
+    for (double b : {0.5, 1.0, 1.5}) {
+      if (c.switch_point != 0.0 && b >= c.switch_point) continue;  // the closed form there
+      SCOPED_TRACE(std::string(c.name) + " at " + num(b));
+      EXPECT_LT(std::fabs(c.f(b) - c.f(std::nextafter(b, 0.0))) / std::fabs(c.f(b)), 4e-16);
+    }
 }
 
 TEST(LieCoefficients, ContinuousAcrossSwitches) {
