@@ -232,6 +232,7 @@ void rnea(const Model& m, Data& d, const Eigen::Ref<const VecX>& qacc, bool grav
   // the base accelerates by base_accel; gravity enters as an upward base acceleration
   Vec6 a0 = d.base_accel;
   if (gravity) a0.tail<3>() -= d.base_pose.R.transpose() * m.gravity;
+  const bool with_qacc = !qacc.isZero(0.0);  // (the bias forces: qacc = 0)
   for (int i = 0; i < nn; ++i) {
     const Node& n = m.nodes[i];
     Vec6 f = Vec6::Zero();
@@ -240,7 +241,7 @@ void rnea(const Model& m, Data& d, const Eigen::Ref<const VecX>& qacc, bool grav
       // inside a fixed subtree: its root carries the subtree's inertia; only loads remain here
     } else {
       Vec6 a = Ad_inv_apply(d.g_rel[i], n.parent < 0 ? a0 : d.acc[n.parent]) + d.cbias[i];
-      if (n.ndof > 0) a.noalias() += d.S[i] * qacc.segment(n.dof0, n.ndof);
+      if (n.ndof > 0 && with_qacc) a += mul_cols(d.S[i], qacc.data() + n.dof0);
       d.acc[i] = a;
       // Newton-Euler in the body frame: f = M acc + ad*_eta M eta - f_ext (for the root of a fixed
       // subtree, with the subtree's composite inertia: its parts move rigidly with it)
@@ -273,7 +274,7 @@ void rnea(const Model& m, Data& d, const Eigen::Ref<const VecX>& qacc, bool grav
   d.f_base.setZero();
   for (int i = nn - 1; i >= 0; --i) {
     const Node& n = m.nodes[i];
-    if (n.ndof > 0) tau.segment(n.dof0, n.ndof).noalias() += d.S[i].transpose() * d.F[i];
+    for (int k = 0; k < n.ndof; ++k) tau(n.dof0 + k) += d.S[i].col(k).dot(d.F[i]);
     if (n.fixed_subtree && !every_node && d.F[i].isZero(0.0)) continue;  // nothing to transmit (no load inside)
     (n.parent >= 0 ? d.F[n.parent] : d.f_base) += coAd_apply(d.g_rel[i], d.F[i]);
   }

@@ -97,7 +97,7 @@ void group_jacobian_dot(const Model& m, Data& d) {
     }
     // d/dt (Ad^-1 Jg_p) = Ad^-1 Jgdot_p - ad_psi Ad^-1 Jg_p, psi = S v the step's own twist, and
     // Ad^-1 Jg_p = Jg_i - S_i (fwd_position)
-    const Vec6 psi = d.S[i] * d.v.segment(n.dof0, n.ndof);
+    const Vec6 psi = mul_cols(d.S[i], d.v.data() + n.dof0);
     const Mat6X& Jdp = d.Jgdot[n.parent];
     for (int k = 0; k < n.ndof; ++k)
       d.Jgdot[i].col(k) = Ad_inv_apply(d.g_rel[i], Jdp.col(k)) - ad_apply(psi, d.Jg[i].col(k) - d.S[i].col(k)) +
@@ -114,7 +114,7 @@ void fwd_velocity(const Model& m, Data& d, bool with_Sdot) {
     Vec6 cb = Vec6::Zero();
     if (n.ndof > 0) {
       const auto vi = d.v.segment(n.dof0, n.ndof);
-      const Vec6 psi = d.S[i] * vi;
+      const Vec6 psi = mul_cols(d.S[i], vi.data());
       eta += psi;
       // dS/dt = ddexp(-Omega, -Omega_dot) G + dexp(-Omega) dG/dt, and dG/dt is the commutator's
       // c (ad_{xa_dot} Phi_b - ad_{xb_dot} Phi_a): so dS/dt v = ddexp Omega_dot + dexp 2c ad_{xa_dot} xb_dot
@@ -124,7 +124,7 @@ void fwd_velocity(const Model& m, Data& d, bool with_Sdot) {
         d.Sdot_v[i] = d.Sdot_v[n.same_step];
         if (with_Sdot) d.Sdot[i] = d.Sdot[n.same_step];
       } else {
-        d.Omega_dot[i].noalias() = d.G[i] * vi;
+        d.Omega_dot[i] = mul_cols(d.G[i], vi.data());
         const Vec6 mOm = -d.Omega[i];
         const Vec6 xad = n.commutator ? Vec6(n.Phi_a * vi) : Vec6::Zero(),
                    xbd = n.commutator ? Vec6(n.Phi_b * vi) : Vec6::Zero();

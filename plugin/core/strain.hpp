@@ -13,6 +13,14 @@ namespace cosserat {
 
 using Mat6X = Eigen::Matrix<double, 6, Eigen::Dynamic>;
 
+// A x for a 6 x n matrix and n values, column by column in fixed-size arithmetic (at the few
+// columns of a section, Eigen's general matrix-vector product costs more than its arithmetic).
+inline Vec6 mul_cols(const Mat6X& A, const double* x) {
+  Vec6 r = Vec6::Zero();
+  for (int k = 0; k < A.cols(); ++k) r += A.col(k) * x[k];
+  return r;
+}
+
 // Which of the six strain components [kx ky kz px py pz] are free coordinates.
 using StrainMask = std::array<bool, 6>;
 
