@@ -25,6 +25,15 @@ constexpr double kZanna = 0.14433756729740643;  // sqrt(3) / 12
 }
 
 Vec6 step_twist(const Node& n, const Eigen::Ref<const VecX>& qi, Mat6X* G) {
+  if (n.selects) {  // (PCS, the basis selecting components: bit for bit the general case below)
+    Vec6 xi = n.xibar_a;
+    for (int k = 0; k < n.ndof; ++k) xi(n.select_row[k]) += qi(k);
+    if (G) {
+      G->setZero();
+      for (int k = 0; k < n.ndof; ++k) (*G)(n.select_row[k], k) = n.h;
+    }
+    return n.h * xi;
+  }
   Vec6 xa = n.xibar_a, xb = n.xibar_b;
   if (n.ndof > 0) {
     xa.noalias() += n.Phi_a * qi;
@@ -68,8 +77,7 @@ void fwd_position(const Model& m, Data& d) {
       }
       if (n.selects) {  // (bit for bit the product below: one nonzero h per column of G)
         const Mat6 D = dexp(-d.Omega[i]);
-        const int* rows = m.sections[n.section].B_row;
-        for (int k = 0; k < n.ndof; ++k) d.S[i].col(k) = n.h * D.col(rows[k]);
+        for (int k = 0; k < n.ndof; ++k) d.S[i].col(k) = n.h * D.col(n.select_row[k]);
       } else {
         d.S[i].noalias() = dexp(-d.Omega[i]) * d.G[i];
       }

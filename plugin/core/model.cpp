@@ -319,8 +319,10 @@ void Model::finalize() {
     n.selects = false;
     if (n.ndof > 0 && !n.commutator && n.section >= 0 && sections[n.section].order == 0) {
       const Section& sec = sections[n.section];
-      n.selects = n.Phi_a == sec.B && n.Phi_b == sec.B;
+      n.selects = n.Phi_a == sec.B && n.Phi_b == sec.B && n.xibar_a == n.xibar_b;
       for (int c = 0; c < n.ndof; ++c) n.selects = n.selects && sec.B_row[c] >= 0;
+      if (n.selects)
+        for (int c = 0; c < n.ndof; ++c) n.select_row[c] = static_cast<signed char>(sec.B_row[c]);
     }
     n.same_step = -1;
     if (n.ndof > 0 && !n.commutator && n.section >= 0)  // PCS: the step is a function of h alone

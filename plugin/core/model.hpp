@@ -116,6 +116,7 @@ struct Node {
   // A PCS step whose strain basis selects components (Section::B_row): G = h B, and S = dexp(-Omega) G
   // is h times the selected columns of dexp(-Omega) (fwd_position takes them). Set by finalize().
   bool selects = false;
+  signed char select_row[6] = {-1, -1, -1, -1, -1, -1};  // per dof, the strain component it is
   double dX = 0.0;        // rod length this node stands for in quadratures (0 for non-rod nodes)
   bool free_joint = false;  // a 6-dof free joint (floating base): no static equilibrium
   int rod = -1, section = -1;
