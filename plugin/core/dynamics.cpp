@@ -108,13 +108,6 @@ inline int group_next(const Model& m, int i) {
   return a.ndof > 0 && b.parent == i && b.dof0 == a.dof0 && b.ndof == a.ndof ? j : -1;
 }
 
-bool is_diagonal(const Mat6& A) {
-  for (int c = 0; c < 6; ++c)
-    for (int r = 0; r < 6; ++r)
-      if (r != c && A(r, c) != 0.0) return false;
-  return true;
-}
-
 // Data::Ic_off_kind: what a group node carries besides the rest of its group
 enum : signed char { kOffZero, kOffDiagonal, kOffFull };
 }  // namespace

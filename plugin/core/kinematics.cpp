@@ -234,8 +234,9 @@ struct PartialStep {
 
 // When X is the node itself (ps.full) its step is in Data already: Om, xa, xb and G are computed
 // then only if `when_full`.
-void partial_step(const Model& m, const Data& d, int r, double X, int section, Mat6X* G, PartialStep& ps,
-                  bool when_full) {
+// The node of the partial step to X (rod_pose's unless `section` is given) and where X falls in
+// it: ps.node, parent, offset, Xp, full, empty, mid; returns X clamped to the rod.
+double locate_step(const Model& m, int r, double X, int section, PartialStep& ps) {
   const Rod& rod = m.rods[r];
   X = std::clamp(X, 0.0, rod.length);
   int i = m.rod_node_at(r, X);
@@ -249,16 +250,23 @@ void partial_step(const Model& m, const Data& d, int r, double X, int section, M
       }
   }
   const Node& n = m.nodes[i];
-  const Section& sec = m.sections[n.section];
   ps.node = i;
   ps.parent = n.parent;
   ps.offset = n.offset;
   ps.Xp = n.X - n.h;  // abscissa of the parent frame
   ps.full = X == n.X;
-  if (ps.full && !when_full) return;
   ps.empty = X == ps.Xp;
   ps.mid = n.keep_mid && X == n.X_mid;
+  return X;
+}
+
+void partial_step(const Model& m, const Data& d, int r, double X, int section, Mat6X* G, PartialStep& ps,
+                  bool when_full) {
+  X = locate_step(m, r, X, section, ps);
+  if (ps.full && !when_full) return;
   if (ps.mid && !G) return;
+  const Node& n = m.nodes[ps.node];
+  const Section& sec = m.sections[n.section];
   if (ps.empty && !G) {  // X is the parent frame: no motion (a rod's start, a capsule's first end)
     ps.Om.setZero();
     return;
@@ -267,6 +275,13 @@ void partial_step(const Model& m, const Data& d, int r, double X, int section, M
   ps.Om = step_twist_at(sec, ps.sp, d.q.data() + n.dof0, G, ps.xa, ps.xb);
 }
 }  // namespace
+
+int kept_pose_node(const Model& m, int r, double X, bool& mid) {
+  PartialStep ps;
+  locate_step(m, r, X, -1, ps);
+  mid = ps.mid && !ps.full;
+  return ps.full || ps.mid ? ps.node : -1;
+}
 
 SE3 rod_pose(const Model& m, const Data& d, int r, double X) {
   PartialStep ps;

@@ -31,6 +31,10 @@ void reserve_kinematics_scratch(int ndof);
 // World pose of the cross-section of rod r at abscissa X in [0, L]. After fwd_position.
 // Exact for PCS; one 4th-order Magnus step from the previous node for GVS.
 SE3 rod_pose(const Model& m, const Data& d, int rod, double X);
+// Where the kinematics keep rod_pose(m, d, rod, X) already, whatever the state: the node whose
+// Data::g it is (mid = false), or whose kept midpoint Data::g_mid it is (mid = true); -1 where
+// rod_pose takes a partial step.
+int kept_pose_node(const Model& m, int rod, double X, bool& mid);
 // Body Jacobian (6 x nv) of the cross-section at X. After fwd_position.
 void rod_jacobian(const Model& m, const Data& d, int rod, double X, MatX& J);
 // Twist of the cross-section at X relative to the start frame of the section containing X, per

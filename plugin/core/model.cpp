@@ -361,9 +361,9 @@ void Model::update_fixed_composites() {
   const int nn = static_cast<int>(nodes.size());
   for (Node& n : nodes) {
     const Mat6& I = n.inertia;
-    n.inertia_shape = I.isZero(0.0) ? Node::Shape::Zero
-                      : (I - Mat6(I.diagonal().asDiagonal())).isZero(0.0) ? Node::Shape::Diagonal
-                                                                          : Node::Shape::Full;
+    n.inertia_shape = !is_diagonal(I)              ? Node::Shape::Full
+                      : I.diagonal().isZero(0.0) ? Node::Shape::Zero
+                                                 : Node::Shape::Diagonal;
   }
   for (int i = nn - 1; i >= 0; --i) {
     Node& n = nodes[i];

@@ -80,6 +80,15 @@ struct RodSpec {
   std::vector<SectionSpec> overrides; // ... unless given one by one (then `sections` is ignored)
 };
 
+// Whether a 6 x 6 matrix is diagonal, exactly (a rod's lumped inertia and drag are, in its node
+// frames).
+inline bool is_diagonal(const Mat6& A) {
+  for (int c = 0; c < 6; ++c)
+    for (int r = 0; r < 6; ++r)
+      if (r != c && A(r, c) != 0.0) return false;
+  return true;
+}
+
 struct Node {
   int parent = -1;        // -1: the base frame
   SE3 offset;             // fixed placement in the parent frame, applied before the motion

@@ -263,13 +263,9 @@ RodBinding bind_rod(const mjModel* m, const RodDecl& decl) {
   // meet there): their poses come with the kinematics instead of a partial step each
   for (const RodGeomDecl& gd : decl.geoms)
     for (double X : {gd.X_begin, gd.X_end}) rb.model.keep_midpoint_pose(0, X);
-  for (const RodGeomDecl& gd : decl.geoms) {  // (what rod_pose returns without a partial step)
-    const double X = std::clamp(gd.X_end, 0.0, rb.model.rods[0].length);
-    const int i = rb.model.rod_node_at(0, X);
-    const cosserat::Node& n = rb.model.nodes[i];
+  for (const RodGeomDecl& gd : decl.geoms) {
     RodBinding::PoseSource src;
-    if (X == n.X) src.node = i;
-    else if (n.keep_mid && X == n.X_mid) src = {i, true};
+    src.node = cosserat::kept_pose_node(rb.model, 0, gd.X_end, src.mid);
     rb.geom_end.push_back(src);
   }
   rb.base_body = require_id(m, mjOBJ_BODY, decl.name + "/base", decl);
