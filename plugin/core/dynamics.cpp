@@ -145,8 +145,15 @@ void composite(const Model& m, Data& d, NodeMatrix which, MatX& out_M, Mat6& out
       }
     if (n.ndof > 0) {
       // a rod's mass point (diagonal in its frame) or a massless step: the cheap products below
+      // (inertia: the shape update_fixed_composites cached; drag, which callers may edit without
+      // refreshing the model, is looked at each time)
       signed char kind = kOffFull;
-      if (own && is_diagonal(I)) kind = I.diagonal().isZero(0.0) ? kOffZero : kOffDiagonal;
+      if (own && inertia)
+        kind = n.inertia_shape == Node::Shape::Zero       ? kOffZero
+               : n.inertia_shape == Node::Shape::Diagonal ? kOffDiagonal
+                                                          : kOffFull;
+      else if (own && is_diagonal(I))
+        kind = I.diagonal().isZero(0.0) ? kOffZero : kOffDiagonal;
       d.Ic_off_kind[i] = kind;
       if (kind == kOffFull && next >= 0) d.Ic_off[i] = I;
     }

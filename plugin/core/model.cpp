@@ -107,6 +107,7 @@ void Model::add_body(int node, double mass, const Vec3& com, const Mat3& inertia
   require(node >= 0 && node < static_cast<int>(nodes.size()), "add_body: bad node");
   require(mass >= 0, "add_body: negative mass");
   nodes[node].inertia += spatial_inertia(mass, com, inertia_at_com);
+  if (finalized) update_fixed_composites();  // (the composites and Node::inertia_shape)
 }
 
 int Model::add_rod(int parent, const SE3& placement, const RodSpec& spec) {

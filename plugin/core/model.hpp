@@ -222,7 +222,8 @@ struct Model {
                 double pitch = 0.0, double stiffness = 0.0, double damping = 0.0);
   // A fixed frame (no dof) at `placement` in `parent`. Returns its node.
   int add_frame(int parent, const SE3& placement);
-  // Add rigid-body inertia (mass, centre of mass and inertia about it, in the node frame).
+  // Add rigid-body inertia (mass, centre of mass and inertia about it, in the node frame; on a
+  // finalized model it refreshes the composites itself).
   void add_body(int node, double mass, const Vec3& com, const Mat3& inertia_at_com);
   // A rod hanging at `placement` in `parent`. Returns the rod index; its tip is rods[r].tip_node.
   int add_rod(int parent, const SE3& placement, const RodSpec& spec);
