@@ -347,6 +347,33 @@ std::vector<std::string> energy_exchanges(const mj::Scene& sc, bool touched) {
 
 // --------------------------------------------------------------------------------- commands --
 
+std::string format_g(double x) {
+  char b[32];
+  std::snprintf(b, sizeof b, "%g", x);
+  return b;
+}
+
+// One rod's resistive-force coefficients at its base, and where they came from (the law, lambda and
+// Lighthill's Lambda along the filament).
+void print_rod_fluid(const std::string& rod, bool enabled, const cosserat::RodFluidInfo& f) {
+  using Law = cosserat::RodFluidInfo::Law;
+  if (!enabled) {
+    std::printf("fluid: rod '%s': no fluid force (drag=\"0\")\n", rod.c_str());
+    return;
+  }
+  std::string from;
+  if (f.law == Law::Explicit) from = "explicit drag";
+  else {
+    const std::string lambda = (f.default_wavelength ? (f.helical ? "the helix's pitch " : "L/2 ") : "wavelength ") +
+                               format_g(f.wavelength) + " m";
+    from = f.law == Law::Lighthill ? "Lighthill, Lambda " + format_g(f.along_filament) + " m along the filament (lambda = " +
+                                         lambda + ")"
+                                   : "Gray & Hancock, lambda = " + lambda;
+  }
+  std::printf("fluid: rod '%s': %s; at its base c_t %g, c_n %g N s/m^2, c_rot %g N s\n", rod.c_str(), from.c_str(),
+              f.base.ct, f.base.cn, f.base.crot);
+}
+
 int cmd_check(int argc, char** argv) {
   CommandLine cl{"check", "load and compile a model; print a summary (rods, sections, strain dofs, sizes)",
                  {"MODEL.xml"}, {}, ""};
@@ -382,6 +409,8 @@ int cmd_check(int argc, char** argv) {
                 s->fluid.model == cosserat::RftModel::Lighthill ? "Lighthill" : "Gray & Hancock", s->fluid.viscosity,
                 s->fluid.bodies.size(),
                 static_cast<int>(std::count(s->fluid.rod_enabled.begin(), s->fluid.rod_enabled.end(), true)));
+  if (s->fluid.active)
+    for (size_t r = 0; r < s->rods.size(); ++r) print_rod_fluid(s->rods[r].decl.name, s->fluid.rod_enabled[r], s->fluid.rods[r]);
   for (const auto& n : s->fluid.notes) std::printf("fluid: %s\n", n.c_str());
   for (const auto& w : s->fluid.warnings) std::printf("warning: fluid: %s\n", w.c_str());
   for (int i = 0; i < m->nv; ++i)
@@ -574,6 +603,8 @@ int cmd_run(int argc, char** argv) {
                   1 << mj::kMaxSubstepLevel);
     print_positions(out, s.data());
     for (const auto& w : warnings) std::printf("warning: %s\n", w.c_str());
+  } else {  // (outside probe AL: with --csv - the warnings had gone nowhere)
+    for (const auto& w : warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
   }
   if (diverged) fail("simulation diverged: " + s.data().warning + " (" + divergence_hint(s) + ")");
   return 0;
@@ -1012,6 +1043,8 @@ int cmd_compare(int argc, char** argv) {
       for (const auto& [name, v] : j["swimming_speed"][k].items())
         std::printf("swimming speed (%s) %s: %s m/s\n", k, name.c_str(), v.dump().c_str());
     for (const auto& w : warnings) std::printf("warning: %s\n", w.c_str());
+  } else {
+    for (const auto& w : warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
   }
   if (diverged) fail(std::string("simulation of ") + (a.diverged ? "A" : "B") + " diverged: " +
                      (a.diverged ? a.sim.data().warning : b.sim.data().warning));

@@ -40,19 +40,23 @@ RodFluidInfo set_rod_drag(Model& m, int rod, const RodFluid& f) {
     hx = helix_of(m.sections[s].rest_strain);
   info.helical = hx.helical;
   double lambda = f.wavelength > 0 ? f.wavelength : hx.helical ? std::abs(hx.pitch) : 0.5 * r.length;
+  info.default_wavelength = !(f.wavelength > 0);
   if (f.drag) lambda = 0.0;
   info.wavelength = lambda;
+  // Lambda along the filament: one turn of the helix (lambda / cos(pitch angle)); lambda itself
+  // on a rod without a helical section
+  const double Lambda = hx.helical ? std::hypot(lambda, 2.0 * M_PI * hx.radius) : lambda;
+  info.law = f.drag                                                            ? RodFluidInfo::Law::Explicit
+             : f.model == RftModel::Lighthill && (hx.helical || f.wavelength > 0) ? RodFluidInfo::Law::Lighthill
+                                                                                   : RodFluidInfo::Law::GrayHancock;
+  if (info.law == RodFluidInfo::Law::Lighthill) info.along_filament = Lambda;
   auto coefficients = [&](double a) {
     if (f.drag) {
       RftCoefficients c = *f.drag;
       if (c.crot <= 0) c.crot = 4.0 * M_PI * f.viscosity * a * a;
       return c;
     }
-    if (f.model == RftModel::Lighthill && (hx.helical || f.wavelength > 0)) {
-      // Lambda along the filament: one turn of the helix (lambda / cos(pitch angle))
-      const double Lambda = hx.helical ? std::hypot(lambda, 2.0 * M_PI * hx.radius) : lambda;
-      return lighthill(f.viscosity, a, Lambda);
-    }
+    if (info.law == RodFluidInfo::Law::Lighthill) return lighthill(f.viscosity, a, Lambda);
     return gray_hancock(f.viscosity, a, lambda);
   };
   info.base = coefficients(r.radius(0.0));

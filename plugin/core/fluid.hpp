@@ -55,16 +55,21 @@ Helix helix_of(const Vec6& strain);
 struct RodFluid {
   double viscosity = 0.0;                // mu [Pa s]
   RftModel model = RftModel::GrayHancock;
-  double wavelength = 0.0;               // lambda [m]; 0: the pitch of the rod's first helical
-                                         // section (its rest strain), or L/2 without one
+  double wavelength = 0.0;               // lambda [m], the wave's length along its axis (a helix's
+                                         // pitch); 0: the pitch of the rod's first helical section
+                                         // (its rest strain), or L/2 without one. Lighthill's Lambda
+                                         // along the filament is hypot(lambda, 2 pi R) on a helix.
   std::optional<RftCoefficients> drag;   // explicit c_t, c_n (and c_rot; 0: 4 pi mu a^2)
   bool enabled = true;                   // false: no fluid force on this rod
 };
 
 // What set_rod_drag decided (for reports).
 struct RodFluidInfo {
+  enum class Law { Explicit, GrayHancock, Lighthill } law = Law::GrayHancock;  // the one applied
   double wavelength = 0.0;      // lambda used (0 with explicit coefficients)
-  bool helical = false;         // lambda is the pitch of a helical rest strain
+  double along_filament = 0.0;  // Lighthill's Lambda: hypot(lambda, 2 pi R) on a helix, else lambda
+  bool helical = false;         // the rod has a helical section (R: its radius)
+  bool default_wavelength = false;  // lambda is the default: the helix's pitch, or L/2
   RftCoefficients base;         // coefficients at X = 0
 };
 

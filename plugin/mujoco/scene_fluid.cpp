@@ -149,6 +149,10 @@ void setup_fluid(Scene& s) {
                            "Stokes resistance");
   }
   f.active = f.viscosity > 0 && !mujoco && (marked || !s.rods.empty());
+  // (outside probe AL: such a rod had fallen through MuJoCo's fluid without a word)
+  if (mujoco && !s.rods.empty() && (f.viscosity > 0 || f.density > 0))
+    f.warnings.push_back(std::string("<text name=\"") + kFluidText + "\" data=\"mujoco\">: MuJoCo's own fluid model acts " +
+                         "on the rigid bodies only; the rods feel no fluid force (MuJoCo skips their massless proxies)");
   if (!f.active) {
     if (coefficients && f.viscosity <= 0)
       f.warnings.push_back("drag coefficients are given but <option viscosity> is 0: no fluid force at all");

@@ -434,12 +434,20 @@ TEST_F(Cli, FluidWarningsAreShown) {
   ASSERT_EQ(check.status, 0) << check.err;
   EXPECT_NE(check.out.find("fluid: resistive-force theory (Gray & Hancock), viscosity 1 Pa s"), std::string::npos) << check.out;
   EXPECT_NE(check.out.find("warning: fluid: <option wind> ignored"), std::string::npos) << check.out;
+  // the rod's law, lambda and coefficients (outside probe AL: which law a rod got was not said)
+  EXPECT_NE(check.out.find("fluid: rod 'rod': Gray & Hancock, lambda = L/2 0.1 m; at its base c_t "), std::string::npos)
+      << check.out;
   const Result run = cosserat("run '" + model.string() + "' --duration 0.01 --json -");
   ASSERT_EQ(run.status, 0) << run.err;
   const json j = json::parse(run.out);
   bool density = false;
   for (const auto& w : j["warnings"]) density = density || w.get<std::string>().find("fluid: <option density> ignored") == 0;
   EXPECT_TRUE(density) << j["warnings"].dump();
+  // with the CSV on stdout the warnings go to stderr (outside probe AL: they had gone nowhere)
+  const Result csv = cosserat("run '" + model.string() + "' --duration 0.002 --csv -");
+  ASSERT_EQ(csv.status, 0) << csv.err;
+  EXPECT_EQ(csv.out.find("warning"), std::string::npos) << csv.out;
+  EXPECT_NE(csv.err.find("warning: fluid: <option wind> ignored"), std::string::npos) << csv.err;
 }
 
 // One integrator for both models: a damped, servoed pendulum beside a rod that does not touch it

@@ -129,12 +129,38 @@ TEST(SceneFluid, OwnershipRules) {
     EXPECT_NEAR(n.drag(4, 4), c.cn * n.dX, 1e-14);
     EXPECT_NEAR(n.drag(3, 3), c.ct * n.dX, 1e-14);
   }
-  {  // "mujoco": the rods feel no fluid, MuJoCo's own model stays on
+  {  // ... with a given wavelength: it is lambda along the helix's axis, Lambda = hypot(lambda, 2 pi R)
+     // (outside probe AL: the README had said Lambda = wavelength; on a straight rod it is)
+    std::string x = rod_scene("2", "reststrain=\"40 0 60 1 0 0\" wavelength=\"0.05\"");
+    x.replace(x.find("<worldbody>"), 11, R"(<custom><text name="cosserat:fluid" data="lighthill"/></custom><worldbody>)");
+    auto s = load_scene_string(x, kPath);
+    const Node& n = s->rods[0].model.nodes[s->rods[0].model.sections[0].first_node];
+    const Helix hx = helix_of((Vec6() << 40, 0, 60, 1, 0, 0).finished());
+    const RftCoefficients c = lighthill(2, 0.003, std::hypot(0.05, 2 * M_PI * hx.radius));
+    EXPECT_NEAR(n.drag(4, 4), c.cn * n.dX, 1e-14);
+    EXPECT_NEAR(n.drag(3, 3), c.ct * n.dX, 1e-14);
+    const RodFluidInfo& info = s->fluid.rods[0];
+    EXPECT_EQ(info.law, RodFluidInfo::Law::Lighthill);
+    EXPECT_EQ(info.wavelength, 0.05);
+    EXPECT_NEAR(info.along_filament, std::hypot(0.05, 2 * M_PI * hx.radius), 1e-15);
+    EXPECT_FALSE(info.default_wavelength);
+    std::string straight = rod_scene("2", "wavelength=\"0.05\"");
+    straight.replace(straight.find("<worldbody>"), 11,
+                     R"(<custom><text name="cosserat:fluid" data="lighthill"/></custom><worldbody>)");
+    auto t = load_scene_string(straight, kPath);
+    const Node& nt = t->rods[0].model.nodes[t->rods[0].model.sections[0].first_node];
+    EXPECT_NEAR(nt.drag(4, 4), lighthill(2, 0.003, 0.05).cn * nt.dX, 1e-14);
+    EXPECT_EQ(t->fluid.rods[0].along_filament, 0.05);
+  }
+  {  // "mujoco": the rods feel no fluid, MuJoCo's own model stays on; a warning says so (outside
+     // probe AL: a rod had sunk through it ten times as fast without a word)
     std::string x = rod_scene("2");
     x.replace(x.find("<worldbody>"), 11, R"(<custom><text name="cosserat:fluid" data="mujoco"/></custom><worldbody>)");
     auto s = load_scene_string(x, kPath);
     EXPECT_FALSE(s->fluid.active);
     EXPECT_EQ(s->m->opt.viscosity, 2.0);
+    ASSERT_EQ(s->fluid.warnings.size(), 1u);
+    EXPECT_NE(s->fluid.warnings[0].find("the rods feel no fluid force"), std::string::npos) << s->fluid.warnings[0];
   }
   // a rod-free scene with viscosity and no markers: MuJoCo's fluid, and Euler is mj_step
   const char* rigid = R"(<mujoco><option timestep="0.002" viscosity="0.5" density="1.2"/>
