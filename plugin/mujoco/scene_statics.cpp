@@ -194,7 +194,13 @@ class StaticProblem {
       weight_scale_ = weight_scale();
     }
     const VectorXd rods = rods_passive(s_, sd_);
-    return std::max({rods.norm(), (passive - rods).norm(), (f - passive).norm(), lambda * weight_scale_, 1e-300});
+    // each actuator's own generalised force |force_i| |moment_i| too: forces that cancel in their
+    // sum (three cables at 120 degrees on a straight arm) had left a scale of round-off, and Newton
+    // hundreds of iterations on a state that was already the equilibrium (outside probe AM)
+    double actuators = 0.0;
+    for (int i = 0; i < m_->nu; ++i)
+      actuators = std::max(actuators, std::abs(d_->actuator_force[i]) * mju_norm(d_->actuator_moment + i * m_->nv, m_->nv));
+    return std::max({rods.norm(), (passive - rods).norm(), (f - passive).norm(), actuators, lambda * weight_scale_, 1e-300});
   }
 
   // The total generalised force M qacc = qfrc_smooth + qfrc_constraint at the current qpos and
