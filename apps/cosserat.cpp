@@ -122,6 +122,42 @@ struct Outputs {
   std::vector<Named> sites, bodies;
 };
 
+// A sensor's values in the outputs (--sensors): MuJoCo's sensordata[adr .. adr + dim), under the
+// sensor's name (an unnamed one: sensor<i>); CSV columns NAME for one value, NAME.0, NAME.1, ... else.
+struct SensorOutput {
+  std::string name;
+  int adr = 0, dim = 0;
+};
+
+std::vector<SensorOutput> sensor_outputs(const mjModel* m) {
+  std::vector<SensorOutput> v;
+  for (int i = 0; i < m->nsensor; ++i) {
+    const char* n = mj_id2name(m, mjOBJ_SENSOR, i);
+    v.push_back({n && *n ? std::string(n) : "sensor" + std::to_string(i), m->sensor_adr[i], m->sensor_dim[i]});
+  }
+  return v;
+}
+
+void add_sensors(json& j, const std::vector<SensorOutput>& sensors, const mjData* d) {
+  j["sensors"] = json::object();
+  for (const auto& s : sensors) j["sensors"][s.name] = std::vector<double>(d->sensordata + s.adr, d->sensordata + s.adr + s.dim);
+}
+
+void print_sensors(const std::vector<SensorOutput>& sensors, const mjData* d) {
+  for (const auto& s : sensors) {
+    std::printf("  %-6s %-24s", "sensor", s.name.c_str());
+    for (int k = 0; k < s.dim; ++k) std::printf(" %12.6g", d->sensordata[s.adr + k]);
+    std::printf("\n");
+  }
+}
+
+// The --sensors flag's help (run, equilibrium).
+constexpr const char* kSensorsHelp =
+    "also report the model's sensors (MuJoCo's sensordata, rod sites included: tendon and actuator lengths, "
+    "forces, touch, frame poses, ...) at each sample: CSV columns NAME (or NAME.0, NAME.1, ... for several values; "
+    "an unnamed sensor is sensor<i>) after the positions, and \"sensors\": {NAME: [values]} in the JSON and the "
+    "summary (the final state)";
+
 Outputs named_outputs(const mj::Scene& s) {
   const mjModel* m = s.m;
   Outputs o;
@@ -438,6 +474,8 @@ int cmd_run(int argc, char** argv) {
                                   "step (a forward evaluation and the energy)",
                                   every, 1));
   cl.options.push_back(text_option("--json", "F", "write a JSON report ('-': stdout)", json_path));
+  bool with_sensors = false;
+  cl.options.push_back(flag_option("--sensors", kSensorsHelp, with_sensors));
   cl.details = "Exit status 1 when the simulation diverges (the outputs cover the run up to there).\n";
   const auto pos = cl.parse(argc, argv);
   if (!pos) return 0;
@@ -448,6 +486,7 @@ int cmd_run(int argc, char** argv) {
   Simulation s(pos->front(), sim, state);
   if (every == 0) every = csv.empty() ? static_cast<int>(std::max(1L, s.steps() / 1000)) : 1;
   const Outputs& out = s.outputs();
+  const std::vector<SensorOutput> sensors = with_sensors ? sensor_outputs(s.scene().m) : std::vector<SensorOutput>{};
   std::ofstream file;
   std::ostream* csv_out = nullptr;  // stdout or the file
   if (csv == "-") {
@@ -461,6 +500,8 @@ int cmd_run(int argc, char** argv) {
     f << "time,energy";
     for (const auto& n : out.sites) f << "," << n.name << ".x," << n.name << ".y," << n.name << ".z";
     for (const auto& n : out.bodies) f << "," << n.name << ".x," << n.name << ".y," << n.name << ".z";
+    for (const auto& c : sensors)
+      for (int k = 0; k < c.dim; ++k) f << "," << c.name << (c.dim > 1 ? "." + std::to_string(k) : std::string());
     f << "\n";
     f.precision(10);
   }
@@ -476,6 +517,8 @@ int cmd_run(int argc, char** argv) {
       const Vec3 p = body_position(s.data(), n.id);
       f << "," << p.x() << "," << p.y() << "," << p.z();
     }
+    for (const auto& c : sensors)
+      for (int k = 0; k < c.dim; ++k) f << "," << s.data().d->sensordata[c.adr + k];
     f << "\n";
   };
 
@@ -574,6 +617,7 @@ int cmd_run(int argc, char** argv) {
     j["energy"] = {{"initial", energy.initial()}, {"final", energy.final()}, {"max_rel_drift", energy.max_rel_drift()},
                    {"exchanged_by", exchanges}};
     add_positions(j, out, s.data());
+    if (with_sensors) add_sensors(j, sensors, s.data().d);
     j["diverged"] = diverged;
     if (diverged) j["reason"] = s.data().warning;  // also the first warning
     j["warnings"] = warnings;
@@ -602,6 +646,7 @@ int cmd_run(int argc, char** argv) {
                   double(as.substeps) / double(as.steps), 1 << as.finest, as.rejected, as.kept_at_min,
                   1 << mj::kMaxSubstepLevel);
     print_positions(out, s.data());
+    print_sensors(sensors, s.data().d);
     for (const auto& w : warnings) std::printf("warning: %s\n", w.c_str());
   } else {  // (outside probe AL: with --csv - the warnings had gone nowhere)
     for (const auto& w : warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
@@ -660,20 +705,39 @@ int cmd_equilibrium(int argc, char** argv) {
   cl.options.push_back(positive_option("--relaxation-time", "T",
                                        "simulated time [s] the dynamic relaxation may take before it gives up (default 30)",
                                        relaxation_time));
+  bool with_sensors = false;
+  cl.options.push_back(flag_option("--sensors",
+                                   "also report the model's sensors (MuJoCo's sensordata, rod sites included) at the "
+                                   "result, at rest: \"sensors\": {NAME: [values]} in the JSON and the summary",
+                                   with_sensors));
   state.add_to(cl);
   const auto pos = cl.parse(argc, argv);
   if (!pos) return 0;
   check_writable("--json", json_path);
   const Equilibrium eq(pos->front(), state, relaxation_time);
   const Outputs out = named_outputs(*eq.scene);
+  std::vector<SensorOutput> sensors;
+  if (with_sensors) {  // a forward evaluation at the result (at rest) computes them, positions unchanged
+    sensors = sensor_outputs(eq.scene->m);
+    mjData* d = eq.data->d;
+    const std::vector<mjtNum> q(d->qpos, d->qpos + eq.scene->m->nq);
+    try {
+      mj::forward(*eq.scene, *eq.data);
+    } catch (const MujocoError& e) {
+      throw error_while(pos->front(), e, "evaluating the sensors at the equilibrium");
+    }
+    std::copy(q.begin(), q.end(), d->qpos);
+  }
   if (!json_path.empty()) {
     json j = eq.report();
     add_positions(j, out, *eq.data);
+    if (with_sensors) add_sensors(j, sensors, eq.data->d);
     write_json(json_path, j);
   }
   if (json_path != "-") {
     eq.print();
     print_positions(out, *eq.data);
+    print_sensors(sensors, eq.data->d);
   }
   if (!eq.result.converged) fail("no static equilibrium: " + eq.result.message);
   return 0;

@@ -2,6 +2,8 @@
 // binary (build/cosserat, next to the build/tests directory holding this test) and checks exit
 // statuses, messages, the CSV layout and the JSON reports.
 #include <gtest/gtest.h>
+
+#include <Eigen/Dense>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -20,6 +22,7 @@
 
 namespace fs = std::filesystem;
 using nlohmann::json;
+using Vec3 = Eigen::Vector3d;
 
 namespace {
 
@@ -169,6 +172,56 @@ TEST_F(Cli, RunWritesCsvWithExactHeaderAndRows) {
   EXPECT_NEAR(std::stod(urows[2]), 0.03, 1e-9);
   EXPECT_NEAR(std::stod(urows[3]), 0.05, 1e-9);
   EXPECT_TRUE(std::isfinite(last[1]));
+}
+
+// --sensors: the model's sensors after the positions (outside probe AM: a tendon's length could
+// not be read from the command line). A tendon through three rod sites: its tendonpos sensor is
+// the sum of the distances between the sites in every row, a framepos sensor of the tip its site's
+// position; without the flag the header is the contract's.
+TEST_F(Cli, RunAndEquilibriumReportSensors) {
+  const fs::path model = scratch() / "sensors.xml";
+  std::ofstream(model) << R"(<mujoco><option timestep="0.001"/><worldbody>
+    <cosserat name="r" length="0.4" sections="4" strain="kl" radius="0.01" density="1000" young="1e6" viscosity="100"
+              contype="0" conaffinity="0"><site name="s0" at="0" pos="0 0 0.005"/><site name="s1" at="0.2" pos="0 0 0.005"/>
+      <site name="s2" at="0.4" pos="0 0 0.005"/></cosserat></worldbody>
+    <tendon><spatial name="t"><site site="s0"/><site site="s1"/><site site="s2"/></spatial></tendon>
+    <actuator><motor name="m" tendon="t" gear="-1"/></actuator>
+    <sensor><tendonpos name="len" tendon="t"/><framepos name="tip" objtype="site" objname="r/tip"/>
+      <actuatorfrc actuator="m"/></sensor>
+    <keyframe><key ctrl="0.5"/></keyframe></mujoco>)";
+  const Result r = cosserat("run '" + model.string() + "' --key 0 --duration 0.05 --every 10 --sensors --csv -");
+  ASSERT_EQ(r.status, 0) << r.err;
+  const auto rows = lines(r.out);
+  ASSERT_EQ(rows.size(), 1u + 6u);
+  const std::string positions = "time,energy,r/base.x,r/base.y,r/base.z,s0.x,s0.y,s0.z,s1.x,s1.y,s1.z,s2.x,s2.y,s2.z,"
+                                "r/tip.x,r/tip.y,r/tip.z";
+  EXPECT_EQ(rows[0], positions + ",len,tip.0,tip.1,tip.2,sensor2");
+  for (size_t i = 1; i < rows.size(); ++i) {
+    std::vector<double> v;
+    std::istringstream s(rows[i]);
+    for (std::string c; std::getline(s, c, ',');) v.push_back(std::stod(c));
+    ASSERT_EQ(v.size(), 22u) << rows[i];
+    const Vec3 s0(v[5], v[6], v[7]), s1(v[8], v[9], v[10]), s2(v[11], v[12], v[13]);
+    EXPECT_NEAR(v[17], (s1 - s0).norm() + (s2 - s1).norm(), 1e-9) << rows[i];  // (10 digits written)
+    for (int k = 0; k < 3; ++k) EXPECT_EQ(v[18 + k], v[14 + k]) << rows[i];
+    EXPECT_EQ(v[21], 0.5);
+    if (i > 1) EXPECT_LT(v[17], 0.4 - 1e-4) << "the pulled tendon shortens";
+  }
+  const Result plain = cosserat("run '" + model.string() + "' --duration 0.01 --every 10 --csv -");
+  ASSERT_EQ(plain.status, 0) << plain.err;
+  EXPECT_EQ(lines(plain.out)[0], positions);
+  // equilibrium: the sensors at the result, at rest
+  const Result e = cosserat("equilibrium '" + model.string() + "' --key 0 --sensors --json -");
+  ASSERT_EQ(e.status, 0) << e.err;
+  const json j = json::parse(e.out);
+  auto site = [&](const char* n) {
+    const auto& p = j["sites"][n];
+    return Vec3(p[0].get<double>(), p[1].get<double>(), p[2].get<double>());
+  };
+  const double len = j["sensors"]["len"][0].get<double>();
+  EXPECT_NEAR(len, (site("s1") - site("s0")).norm() + (site("s2") - site("s1")).norm(), 1e-14);
+  EXPECT_LT(len, 0.4 - 1e-3);
+  for (int k = 0; k < 3; ++k) EXPECT_EQ(j["sensors"]["tip"][k].get<double>(), site("r/tip")(k));
 }
 
 // `--csv -` writes the CSV to stdout, alone (it had written a file named '-'); the same rows as
