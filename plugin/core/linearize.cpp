@@ -37,12 +37,14 @@ Linearization linearize(const Model& m, Data& d) {
   return L;
 }
 
-bool unstable_mode(const VecX& x, const MatX& K, const MatX& M) {
+bool unstable_mode(const VecX& x, const MatX& K, const MatX& M, double noise) {
   const double mass = x.dot(M * x);
   if (!(mass > 0)) return false;
   const VecX ax = x.cwiseAbs();
-  return x.dot(K * x) < -1e-4 * ax.dot(K.cwiseAbs() * ax);
+  return x.dot(K * x) < -std::max(1e-4 * ax.dot(K.cwiseAbs() * ax), noise);
 }
+
+double noise_bound(const VecX& ax, const VecX& n) { return ax.sum() * ax.dot(n); }
 
 void state_space(Linearization& L) {
   const int n = static_cast<int>(L.M.rows()), nu = static_cast<int>(L.Bu.cols());
@@ -64,6 +66,12 @@ void state_space(Linearization& L) {
 
   // Kt is symmetric for conservative loads; follower loads make it slightly unsymmetric.
   const MatX Ks = 0.5 * (L.Kt + L.Kt.transpose());
+  // the noise bound of a mode x (in L's coordinates; dq = basis x where there is a basis)
+  auto noise = [&L](const VecX& x) {
+    if (L.Kt_noise.size() == 0) return 0.0;
+    const VecX ax = L.basis.size() ? VecX(L.basis.cwiseAbs() * x.cwiseAbs()) : VecX(x.cwiseAbs());
+    return noise_bound(ax, L.Kt_noise);
+  };
   L.frequencies_hz.resize(n);
   L.omega2.resize(n);
   L.damping_ratios.resize(0);
@@ -78,7 +86,7 @@ void state_space(Linearization& L) {
       const VecX x = es.eigenvectors().col(i);
       L.frequencies_hz(i) = w / (2.0 * M_PI);
       L.damping_ratios(i) = w > 0 ? x.dot(L.D * x) / (2.0 * w) : std::nan("");
-      if (L.omega2(i) < 0 && unstable_mode(x, Ks, L.M)) ++L.unstable_modes;
+      if (L.omega2(i) < 0 && unstable_mode(x, Ks, L.M, noise(x))) ++L.unstable_modes;
     }
   } else {
     // (follower loads) a real mode's quotient x'Kt x = x'Ks x (its eigenvector's real part)
@@ -92,7 +100,7 @@ void state_space(Linearization& L) {
       L.modes.col(i) = mass > 0 ? VecX(modes[i].second / std::sqrt(mass)) : modes[i].second;
       L.omega2(i) = modes[i].first;
       L.frequencies_hz(i) = std::sqrt(std::max(modes[i].first, 0.0)) / (2.0 * M_PI);
-      if (modes[i].first < 0 && unstable_mode(modes[i].second, Ks, L.M)) ++L.unstable_modes;
+      if (modes[i].first < 0 && unstable_mode(modes[i].second, Ks, L.M, noise(modes[i].second))) ++L.unstable_modes;
     }
   }
 }

@@ -23,6 +23,10 @@ struct Linearization {
   // matrices above in y. Empty (and constraint_rows 0): the coordinates are dq itself.
   MatX basis;
   int constraint_rows = 0;
+  // Bounds n_j of the rounding noise of Kt's entries where Kt comes from finite differences of
+  // forces (entry (i, j) within (n_i + n_j) / 2), in the coordinates of dq (before any basis);
+  // empty: Kt is exact (up to its own rounding). unstable_mode takes modes within it for neutral.
+  VecX Kt_noise;
 };
 
 // Whether the mode x (an eigenvector of K x = omega^2 M x, K symmetric) shows the equilibrium
@@ -35,7 +39,15 @@ struct Linearization {
 // outside probe's column at twice its buckling load had omega^2 = -6.2 1/s^2 beside axial modes
 // at 1e12, which thresholds of 1e-7, 1e-9 and then 1e-15 of the largest eigenvalue (a 1 mm
 // column's at 6.7e18) took for stable.
-bool unstable_mode(const VecX& x, const MatX& K, const MatX& M);
+// `noise` (default 0) is a bound of x'E x for the noise E of a finite-difference K (noise_bound):
+// the quotient must also lie below -noise / x'M x. (A neutral family of equilibria, outside probe
+// AM's buckled zig-zag under two antagonistic cables, has modes whose own stiffness scale is 0 and
+// whose quotients are the differences' rounding, 1e-10 of the forces' scale: read as unstable.)
+bool unstable_mode(const VecX& x, const MatX& K, const MatX& M, double noise = 0.0);
+
+// sum_ij ax_i ax_j (n_i + n_j) / 2 = |ax|_1 sum_j ax_j n_j: the bound of x'E x for |x| <= ax
+// entrywise and noise |E_ij| <= (n_i + n_j) / 2.
+double noise_bound(const VecX& ax, const VecX& n);
 
 // Linearises at d.q (call equilibrium() first) and d.ctrl.
 Linearization linearize(const Model& m, Data& d);

@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <cstdio>
 #include <stdexcept>
 #include <vector>
@@ -220,21 +221,28 @@ class StaticProblem {
     F = Eigen::Map<const VectorXd>(d_->qfrc_smooth, m_->nv) + Eigen::Map<const VectorXd>(d_->qfrc_constraint, m_->nv);
   }
 
-  // Tangent stiffness -df/dq at lambda by central differences in the tangent space of qpos.
-  void stiffness(double lambda, MatrixXd& Kt) {
+  // Tangent stiffness -df/dq at lambda by central differences in the tangent space of qpos. With
+  // `noise`, bounds of the differences' rounding per column (Linearization::Kt_noise): the forces'
+  // rounding, taken as kForceRounding of their scale (the largest of the terms force() weighs),
+  // over the step 2 h_j. (Outside probe AM's antagonistic cables at 12 N on a bent rod: its
+  // generalised forces, of scale 0.013, scattered by 1e-16, 30 times the double's epsilon of it.)
+  void stiffness(double lambda, MatrixXd& Kt, VectorXd* noise = nullptr) {
+    constexpr double kForceRounding = 100.0 * std::numeric_limits<double>::epsilon();
     const int n = m_->nv;
     Kt.resize(n, n);
+    if (noise) noise->resize(n);
     VectorXd fp(n), fm(n), e = VectorXd::Zero(n);
     const std::vector<mjtNum> q0 = qpos();
     for (int j = 0; j < n; ++j) {
       const double h = step_size(q0, j);
       e(j) = 1.0;
       move(q0, e, h);
-      force(lambda, fp, false);
+      const double scale_p = force(lambda, fp, false);
       move(q0, e, -h);
-      force(lambda, fm, false);
+      const double scale_m = force(lambda, fm, false);
       e(j) = 0.0;
       Kt.col(j) = -(fp - fm) / (2.0 * h);
+      if (noise) (*noise)(j) = kForceRounding * std::max(scale_p, scale_m) / h;
     }
     set_qpos(q0);
   }
@@ -447,7 +455,8 @@ bool stable_equilibrium(StaticProblem& p, const Scene& s, SceneData& sd, double 
   omega2_min = 0.0;
   if (n == 0) return true;
   MatrixXd Kt, J, Kc;
-  p.stiffness(lambda, Kt);
+  VectorXd noise;
+  p.stiffness(lambda, Kt, &noise);
   MatrixXd N = MatrixXd::Identity(n, n);
   if (constraints) {
     try {
@@ -479,8 +488,10 @@ bool stable_equilibrium(StaticProblem& p, const Scene& s, SceneData& sd, double 
   // elastic forces, gravity's constant), and was reported unstable
   const bool gravity = !(s.m->opt.disableflags & mjDSBL_GRAVITY);
   const double slowest = gravity ? 1e-6 * mju_norm3(s.m->opt.gravity) / std::max(s.m->stat.extent, 1e-6) : 0.0;
+  const MatrixXd absN = N.cwiseAbs();
   for (int i = 0; i < w.size() && w(i) < -slowest; ++i)
-    if (cosserat::unstable_mode(es.eigenvectors().col(i), Ks, M)) {
+    if (cosserat::unstable_mode(es.eigenvectors().col(i), Ks, M,
+                                cosserat::noise_bound(absN * es.eigenvectors().col(i).cwiseAbs(), noise))) {
       if (mode) *mode = N * es.eigenvectors().col(i);
       return false;
     }
@@ -1022,7 +1033,7 @@ SceneLinearization linearize(const Scene& s, SceneData& sd, const SceneLinearize
     return L;
   }
   StaticProblem p(s, sd);
-  p.stiffness(1.0, L.Kt);
+  p.stiffness(1.0, L.Kt, &L.Kt_noise);
   p.damping(L.D);  // leaves the stages evaluated at the current qpos, at rest
   L.M.resize(n, n);
   std::vector<mjtNum> full(static_cast<size_t>(n) * n);

@@ -650,6 +650,52 @@ TEST(SceneStatics, CableForcesCancellingInTheirSumConvergeAtOnce) {
   for (int i = 0; i < s->m->nq; ++i) EXPECT_LT(std::abs(sd.d->qpos[i]), 1e-10) << "qpos " << i;
 }
 
+// A neutral family of equilibria is stable. Two antagonistic cables at +-d through sites at the ends
+// of a rod's 8 inextensible sections: each chord lies in one section, and the pair's length there,
+// 4 sin(k h / 2) / k, depends on the section's |k| only, so past the spacer-disk buckling load
+// T_c = 6 EI / h^2 every section bends to the |k| where EI h k = -T d(4 sin(k h / 2) / k)/dk, in
+// any direction (outside probe AM). Each direction is a neutral mode; the finite differences'
+// rounding had made some of them read omega^2 = -0.0036 and the equilibrium unstable (exit 1, and
+// linearize refused it): unstable_mode now takes the differences' noise (Kt_noise) into account.
+TEST(SceneStatics, ANeutralFamilyOfBuckledStatesIsStable) {
+  const double L = 0.5, h = L / 8, d = 0.005, r = 0.01, E = 1e6, EI = E * M_PI * std::pow(r, 4) / 4;
+  std::string sites, t = "<spatial name=\"t\">", u = "<spatial name=\"u\">";
+  for (int k = 0; k <= 8; ++k) {
+    const std::string at = std::to_string(k * h), i = std::to_string(k);
+    sites += "<site name=\"t" + i + "\" at=\"" + at + "\" pos=\"0 0.005 0\"/><site name=\"u" + i + "\" at=\"" + at +
+             "\" pos=\"0 -0.005 0\"/>";
+    t += "<site site=\"t" + i + "\"/>";
+    u += "<site site=\"u" + i + "\"/>";
+  }
+  const std::string xml = R"(<mujoco><option gravity="0 0 0"/><worldbody>
+    <cosserat name="rod" length="0.5" sections="8" strain="ikl" radius="0.01" density="1000" young="1e6" poisson="0.5"
+              contype="0" conaffinity="0">)" + sites + "</cosserat></worldbody><tendon>" + t + "</spatial>" + u +
+                          R"(</spatial></tendon><actuator><motor tendon="t" gear="-1"/><motor tendon="u" gear="-1"/>
+    </actuator></mujoco>)";
+  const double Tc = 6 * EI / (h * h);
+  for (const double T : {0.99 * Tc, 1.01 * Tc}) {
+    auto s = load_scene_string(xml, kPath);
+    SceneData sd(*s);
+    sd.d->ctrl[0] = sd.d->ctrl[1] = T;
+    const SceneStaticsResult res = equilibrium(*s, sd);
+    ASSERT_TRUE(res.converged) << "T / Tc = " << T / Tc << ": " << res.message;
+    // |k| of the energy's minimum over a section: EI h k + T d(4 sin(k h / 2) / k)/dk = 0 (bisection)
+    auto g = [&](double k) { return EI * h * k + 4 * T * (0.5 * h * k * std::cos(0.5 * h * k) - std::sin(0.5 * h * k)) / (k * k); };
+    double lo = 1e-3, hi = 40;
+    for (int it = 0; it < 200; ++it) (g(0.5 * (lo + hi)) > 0 ? hi : lo) = 0.5 * (lo + hi);
+    const double k_ref = T < Tc ? 0.0 : 0.5 * (lo + hi);
+    if (T > Tc) EXPECT_GT(k_ref, 5.0);
+    for (int i = 0; i < 8; ++i) {
+      const double k = std::hypot(sd.d->qpos[3 * i + 1], sd.d->qpos[3 * i + 2]);
+      EXPECT_NEAR(k, k_ref, 1e-4 * std::max(k_ref, 1.0)) << "section " << i << ", T / Tc = " << T / Tc;
+    }
+    if (T > Tc) {  // its linearisation: no unstable mode
+      const SceneLinearization lin = linearize(*s, sd);
+      EXPECT_EQ(lin.unstable_modes, 0);
+    }
+  }
+}
+
 // Equality constraints are held rigid in the linearisation: a clamped rod whose tip is pinned by a
 // `connect` to the world has the clamped-pinned beam's frequencies (beta L = 3.9266, 7.0686,
 // 10.2102), and with the constraint left out the clamped-free ones (1.8751), as before.
