@@ -158,7 +158,9 @@ struct Scene {
   // site's proxy only, one section's capsules); rangefinders on a rod's sites: their ray leaves
   // the rod's capsules it starts in (MuJoCo excludes the proxy's own, and a site at a section's
   // end, or the rod's base site, starts inside the next section's capsule): (sensor, rod)
-  std::vector<int> rod_touch_sensors;
+  // (the rod's base site too: outside probe AN, it had read 0, MuJoCo counting its base body's
+  // contacts, which has no geoms)
+  std::vector<std::pair<int, int>> rod_touch_sensors;
   std::vector<std::pair<int, int>> rod_rangefinders;
   // force and torque sensors, when the model has rods: MuJoCo's cfrc_int counts rigid bodies only
   // (the rods' mass lives in their solver), so the step adds each rod's inverse dynamics to it and

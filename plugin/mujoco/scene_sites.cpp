@@ -96,8 +96,8 @@ bool rod_body(const Scene& s, int r, int b) {
 void patch_touch_sensors(const Scene& s, SceneData& sd) {
   const mjModel* m = s.m;
   mjData* d = sd.d;
-  for (int i : s.rod_touch_sensors) {
-    const int site = m->sensor_objid[i], r = s.site_rod[site];
+  for (const auto& [i, r] : s.rod_touch_sensors) {
+    const int site = m->sensor_objid[i];
     mjtNum* out = d->sensordata + m->sensor_adr[i];
     out[0] = 0;
     for (int j = 0; j < d->ncon; ++j) {
@@ -432,12 +432,11 @@ void setup_site_readers(const Preprocessed& pre, Scene& s) {
     if ((t == mjSENS_ACCELEROMETER || t == mjSENS_FRAMELINACC || t == mjSENS_FRAMEANGACC) &&
         moving_rod_site(s, m->sensor_objtype[i], m->sensor_objid[i]))
       s.rod_acceleration_sensors.push_back(i);
-    if (t == mjSENS_TOUCH && s.site_rod[m->sensor_objid[i]] >= 0) s.rod_touch_sensors.push_back(i);
-    if (t == mjSENS_RANGEFINDER)  // on a rod's proxies, or its base site
+    if (t == mjSENS_TOUCH || t == mjSENS_RANGEFINDER)  // on a rod's proxies, or its base site
       for (size_t r = 0; r < s.rods.size(); ++r) {
         const auto& ids = s.rods[r].site_id;
         if (std::find(ids.begin(), ids.end(), m->sensor_objid[i]) != ids.end())
-          s.rod_rangefinders.emplace_back(i, static_cast<int>(r));
+          (t == mjSENS_TOUCH ? s.rod_touch_sensors : s.rod_rangefinders).emplace_back(i, static_cast<int>(r));
       }
     if (t == mjSENS_FRAMEQUAT && (rod_placed_frame(s, m->sensor_objtype[i], m->sensor_objid[i]) ||
                                   rod_placed_frame(s, m->sensor_reftype[i], m->sensor_refid[i])))

@@ -266,6 +266,31 @@ TEST(Sensors, TouchOnARodSiteCountsTheWholeRodsContacts) {
   EXPECT_GT(touch("z2"), 0.2 * weight);
 }
 
+// Touch on the rod's generated base site counts the rod's contacts in its zone like a user site
+// at the same abscissa (outside probe AN: it read 0, MuJoCo counting the contacts of the base
+// body, which has no geoms). A thin rod (r = 3 mm) on a floor: the default 5 mm site spheres at its
+// ends hold its end contacts.
+TEST(Sensors, TouchOnTheRodsBaseSiteCountsItsContacts) {
+  auto s = load_scene_string(R"(<mujoco><option timestep="0.001" gravity="0 0 -9.81"/><worldbody>
+    <geom name="floor" type="plane" size="2 2 0.1"/>
+    <body name="hub" pos="0 0 0.00299"><freejoint/><inertial pos="0 0 0" mass="0.001" diaginertia="1e-8 1e-8 1e-8"/>
+      <cosserat name="rod" length="0.3" sections="3" strain="kl" radius="0.003" density="1000" young="1e7"
+                poisson="0.5" viscosity="200"><site name="at0" at="0"/><site name="atL" at="0.3"/></cosserat>
+    </body></worldbody>
+    <sensor><touch name="base" site="rod/base"/><touch name="at0" site="at0"/><touch name="tip" site="rod/tip"/>
+      <touch name="atL" site="atL"/></sensor></mujoco>)",
+                             "/tmp/cosserat_sensor_test.xml");
+  SceneData sd(*s);
+  for (int k = 0; k < 1000; ++k) ASSERT_EQ(step(*s, sd), Status::Ok);
+  forward(*s, sd);
+  const mjModel* m = s->m;
+  auto touch = [&](const char* n) { return sd.d->sensordata[m->sensor_adr[mj_name2id(m, mjOBJ_SENSOR, n)]]; };
+  EXPECT_GT(touch("at0"), 1e-3);
+  EXPECT_EQ(touch("base"), touch("at0"));
+  EXPECT_GT(touch("atL"), 1e-3);
+  EXPECT_EQ(touch("tip"), touch("atL"));
+}
+
 // A rangefinder on a rod site sees past the rod's own capsules it starts in (at a section's end the
 // site lies inside the next section's capsule, another body to MuJoCo): a rod 0.5 m above the floor
 // with its sites' z axes pointing down reads 0.5 from sites inside sections, at their ends and at
