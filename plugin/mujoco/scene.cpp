@@ -724,11 +724,11 @@ struct CapsuleAxis {
   }
 };
 
-// The material abscissa of a point p touching rod capsule `geom`: p projected on the capsule's axis.
+}  // namespace
+
 double capsule_abscissa(const Scene& s, const SceneData& sd, int geom, const Vec3& p) {
   return CapsuleAxis(s.m, sd.d, geom).abscissa(s.rods[s.geom_rod[geom]].decl.geoms[s.geom_index[geom]], p);
 }
-}  // namespace
 
 int capsule_correction(const Scene& s, const SceneData& sd, int geom, const Vec3& p, SectionCols& dJ) {
   const int r = s.geom_rod[geom];

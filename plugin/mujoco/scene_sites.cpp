@@ -348,11 +348,49 @@ void patch_cfrc_int(const Scene& s, SceneData& sd) {
   }
 }
 
+// The wrench rod `m` (the scene's rod model, rod 0 of it) carries across its cross-section at X,
+// com-based about c, from its node wrenches (cosserat::Data::F, the nodes' own inverse dynamics and
+// everything beyond): each mass node stands for a stretch of the rod, the nodes' length weights
+// (Node::dX) laid end to end from the base (the Gauss points' and Gauss-Lobatto's separate their
+// nodes), and the node whose stretch X cuts counts the fraction of its own wrench beyond X. Under a
+// uniform load this is the continuum's resultant; counting the nodes at or beyond X in full had read
+// up to half a section's weight off (outside probe AN: -3.8% to +7% on a hanging rod, the shipped
+// cantilever's beam_mid 2.5% high). The node carrying the rod's payload keeps its whole wrench.
+Vec6 rod_wrench_beyond(const cosserat::Model& m, const cosserat::Data& rd, double X, const mjtNum* c) {
+  const cosserat::Rod& rod = m.rods[0];
+  auto W = [&](int k) { return k > rod.tip_node ? Vec6(Vec6::Zero()) : coAd_apply(com_frame(rd.g[k], c), rd.F[k]); };
+  double begin = 0.0;  // where node k's stretch begins
+  for (int k = rod.first_node; k <= rod.tip_node; ++k) {
+    const double dX = m.nodes[k].dX, end = begin + dX;
+    if (dX > 0 && end > X) {
+      if (begin >= X || k == rd.attached_node) return W(k);
+      return W(k + 1) + (end - X) / dX * (W(k) - W(k + 1));
+    }
+    begin = end;
+  }
+  return W(rod.tip_node + 1);
+}
+
+// The com-based wrench (torque about c, force; world axes) contact j exerts on `body`, as MuJoCo's
+// mj_rnePostConstraint adds it to cfrc_ext: the contact force on geom2's body, its opposite on
+// geom1's.
+Vec6 contact_wrench_on(const mjModel* m, mjData* d, int j, int body, const mjtNum* c) {
+  const mjContact& con = d->contact[j];
+  mjtNum local[6], world[6], out[6];
+  mj_contactForce(m, d, j, local);
+  mju_rotVecMatT(world + 3, local, con.frame);  // force
+  mju_rotVecMatT(world, local + 3, con.frame);  // torque
+  mju_transformSpatial(out, world, 1, c, con.pos, nullptr);
+  const Vec6 W = Eigen::Map<const Vec6>(out);
+  return m->geom_bodyid[con.geom1] == body ? Vec6(-W) : W;
+}
+
 // Scene::force_sensors again, as mj_sensorAcc computes them (cfrc_int of the site's body, to the
 // site's frame), from the patched cfrc_int. A site on a rod section reads the wrench transmitted
 // into the rod from its abscissa on (the nodes at or beyond it) instead of from the section's end,
 // plus what MuJoCo's bodies below add (tip bodies; contacts on the capsules of the site's section
-// and beyond).
+// at or beyond the site's abscissa, and on the sections beyond). (Outside probe AN: the contacts
+// on the site's own section before it had counted too, 8-24% of the weight of a rod on a floor.)
 void patch_force_sensors(const Scene& s, SceneData& sd) {
   const mjModel* m = s.m;
   mjData* d = sd.d;
@@ -364,9 +402,19 @@ void patch_force_sensors(const Scene& s, SceneData& sd) {
     if (const int r = s.site_rod[site]; r >= 0 && body != s.rods[r].base_body) {
       const RodBinding& rb = s.rods[r];
       const cosserat::Data& rd = sd.rod[r];
-      const int k = rb.model.rod_node_at(0, rb.decl.sites[s.site_index[site]].X);
+      const double X = rb.decl.sites[s.site_index[site]].X;
       const int k_end = rb.model.sections[s.site_section[site]].end_node;
-      cf += coAd_apply(com_frame(rd.g[k], c), rd.F[k]) - coAd_apply(com_frame(rd.g[k_end], c), rd.F[k_end]);
+      cf += rod_wrench_beyond(rb.model, rd, X, c) - coAd_apply(com_frame(rd.g[k_end], c), rd.F[k_end]);
+      // cfrc_int holds minus the external wrenches on the proxy: add back those of the contacts on
+      // the section's capsules before X
+      for (int j = 0; j < d->ncon; ++j) {
+        const mjContact& con = d->contact[j];
+        if (con.efc_address < 0) continue;
+        for (const int g : {con.geom1, con.geom2})
+          if (m->geom_bodyid[g] == body && s.geom_rod[g] == r &&
+              capsule_abscissa(s, sd, g, Eigen::Map<const Vec3>(con.pos)) < X)
+            cf += contact_wrench_on(m, d, j, body, c);
+      }
     }
     mjtNum tmp[6];
     mju_transformSpatial(tmp, cf.data(), 1, d->site_xpos + 3 * site, c, d->site_xmat + 9 * site);

@@ -61,6 +61,8 @@ int site_correction(const Scene& s, const SceneData& sd, int site, const Vec3& p
 // The same for a point p (world) touching rod capsule `geom`: the material point of the section at
 // p's projection on the capsule's axis (the contact rows' correction).
 int capsule_correction(const Scene& s, const SceneData& sd, int geom, const Vec3& p, SectionCols& dJ);
+// The material abscissa of a point p touching rod capsule `geom`: p projected on the capsule's axis.
+double capsule_abscissa(const Scene& s, const SceneData& sd, int geom, const Vec3& p);
 // Body b is `ancestor` or below it (every body is below the world).
 bool is_descendant(const mjModel* m, int b, int ancestor);
 // The frame a rod section starts at: node `anchor`, or the rod's base for -1.
