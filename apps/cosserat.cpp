@@ -131,11 +131,31 @@ struct SensorOutput {
 
 std::vector<SensorOutput> sensor_outputs(const mjModel* m) {
   std::vector<SensorOutput> v;
+  auto named = [m](const std::string& n) { return mj_name2id(m, mjOBJ_SENSOR, n.c_str()) >= 0; };
   for (int i = 0; i < m->nsensor; ++i) {
     const char* n = mj_id2name(m, mjOBJ_SENSOR, i);
-    v.push_back({n && *n ? std::string(n) : "sensor" + std::to_string(i), m->sensor_adr[i], m->sensor_dim[i]});
+    std::string name = n && *n ? std::string(n) : "sensor" + std::to_string(i);
+    // (outside probe AN: an unnamed sensor 0 beside one named "sensor0" had shared its columns)
+    if (!(n && *n))
+      for (int k = 1; named(name); ++k) name = "sensor" + std::to_string(i) + "_" + std::to_string(k);
+    v.push_back({name, m->sensor_adr[i], m->sensor_dim[i]});
   }
   return v;
+}
+
+// The warning --sensors gives where the model switches its sensors off (their columns read 0).
+std::string disabled_sensors_warning(const mjModel* m) {
+  return m->nsensor > 0 && (m->opt.disableflags & mjDSBL_SENSOR)
+             ? "--sensors: the model disables its sensors (<flag sensor=\"disable\"/>): their values read 0"
+             : "";
+}
+
+// A CSV header field: quoted (RFC 4180) where the name holds a comma, a quote or a line break.
+std::string csv_field(const std::string& name) {
+  if (name.find_first_of(",\"\n\r") == std::string::npos) return name;
+  std::string q = "\"";
+  for (const char ch : name) q += ch == '"' ? std::string("\"\"") : std::string(1, ch);
+  return q + "\"";
 }
 
 void add_sensors(json& j, const std::vector<SensorOutput>& sensors, const mjData* d) {
@@ -155,7 +175,7 @@ void print_sensors(const std::vector<SensorOutput>& sensors, const mjData* d) {
 constexpr const char* kSensorsHelp =
     "also report the model's sensors (MuJoCo's sensordata, rod sites included: tendon and actuator lengths, "
     "forces, touch, frame poses, ...) at each sample: CSV columns NAME (or NAME.0, NAME.1, ... for several values; "
-    "an unnamed sensor is sensor<i>) after the positions, and \"sensors\": {NAME: [values]} in the JSON and the "
+    "an unnamed sensor is sensor<i>, with a suffix _k where a named sensor has that name; names with commas or quotes are quoted) after the positions, and \"sensors\": {NAME: [values]} in the JSON and the "
     "summary (the final state)";
 
 Outputs named_outputs(const mj::Scene& s) {
@@ -498,10 +518,11 @@ int cmd_run(int argc, char** argv) {
   if (csv_out) {
     std::ostream& f = *csv_out;
     f << "time,energy";
-    for (const auto& n : out.sites) f << "," << n.name << ".x," << n.name << ".y," << n.name << ".z";
-    for (const auto& n : out.bodies) f << "," << n.name << ".x," << n.name << ".y," << n.name << ".z";
+    for (const auto* names : {&out.sites, &out.bodies})
+      for (const auto& n : *names)
+        for (const char* axis : {".x", ".y", ".z"}) f << "," << csv_field(n.name + axis);
     for (const auto& c : sensors)
-      for (int k = 0; k < c.dim; ++k) f << "," << c.name << (c.dim > 1 ? "." + std::to_string(k) : std::string());
+      for (int k = 0; k < c.dim; ++k) f << "," << csv_field(c.name + (c.dim > 1 ? "." + std::to_string(k) : std::string()));
     f << "\n";
     f.precision(10);
   }
@@ -600,6 +621,8 @@ int cmd_run(int argc, char** argv) {
                   energy.max_gain(), energy.max_rel_gain(), remedy.c_str());
     warnings.push_back(b);
   }
+  if (with_sensors && !disabled_sensors_warning(s.scene().m).empty())
+    warnings.push_back(disabled_sensors_warning(s.scene().m));
   if (csv_out)  // the CSV header's contract is <name>.x,...: a site and a body of one name repeat it
     for (const auto& site : out.sites)
       for (const auto& body : out.bodies)
@@ -719,6 +742,7 @@ int cmd_equilibrium(int argc, char** argv) {
   std::vector<SensorOutput> sensors;
   if (with_sensors) {  // a forward evaluation at the result (at rest) computes them, positions unchanged
     sensors = sensor_outputs(eq.scene->m);
+    if (const std::string w = disabled_sensors_warning(eq.scene->m); !w.empty()) std::fprintf(stderr, "warning: %s\n", w.c_str());
     mjData* d = eq.data->d;
     const std::vector<mjtNum> q(d->qpos, d->qpos + eq.scene->m->nq);
     try {

@@ -207,6 +207,21 @@ TEST_F(Cli, RunAndEquilibriumReportSensors) {
     EXPECT_EQ(v[21], 0.5);
     if (i > 1) EXPECT_LT(v[17], 0.4 - 1e-4) << "the pulled tendon shortens";
   }
+  // an unnamed sensor beside one named like its default name, a name with a comma (quoted), and a
+  // model that disables its sensors (outside probe AN)
+  const fs::path odd = scratch() / "odd_sensors.xml";
+  std::ofstream(odd) << R"(<mujoco><option timestep="0.001"/><worldbody><body name="b"><joint name="j" type="hinge"/>
+    <geom size="0.1" mass="1"/><site name="s"/></body></worldbody>
+    <sensor><jointpos joint="j"/><jointvel name="sensor0" joint="j"/><framepos name="p,q" objtype="site" objname="s"/></sensor></mujoco>)";
+  const Result o = cosserat("run '" + odd.string() + "' --duration 0.002 --sensors --csv -");
+  ASSERT_EQ(o.status, 0) << o.err;
+  EXPECT_EQ(lines(o.out)[0], "time,energy,s.x,s.y,s.z,b.x,b.y,b.z,sensor0_1,sensor0,\"p,q.0\",\"p,q.1\",\"p,q.2\"");
+  std::string disabled = read_text(odd);
+  disabled.replace(disabled.find("<worldbody>"), 11, R"(<option><flag sensor="disable"/></option><worldbody>)");
+  std::ofstream(odd) << disabled;
+  const Result off = cosserat("run '" + odd.string() + "' --duration 0.002 --sensors");
+  ASSERT_EQ(off.status, 0) << off.err;
+  EXPECT_NE(off.out.find("warning: --sensors: the model disables its sensors"), std::string::npos) << off.out;
   const Result plain = cosserat("run '" + model.string() + "' --duration 0.01 --every 10 --csv -");
   ASSERT_EQ(plain.status, 0) << plain.err;
   EXPECT_EQ(lines(plain.out)[0], positions);
