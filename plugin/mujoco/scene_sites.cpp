@@ -34,6 +34,49 @@ void apply_cutoff(const mjModel* m, int sensor, mjtNum* out) {
   }
 }
 
+// MuJoCo 2.2's sensor noise (<flag sensornoise="enable"/>, a sensor's `noise`: a standard
+// deviation), added again to the data the step evaluates again, as engine_sensor.c's add_noise
+// adds it after the cutoff: Gaussian noise on real values, on positive ones where they are
+// positive (kept at or above 0), on an axis (then normalised), and a random rotation of a
+// quaternion by a Gaussian angle about a random axis. (Outside probe AN: these sensors had come
+// out noise-free beside MuJoCo's noisy ones.)
+void apply_noise(const mjModel* m, int sensor, mjtNum* out) {
+  const mjtNum noise = m->sensor_noise[sensor];
+  if (!(m->opt.enableflags & mjENBL_SENSORNOISE) || noise <= 0) return;
+  const int dim = m->sensor_dim[sensor];
+  switch (m->sensor_datatype[sensor]) {
+    case mjDATATYPE_REAL:
+      for (int e = 0; e < dim; ++e) out[e] += noise * mju_standardNormal(nullptr);
+      break;
+    case mjDATATYPE_POSITIVE:
+      for (int e = 0; e < dim; ++e)
+        if (out[e] > 0) out[e] = std::max(0.0, out[e] + noise * mju_standardNormal(nullptr));
+      break;
+    case mjDATATYPE_AXIS:
+      for (int e = 0; e < 3; ++e) out[e] += noise * mju_standardNormal(nullptr);
+      mju_normalize3(out);
+      break;
+    case mjDATATYPE_QUATERNION: {
+      mjtNum axis[3], q[4], res[4];
+      for (int e = 0; e < 3; ++e) axis[e] = mju_standardNormal(nullptr);
+      mju_normalize3(axis);
+      mju_axisAngle2Quat(q, axis, noise * mju_standardNormal(nullptr));
+      mju_mulQuat(res, out, q);
+      mju_normalize4(res);
+      mju_copy4(out, res);
+      break;
+    }
+    default:
+      break;
+  }
+}
+
+// What MuJoCo does to a sensor's data after computing it: the cutoff, then the noise.
+void finish_sensor(const mjModel* m, int sensor, mjtNum* out) {
+  apply_cutoff(m, sensor, out);
+  apply_noise(m, sensor, out);
+}
+
 // A rod site as above, or any rod capsule (rigid sections' too): MuJoCo orients them from their
 // proxy's quaternion and their compiled frame (a capsule's from its fromto, which points its z
 // axis the other way than the rod's chord frame), the rod places them (site_xmat, geom_xmat).
@@ -78,11 +121,12 @@ void patch_quat_sensors(const Scene& s, SceneData& sd) {
     mjtNum* out = d->sensordata + m->sensor_adr[i];
     if (m->sensor_refid[i] < 0) {
       mju_copy4(out, obj);
-      continue;
+    } else {
+      frame_quat(m, d, m->sensor_reftype[i], m->sensor_refid[i], ref);
+      mju_negQuat(ref, ref);
+      mju_mulQuat(out, ref, obj);
     }
-    frame_quat(m, d, m->sensor_reftype[i], m->sensor_refid[i], ref);
-    mju_negQuat(ref, ref);
-    mju_mulQuat(out, ref, obj);
+    finish_sensor(m, i, out);
   }
 }
 
@@ -114,7 +158,7 @@ void patch_touch_sensors(const Scene& s, SceneData& sd) {
                       m->site_type[site]) >= 0)
         out[0] += force[0];
     }
-    apply_cutoff(m, i, out);
+    finish_sensor(m, i, out);
   }
 }
 
@@ -147,7 +191,7 @@ void patch_rangefinders(const Scene& s, SceneData& sd) {
     }
     mjtNum* out = d->sensordata + m->sensor_adr[i];
     out[0] = dist < 0 ? -1 : travelled + dist;
-    apply_cutoff(m, i, out);
+    finish_sensor(m, i, out);
   }
 }
 
@@ -250,7 +294,7 @@ void patch_velocity_sensors(const Scene& s, SceneData& sd) {
       }
       mju_copy3(out, type == mjSENS_FRAMELINVEL ? xvel + 3 : xvel);
     }
-    apply_cutoff(m, i, out);
+    finish_sensor(m, i, out);
   }
 }
 
@@ -311,7 +355,7 @@ void patch_acceleration_sensors(const Scene& s, SceneData& sd) {
       mju_mulMatTVec(out, d->site_xmat + 9 * site, acc + 3, 3, 3);
     else
       mju_copy3(out, type == mjSENS_FRAMELINACC ? acc + 3 : acc);
-    apply_cutoff(m, i, out);
+    finish_sensor(m, i, out);
   }
 }
 
@@ -420,7 +464,7 @@ void patch_force_sensors(const Scene& s, SceneData& sd) {
     mju_transformSpatial(tmp, cf.data(), 1, d->site_xpos + 3 * site, c, d->site_xmat + 9 * site);
     mjtNum* out = d->sensordata + m->sensor_adr[i];
     mju_copy3(out, m->sensor_type[i] == mjSENS_FORCE ? tmp + 3 : tmp);
-    apply_cutoff(m, i, out);
+    finish_sensor(m, i, out);
   }
 }
 
@@ -436,7 +480,7 @@ void patch_subtree_sensors(const Scene& s, SceneData& sd, int stage) {
     const Vec3& v = type == mjSENS_SUBTREECOM ? st.com : type == mjSENS_SUBTREELINVEL ? st.linvel : st.angmom;
     mjtNum* out = d->sensordata + m->sensor_adr[i];
     for (int e = 0; e < 3; ++e) out[e] = v(e);
-    apply_cutoff(m, i, out);
+    finish_sensor(m, i, out);
   }
 }
 

@@ -531,6 +531,43 @@ TEST(Sensors, ForceSensorsBetweenMassNodesReadTheContinuumsResultant) {
   }
 }
 
+// Sensor noise (<flag sensornoise="enable"/>) on the sensors the step evaluates again for rods: the
+// noisy twin of a clean sensor differs from it by Gaussian noise of the given deviation (outside
+// probe AN: the noise had been dropped from them, and from every force sensor of a scene with rods);
+// a noisy quaternion stays a unit quaternion.
+TEST(Sensors, NoiseIsAddedToTheSensorsTheRodsEvaluateAgain) {
+  auto s = load_scene_string(R"(<mujoco><option timestep="0.001" gravity="0 0 -9.81"><flag sensornoise="enable"/></option>
+    <worldbody><cosserat name="rod" pos="0 0 1" length="0.3" sections="3" strain="kl" radius="0.01" young="1e6"
+      viscosity="50" contype="0" conaffinity="0"><site name="s" at="0.2"/></cosserat></worldbody>
+    <sensor><velocimeter site="s"/><velocimeter site="s" noise="0.1"/><force site="s"/><force site="s" noise="0.1"/>
+      <framequat objtype="site" objname="s"/><framequat objtype="site" objname="s" noise="0.1"/></sensor></mujoco>)",
+                             "/tmp/cosserat_sensor_test.xml");
+  SceneData sd(*s);
+  const mjModel* m = s->m;
+  double sum2[3] = {0, 0, 0};  // velocimeter, force, quaternion angle
+  const int n = 400;
+  for (int k = 0; k < n; ++k) {
+    ASSERT_EQ(step(*s, sd), Status::Ok);
+    const double* v = sd.d->sensordata;
+    for (int e = 0; e < 3; ++e) {
+      sum2[0] += std::pow(v[3 + e] - v[e], 2) / 3;
+      sum2[1] += std::pow(v[9 + e] - v[6 + e], 2) / 3;
+    }
+    const Eigen::Quaterniond q0(v[12], v[13], v[14], v[15]), q1(v[16], v[17], v[18], v[19]);
+    EXPECT_NEAR(q1.norm(), 1.0, 1e-12);
+    sum2[2] += std::pow(q0.angularDistance(q1), 2);
+  }
+  EXPECT_EQ(m->sensor_noise[1], 0.1);
+  for (int c = 0; c < 2; ++c) {  // deviation 0.1 per value, from 1200 samples: within 10%
+    const double sd_got = std::sqrt(sum2[c] / n);
+    EXPECT_GT(sd_got, 0.09) << c;
+    EXPECT_LT(sd_got, 0.11) << c;
+  }
+  // a rotation by a Gaussian angle of deviation 0.1: RMS angle 0.1 (400 samples)
+  EXPECT_GT(std::sqrt(sum2[2] / n), 0.085);
+  EXPECT_LT(std::sqrt(sum2[2] / n), 0.115);
+}
+
 // Subtree sensors count the rods' mass: a rigid rod (with a weight at its tip) on a free hub against
 // the native body with its inertia, at a moving state, for the hub's and the world's subtrees.
 TEST(Sensors, SubtreeSensorsCountTheRodLikeTheNativeBody) {
