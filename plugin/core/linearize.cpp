@@ -44,7 +44,7 @@ bool unstable_mode(const VecX& x, const MatX& K, const MatX& M, double noise) {
   return x.dot(K * x) < -std::max(1e-4 * ax.dot(K.cwiseAbs() * ax), noise);
 }
 
-double noise_bound(const VecX& ax, const VecX& n) { return ax.sum() * ax.dot(n); }
+double noise_bound(const VecX& ax, const MatX& N) { return ax.dot(N * ax); }
 
 void state_space(Linearization& L) {
   const int n = static_cast<int>(L.M.rows()), nu = static_cast<int>(L.Bu.cols());

@@ -23,10 +23,10 @@ struct Linearization {
   // matrices above in y. Empty (and constraint_rows 0): the coordinates are dq itself.
   MatX basis;
   int constraint_rows = 0;
-  // Bounds n_j of the rounding noise of Kt's entries where Kt comes from finite differences of
-  // forces (entry (i, j) within (n_i + n_j) / 2), in the coordinates of dq (before any basis);
-  // empty: Kt is exact (up to its own rounding). unstable_mode takes modes within it for neutral.
-  VecX Kt_noise;
+  // Bounds of the rounding noise of Kt's entries where Kt comes from finite differences of forces,
+  // entry by entry, in the coordinates of dq (before any basis); empty: Kt is exact (up to its own
+  // rounding). unstable_mode takes modes within it for neutral.
+  MatX Kt_noise;
 };
 
 // Whether the mode x (an eigenvector of K x = omega^2 M x, K symmetric) shows the equilibrium
@@ -45,9 +45,9 @@ struct Linearization {
 // whose quotients are the differences' rounding, 1e-10 of the forces' scale: read as unstable.)
 bool unstable_mode(const VecX& x, const MatX& K, const MatX& M, double noise = 0.0);
 
-// sum_ij ax_i ax_j (n_i + n_j) / 2 = |ax|_1 sum_j ax_j n_j: the bound of x'E x for |x| <= ax
-// entrywise and noise |E_ij| <= (n_i + n_j) / 2.
-double noise_bound(const VecX& ax, const VecX& n);
+// ax' N ax: the bound of x'E x for |x| <= ax entrywise and noise |E_ij| <= N_ij (or N_ji: E's
+// symmetric part is what the eigenproblems use).
+double noise_bound(const VecX& ax, const MatX& N);
 
 // Linearises at d.q (call equilibrium() first) and d.ctrl.
 Linearization linearize(const Model& m, Data& d);

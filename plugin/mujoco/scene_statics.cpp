@@ -222,29 +222,48 @@ class StaticProblem {
   }
 
   // Tangent stiffness -df/dq at lambda by central differences in the tangent space of qpos. With
-  // `noise`, bounds of the differences' rounding per column (Linearization::Kt_noise): the forces'
-  // rounding, taken as kForceRounding of their scale (the largest of the terms force() weighs),
-  // over the step 2 h_j. (Outside probe AM's antagonistic cables at 12 N on a bent rod: its
-  // generalised forces, of scale 0.013, scattered by 1e-16, 30 times the double's epsilon of it.)
-  void stiffness(double lambda, MatrixXd& Kt, VectorXd* noise = nullptr) {
+  // `noise`, bounds of the differences' rounding entry by entry (Linearization::Kt_noise): the
+  // rounding of force i, taken as kForceRounding of the sum of the magnitudes of the terms that
+  // make it (row_scales), over the step 2 h_j. (Outside probe AM's antagonistic cables at 12 N on
+  // a bent rod: its generalised forces, of terms of 0.013, scattered by 1e-16, 30 times the
+  // double's epsilon of them. Per row, not one scale for the scene: outside probe AO's column past
+  // its buckling load beside a heavy body on a spring had read stable with the body's forces
+  // setting the noise of the column's rows.)
+  void stiffness(double lambda, MatrixXd& Kt, MatrixXd* noise = nullptr) {
     constexpr double kForceRounding = 100.0 * std::numeric_limits<double>::epsilon();
     const int n = m_->nv;
     Kt.resize(n, n);
-    if (noise) noise->resize(n);
-    VectorXd fp(n), fm(n), e = VectorXd::Zero(n);
+    if (noise) noise->resize(n, n);
+    VectorXd fp(n), fm(n), sp(n), sm(n), e = VectorXd::Zero(n);
     const std::vector<mjtNum> q0 = qpos();
     for (int j = 0; j < n; ++j) {
       const double h = step_size(q0, j);
       e(j) = 1.0;
       move(q0, e, h);
-      const double scale_p = force(lambda, fp, false);
+      force(lambda, fp, false);
+      if (noise) row_scales(fp, sp);
       move(q0, e, -h);
-      const double scale_m = force(lambda, fm, false);
+      force(lambda, fm, false);
+      if (noise) row_scales(fm, sm);
       e(j) = 0.0;
       Kt.col(j) = -(fp - fm) / (2.0 * h);
-      if (noise) (*noise)(j) = kForceRounding * std::max(scale_p, scale_m) / h;
+      if (noise) noise->col(j) = kForceRounding / h * sp.cwiseMax(sm);
     }
     set_qpos(q0);
+  }
+
+  // After force(): per generalised force f_i, the sum of the magnitudes of the terms it is made of
+  // (the rods' elastic forces, the other passive forces, gravity's and the other bias forces, each
+  // actuator's, the applied forces and the body wrenches), whose rounding bounds f_i's.
+  void row_scales(const VectorXd& f, VectorXd& s) const {
+    const int n = m_->nv;
+    const VectorXd rods = rods_passive(s_, sd_);
+    const Eigen::Map<const VectorXd> passive(d_->qfrc_passive, n), bias(d_->qfrc_bias, n), applied(d_->qfrc_applied, n),
+        actuator(d_->qfrc_actuator, n);
+    s = rods.cwiseAbs() + (passive - rods).cwiseAbs() + bias.cwiseAbs() + applied.cwiseAbs() +
+        (f - passive + bias - applied - actuator).cwiseAbs();  // (the last: the body wrenches)
+    for (int a = 0; a < m_->nu; ++a)
+      s += std::abs(d_->actuator_force[a]) * Eigen::Map<const VectorXd>(d_->actuator_moment + a * n, n).cwiseAbs();
   }
 
   // The constraint rows `held` holds at the current qpos, at rest under the full loads: their
@@ -454,8 +473,7 @@ bool stable_equilibrium(StaticProblem& p, const Scene& s, SceneData& sd, double 
   const int n = p.nv();
   omega2_min = 0.0;
   if (n == 0) return true;
-  MatrixXd Kt, J, Kc;
-  VectorXd noise;
+  MatrixXd Kt, J, Kc, noise;
   p.stiffness(lambda, Kt, &noise);
   MatrixXd N = MatrixXd::Identity(n, n);
   if (constraints) {
