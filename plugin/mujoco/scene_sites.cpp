@@ -36,7 +36,7 @@ void apply_cutoff(const mjModel* m, int sensor, mjtNum* out) {
 
 // MuJoCo 2.2's sensor noise (<flag sensornoise="enable"/>, a sensor's `noise`: a standard
 // deviation), added again to the data the step evaluates again, as engine_sensor.c's add_noise
-// adds it after the cutoff: Gaussian noise on real values, on positive ones where they are
+// adds it: Gaussian noise on real values, on positive ones where they are
 // positive (kept at or above 0), on an axis (then normalised), and a random rotation of a
 // quaternion by a Gaussian angle about a random axis. (Outside probe AN: these sensors had come
 // out noise-free beside MuJoCo's noisy ones.)
@@ -71,10 +71,11 @@ void apply_noise(const mjModel* m, int sensor, mjtNum* out) {
   }
 }
 
-// What MuJoCo does to a sensor's data after computing it: the cutoff, then the noise.
+// What MuJoCo 2.2 does to a sensor's data after computing it: the noise, then the cutoff (outside
+// probe AO: the other order had let noisy readings past their cutoff).
 void finish_sensor(const mjModel* m, int sensor, mjtNum* out) {
-  apply_cutoff(m, sensor, out);
   apply_noise(m, sensor, out);
+  apply_cutoff(m, sensor, out);
 }
 
 // A rod site as above, or any rod capsule (rigid sections' too): MuJoCo orients them from their
@@ -146,7 +147,10 @@ void patch_touch_sensors(const Scene& s, SceneData& sd) {
     out[0] = 0;
     for (int j = 0; j < d->ncon; ++j) {
       const mjContact& con = d->contact[j];
-      const bool on1 = rod_body(s, r, m->geom_bodyid[con.geom1]), on2 = rod_body(s, r, m->geom_bodyid[con.geom2]);
+      // the rod's capsules, and the site's own body's geoms as MuJoCo counts them (the base site's
+      // body: outside probe AO, a hub's contacts had been lost)
+      const int own = m->body_weldid[m->site_bodyid[site]], b1 = m->geom_bodyid[con.geom1], b2 = m->geom_bodyid[con.geom2];
+      const bool on1 = rod_body(s, r, b1) || m->body_weldid[b1] == own, on2 = rod_body(s, r, b2) || m->body_weldid[b2] == own;
       if (con.efc_address < 0 || (!on1 && !on2)) continue;
       mjtNum force[6], ray[3];
       mj_contactForce(m, d, j, force);

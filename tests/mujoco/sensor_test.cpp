@@ -289,6 +289,22 @@ TEST(Sensors, TouchOnTheRodsBaseSiteCountsItsContacts) {
   EXPECT_EQ(touch("base"), touch("at0"));
   EXPECT_GT(touch("atL"), 1e-3);
   EXPECT_EQ(touch("tip"), touch("atL"));
+
+  // ... and the contacts of the body it rides with, as MuJoCo's own touch counts them (outside probe
+  // AO): a hub sphere on the floor, the rod's end lifted, read by the base site and a hub site alike
+  auto h = load_scene_string(R"(<mujoco><option timestep="0.001" gravity="0 0 -9.81"/><worldbody>
+    <geom name="floor" type="plane" size="2 2 0.1"/>
+    <body name="hub" pos="0 0 0.004"><freejoint/><geom name="hubg" type="sphere" size="0.004" mass="0.01"/><site name="hubs"/>
+      <cosserat name="rod" length="0.3" sections="3" strain="kl" radius="0.003" density="1000" young="1e7" poisson="0.5"
+                viscosity="200"/></body></worldbody>
+    <contact><exclude body1="hub" body2="rod/s0"/></contact>
+    <sensor><touch name="base" site="rod/base"/><touch name="hub" site="hubs"/></sensor></mujoco>)",
+                             "/tmp/cosserat_sensor_test.xml");
+  SceneData hd(*h);
+  for (int k = 0; k < 1000; ++k) ASSERT_EQ(step(*h, hd), Status::Ok);
+  forward(*h, hd);
+  EXPECT_GT(hd.d->sensordata[1], 1e-3);
+  EXPECT_EQ(hd.d->sensordata[0], hd.d->sensordata[1]);
 }
 
 // A rangefinder on a rod site sees past the rod's own capsules it starts in (at a section's end the
@@ -540,7 +556,8 @@ TEST(Sensors, NoiseIsAddedToTheSensorsTheRodsEvaluateAgain) {
     <worldbody><cosserat name="rod" pos="0 0 1" length="0.3" sections="3" strain="kl" radius="0.01" young="1e6"
       viscosity="50" contype="0" conaffinity="0"><site name="s" at="0.2"/></cosserat></worldbody>
     <sensor><velocimeter site="s"/><velocimeter site="s" noise="0.1"/><force site="s"/><force site="s" noise="0.1"/>
-      <framequat objtype="site" objname="s"/><framequat objtype="site" objname="s" noise="0.1"/></sensor></mujoco>)",
+      <framequat objtype="site" objname="s"/><framequat objtype="site" objname="s" noise="0.1"/>
+      <velocimeter site="s" noise="0.1" cutoff="0.05"/></sensor></mujoco>)",
                              "/tmp/cosserat_sensor_test.xml");
   SceneData sd(*s);
   const mjModel* m = s->m;
@@ -553,6 +570,7 @@ TEST(Sensors, NoiseIsAddedToTheSensorsTheRodsEvaluateAgain) {
       sum2[0] += std::pow(v[3 + e] - v[e], 2) / 3;
       sum2[1] += std::pow(v[9 + e] - v[6 + e], 2) / 3;
     }
+    for (int e = 0; e < 3; ++e) EXPECT_LE(std::abs(v[20 + e]), 0.05);  // the noise, then the cutoff (as MuJoCo)
     const Eigen::Quaterniond q0(v[12], v[13], v[14], v[15]), q1(v[16], v[17], v[18], v[19]);
     EXPECT_NEAR(q1.norm(), 1.0, 1e-12);
     sum2[2] += std::pow(q0.angularDistance(q1), 2);
