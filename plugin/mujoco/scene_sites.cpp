@@ -398,25 +398,38 @@ void patch_cfrc_int(const Scene& s, SceneData& sd) {
 
 // The wrench rod `m` (the scene's rod model, rod 0 of it) carries across its cross-section at X,
 // com-based about c, from its node wrenches (cosserat::Data::F, the nodes' own inverse dynamics and
-// everything beyond): each mass node stands for a stretch of the rod, the nodes' length weights
+// everything beyond). Each mass node stands for a stretch of the rod, the nodes' length weights
 // (Node::dX) laid end to end from the base (the Gauss points' and Gauss-Lobatto's separate their
-// nodes), and the node whose stretch X cuts counts the fraction of its own wrench beyond X. Under a
-// uniform load this is the continuum's resultant; counting the nodes at or beyond X in full had read
-// up to half a section's weight off (outside probe AN: -3.8% to +7% on a hanging rod, the shipped
-// cantilever's beam_mid 2.5% high). The node carrying the rod's payload keeps its whole wrench.
-Vec6 rod_wrench_beyond(const cosserat::Model& m, const cosserat::Data& rd, double X, const mjtNum* c) {
+// nodes). The sections beyond the one X lies in count as the quadrature has them (node wrenches at
+// the nodes: the rule is exact over whole sections); in X's section each node with its stretch
+// beyond X counts the part of its own wrench beyond X, its force at the mean of the centre line
+// over that part. Under a uniform load this is the continuum's resultant and moment (with the
+// Gauss rule and GVS's; Gauss-Lobatto's end nodes, placed at the section ends by their rule, leave
+// the moment up to 2e-3 of a cantilever's base moment off: outside probe AO). (Outside probe AN: counting the
+// nodes at or beyond X in full had read -3.8% to +7% off on a hanging rod, the shipped cantilever's
+// beam_mid 2.5% high; outside probe AO: moments with the forces left at the nodes, -46% and the
+// wrong sign just inside a Gauss-Lobatto tip.) The node carrying the rod's payload keeps its whole
+// wrench at its place.
+Vec6 rod_wrench_beyond(const cosserat::Model& m, const cosserat::Data& rd, double X, double section_end, const mjtNum* c) {
   const cosserat::Rod& rod = m.rods[0];
   auto W = [&](int k) { return k > rod.tip_node ? Vec6(Vec6::Zero()) : coAd_apply(com_frame(rd.g[k], c), rd.F[k]); };
+  Vec6 sum = Vec6::Zero();
   double begin = 0.0;  // where node k's stretch begins
   for (int k = rod.first_node; k <= rod.tip_node; ++k) {
     const double dX = m.nodes[k].dX, end = begin + dX;
     if (dX > 0 && end > X) {
-      if (begin >= X || k == rd.attached_node) return W(k);
-      return W(k + 1) + (end - X) / dX * (W(k) - W(k + 1));
+      if (begin >= section_end || k == rd.attached_node) return sum + W(k);
+      const double from = std::max(begin, X);
+      Vec6 own = W(k) - W(k + 1);
+      // (the mean of the centre line over that part, by 2 Gauss points: exact where it is cubic)
+      const double mid = 0.5 * (from + end), half = 0.5 / std::sqrt(3.0) * (end - from);
+      const Vec3 p_mean = 0.5 * (cosserat::rod_pose(m, rd, 0, mid - half).u + cosserat::rod_pose(m, rd, 0, mid + half).u);
+      own.head<3>() += (p_mean - rd.g[k].u).cross(Vec3(own.tail<3>()));
+      sum += (end - from) / dX * own;
     }
     begin = end;
   }
-  return W(rod.tip_node + 1);
+  return sum;
 }
 
 // The com-based wrench (torque about c, force; world axes) contact j exerts on `body`, as MuJoCo's
@@ -451,8 +464,9 @@ void patch_force_sensors(const Scene& s, SceneData& sd) {
       const RodBinding& rb = s.rods[r];
       const cosserat::Data& rd = sd.rod[r];
       const double X = rb.decl.sites[s.site_index[site]].X;
-      const int k_end = rb.model.sections[s.site_section[site]].end_node;
-      cf += rod_wrench_beyond(rb.model, rd, X, c) - coAd_apply(com_frame(rd.g[k_end], c), rd.F[k_end]);
+      const cosserat::Section& sec = rb.model.sections[s.site_section[site]];
+      cf += rod_wrench_beyond(rb.model, rd, X, sec.X0 + sec.length, c) -
+            coAd_apply(com_frame(rd.g[sec.end_node], c), rd.F[sec.end_node]);
       // cfrc_int holds minus the external wrenches on the proxy: add back those of the contacts on
       // the section's capsules before X
       for (int j = 0; j < d->ncon; ++j) {
