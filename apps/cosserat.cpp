@@ -515,14 +515,15 @@ int cmd_run(int argc, char** argv) {
     file = open_output(csv);
     csv_out = &file;
   }
+  std::vector<std::string> header = {"time", "energy"};
+  for (const auto* names : {&out.sites, &out.bodies})
+    for (const auto& n : *names)
+      for (const char* axis : {".x", ".y", ".z"}) header.push_back(n.name + axis);
+  for (const auto& c : sensors)
+    for (int k = 0; k < c.dim; ++k) header.push_back(c.name + (c.dim > 1 ? "." + std::to_string(k) : std::string()));
   if (csv_out) {
     std::ostream& f = *csv_out;
-    f << "time,energy";
-    for (const auto* names : {&out.sites, &out.bodies})
-      for (const auto& n : *names)
-        for (const char* axis : {".x", ".y", ".z"}) f << "," << csv_field(n.name + axis);
-    for (const auto& c : sensors)
-      for (int k = 0; k < c.dim; ++k) f << "," << csv_field(c.name + (c.dim > 1 ? "." + std::to_string(k) : std::string()));
+    for (size_t i = 0; i < header.size(); ++i) f << (i ? "," : "") << csv_field(header[i]);
     f << "\n";
     f.precision(10);
   }
@@ -623,6 +624,18 @@ int cmd_run(int argc, char** argv) {
   }
   if (with_sensors && !disabled_sensors_warning(s.scene().m).empty())
     warnings.push_back(disabled_sensors_warning(s.scene().m));
+  if (csv_out && with_sensors) {  // a sensor's column named like another column (outside probe AO)
+    std::vector<std::string> sorted = header, repeated;
+    std::sort(sorted.begin(), sorted.end());
+    for (size_t i = 1; i < sorted.size(); ++i)
+      if (sorted[i] == sorted[i - 1] && (repeated.empty() || repeated.back() != sorted[i])) repeated.push_back(sorted[i]);
+    std::string list;
+    for (const auto& r : repeated)
+      if (std::none_of(out.sites.begin(), out.sites.end(), [&](const Named& n) { return r.rfind(n.name + ".", 0) == 0; }) ||
+          std::any_of(sensors.begin(), sensors.end(), [&](const SensorOutput& c) { return r.rfind(c.name, 0) == 0; }))
+        list += (list.empty() ? "" : ", ") + r;
+    if (!list.empty()) warnings.push_back("--sensors: the CSV has more than one column named " + list);
+  }
   if (csv_out)  // the CSV header's contract is <name>.x,...: a site and a body of one name repeat it
     for (const auto& site : out.sites)
       for (const auto& body : out.bodies)

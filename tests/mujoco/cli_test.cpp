@@ -216,6 +216,15 @@ TEST_F(Cli, RunAndEquilibriumReportSensors) {
   const Result o = cosserat("run '" + odd.string() + "' --duration 0.002 --sensors --csv -");
   ASSERT_EQ(o.status, 0) << o.err;
   EXPECT_EQ(lines(o.out)[0], "time,energy,s.x,s.y,s.z,b.x,b.y,b.z,sensor0_1,sensor0,\"p,q.0\",\"p,q.1\",\"p,q.2\"");
+  {  // a sensor named like another column is warned about (outside probe AO)
+    const fs::path clash = scratch() / "clash_sensors.xml";
+    std::ofstream(clash) << R"(<mujoco><worldbody><body name="b"><joint name="j" type="hinge"/><geom size="0.1" mass="1"/>
+      <site name="s"/></body></worldbody><sensor><jointpos name="time" joint="j"/><jointvel name="s.x" joint="j"/></sensor></mujoco>)";
+    const fs::path csv = scratch() / "clash.csv";
+    const Result c = cosserat("run '" + clash.string() + "' --duration 0.004 --sensors --csv '" + csv.string() + "'");
+    ASSERT_EQ(c.status, 0) << c.err;
+    EXPECT_NE(c.out.find("warning: --sensors: the CSV has more than one column named s.x, time"), std::string::npos) << c.out;
+  }
   std::string disabled = read_text(odd);
   disabled.replace(disabled.find("<worldbody>"), 11, R"(<option><flag sensor="disable"/></option><worldbody>)");
   std::ofstream(odd) << disabled;
