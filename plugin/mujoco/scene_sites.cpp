@@ -405,11 +405,11 @@ void patch_cfrc_int(const Scene& s, SceneData& sd) {
 // beyond X counts the part of its own wrench beyond X, its force at the mean of the centre line
 // over that part. Under a uniform load this is the continuum's resultant and moment (with the
 // Gauss rule and GVS's; Gauss-Lobatto's end nodes, placed at the section ends by their rule, leave
-// the moment up to 2e-3 of a cantilever's base moment off: outside probe AO). (Outside probe AN: counting the
-// nodes at or beyond X in full had read -3.8% to +7% off on a hanging rod, the shipped cantilever's
-// beam_mid 2.5% high; outside probe AO: moments with the forces left at the nodes, -46% and the
-// wrong sign just inside a Gauss-Lobatto tip.) The node carrying the rod's payload keeps its whole
-// wrench at its place.
+// the moment up to 2e-3 of a cantilever's base moment off). The node carrying the rod's payload
+// keeps its whole wrench at its place. (Outside probe AN: counting the nodes at or beyond X in
+// full had read -3.8% to +7% off on a hanging rod, the shipped cantilever's beam_mid 2.5% high;
+// outside probe AO: moments with the forces left at the nodes, -46% and the wrong sign just inside
+// a Gauss-Lobatto tip.)
 Vec6 rod_wrench_beyond(const cosserat::Model& m, const cosserat::Data& rd, double X, double section_end, const mjtNum* c) {
   const cosserat::Rod& rod = m.rods[0];
   auto W = [&](int k) { return k > rod.tip_node ? Vec6(Vec6::Zero()) : coAd_apply(com_frame(rd.g[k], c), rd.F[k]); };
