@@ -726,6 +726,28 @@ TEST(SceneStatics, AHeavyBodyElsewhereDoesNotHideABucklingMode) {
   EXPECT_NEAR(std::hypot(tips[1].x(), tips[1].y()), std::hypot(tips[0].x(), tips[0].y()), 1e-4 * L);
 }
 
+// A light part beside a heavy one settles where the light one is in equilibrium: a pendulum held
+// upside down (an unstable equilibrium: the relaxation starts it along its unstable mode) beside a
+// 10 t body on a spring hangs straight down. The relaxation's tolerance is relative to the scene's
+// largest forces (the spring's 1e5 N), and it had stopped the pendulum 30 degrees from hanging,
+// "converged" (outside probe AO); Newton now continues from where it settles.
+TEST(SceneStatics, APendulumBesideAHeavyBodyHangsStraightDown) {
+  auto s = load_scene_string(R"(<mujoco><option gravity="0 0 -9.81"/><worldbody>
+    <body name="arm" pos="0 0 1"><joint type="hinge" axis="0 1 0" damping="0.01"/>
+      <geom type="sphere" pos="0 0 0.2" size="0.02" mass="0.1" contype="0" conaffinity="0"/><site name="bob" pos="0 0 0.2"/></body>
+    <body pos="3 0 0"><joint type="slide" axis="0 0 1" stiffness="1e6"/>
+      <geom type="box" size="0.1 0.1 0.1" mass="1e4" contype="0" conaffinity="0"/></body></worldbody></mujoco>)",
+                             kPath);
+  SceneData sd(*s);
+  const SceneStaticsResult r = equilibrium(*s, sd);
+  ASSERT_TRUE(r.converged) << r.message;
+  const int bob = mj_name2id(s->m, mjOBJ_SITE, "bob");
+  // (to 1e-4 m: Newton's residual, too, is relative to the spring's 1e5 N, 1e-5 N m on the
+  // pendulum's 0.2 N m per radian: it stops 6e-6 m off; the relaxation alone stopped 0.1 m off)
+  EXPECT_NEAR(sd.d->site_xpos[3 * bob], 0.0, 1e-4);
+  EXPECT_NEAR(sd.d->site_xpos[3 * bob + 2], 0.8, 1e-4);
+}
+
 // Equality constraints are held rigid in the linearisation: a clamped rod whose tip is pinned by a
 // `connect` to the world has the clamped-pinned beam's frequencies (beta L = 3.9266, 7.0686,
 // 10.2102), and with the constraint left out the clamped-free ones (1.8751), as before.
