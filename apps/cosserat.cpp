@@ -18,8 +18,10 @@
 #include <fstream>
 #include <functional>
 #include <iostream>
+#include <map>
 #include <memory>
 #include <optional>
+#include <set>
 #include <sstream>
 #include <stdexcept>
 #include <string>
@@ -622,18 +624,17 @@ int cmd_run(int argc, char** argv) {
                   energy.max_gain(), energy.max_rel_gain(), remedy.c_str());
     warnings.push_back(b);
   }
-  if (with_sensors && !disabled_sensors_warning(s.scene().m).empty())
-    warnings.push_back(disabled_sensors_warning(s.scene().m));
+  if (with_sensors)
+    if (const std::string w = disabled_sensors_warning(s.scene().m); !w.empty()) warnings.push_back(w);
   if (csv_out && with_sensors) {  // a sensor's column named like another column (outside probe AO)
-    std::vector<std::string> sorted = header, repeated;
-    std::sort(sorted.begin(), sorted.end());
-    for (size_t i = 1; i < sorted.size(); ++i)
-      if (sorted[i] == sorted[i - 1] && (repeated.empty() || repeated.back() != sorted[i])) repeated.push_back(sorted[i]);
+    std::map<std::string, int> count;  // (sorted: the warning lists the names in order)
+    for (const auto& h : header) ++count[h];
+    const size_t first_sensor_column = 2 + 3 * (out.sites.size() + out.bodies.size());
+    std::set<std::string> repeated;
+    for (size_t i = first_sensor_column; i < header.size(); ++i)
+      if (count[header[i]] > 1) repeated.insert(header[i]);
     std::string list;
-    for (const auto& r : repeated)
-      if (std::none_of(out.sites.begin(), out.sites.end(), [&](const Named& n) { return r.rfind(n.name + ".", 0) == 0; }) ||
-          std::any_of(sensors.begin(), sensors.end(), [&](const SensorOutput& c) { return r.rfind(c.name, 0) == 0; }))
-        list += (list.empty() ? "" : ", ") + r;
+    for (const auto& r : repeated) list += (list.empty() ? "" : ", ") + r;
     if (!list.empty()) warnings.push_back("--sensors: the CSV has more than one column named " + list);
   }
   if (csv_out)  // the CSV header's contract is <name>.x,...: a site and a body of one name repeat it

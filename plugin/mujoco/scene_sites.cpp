@@ -143,13 +143,14 @@ void patch_touch_sensors(const Scene& s, SceneData& sd) {
   mjData* d = sd.d;
   for (const auto& [i, r] : s.rod_touch_sensors) {
     const int site = m->sensor_objid[i];
+    // the rod's capsules, and the site's own body's geoms as MuJoCo counts them (the base site's
+    // body: outside probe AO, a hub's contacts had been lost)
+    const int own = m->body_weldid[m->site_bodyid[site]];
     mjtNum* out = d->sensordata + m->sensor_adr[i];
     out[0] = 0;
     for (int j = 0; j < d->ncon; ++j) {
       const mjContact& con = d->contact[j];
-      // the rod's capsules, and the site's own body's geoms as MuJoCo counts them (the base site's
-      // body: outside probe AO, a hub's contacts had been lost)
-      const int own = m->body_weldid[m->site_bodyid[site]], b1 = m->geom_bodyid[con.geom1], b2 = m->geom_bodyid[con.geom2];
+      const int b1 = m->geom_bodyid[con.geom1], b2 = m->geom_bodyid[con.geom2];
       const bool on1 = rod_body(s, r, b1) || m->body_weldid[b1] == own, on2 = rod_body(s, r, b2) || m->body_weldid[b2] == own;
       if (con.efc_address < 0 || (!on1 && !on2)) continue;
       mjtNum force[6], ray[3];
@@ -448,8 +449,8 @@ Vec6 contact_wrench_on(const mjModel* m, mjData* d, int j, int body, const mjtNu
 
 // Scene::force_sensors again, as mj_sensorAcc computes them (cfrc_int of the site's body, to the
 // site's frame), from the patched cfrc_int. A site on a rod section reads the wrench transmitted
-// into the rod from its abscissa on (the nodes at or beyond it) instead of from the section's end,
-// plus what MuJoCo's bodies below add (tip bodies; contacts on the capsules of the site's section
+// into the rod from its abscissa on (rod_wrench_beyond) instead of from the section's end, plus
+// what MuJoCo's bodies below add (tip bodies; contacts on the capsules of the site's section
 // at or beyond the site's abscissa, and on the sections beyond). (Outside probe AN: the contacts
 // on the site's own section before it had counted too, 8-24% of the weight of a rod on a floor.)
 void patch_force_sensors(const Scene& s, SceneData& sd) {

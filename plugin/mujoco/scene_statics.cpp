@@ -5,8 +5,8 @@
 
 #include <algorithm>
 #include <cmath>
-#include <limits>
 #include <cstdio>
+#include <limits>
 #include <stdexcept>
 #include <vector>
 
@@ -177,7 +177,10 @@ class StaticProblem {
   // f = qfrc_smooth at the current qpos, at rest, under load factor lambda. Returns the scale.
   // Without `mass` the mass matrix is left stale (Need::SmoothStaticForces, which skips the collisions too); M's factorisation, O(nv^3)
   // for one long rod (whose dofs all share one branch), is skipped whenever no constraint acts.
-  double force(double lambda, VectorXd& f, bool mass = true) {
+  // With `row_scale`, per generalised force f_i the sum of the magnitudes of the terms it is made
+  // of (the rods' elastic forces, the other passive forces, gravity's and the other bias forces,
+  // each actuator's, the applied forces and the body wrenches), whose rounding bounds f_i's.
+  double force(double lambda, VectorXd& f, bool mass = true, VectorXd* row_scale = nullptr) {
     set_loads(lambda);
     mju_zero(d_->qvel, m_->nv);
     fwd_position(s_, sd_, mass ? Need::Forces : Need::SmoothStaticForces);
@@ -201,6 +204,15 @@ class StaticProblem {
     double actuators = 0.0;
     for (int i = 0; i < m_->nu; ++i)
       actuators = std::max(actuators, std::abs(d_->actuator_force[i]) * mju_norm(d_->actuator_moment + i * m_->nv, m_->nv));
+    if (row_scale) {
+      const int n = m_->nv;
+      const Eigen::Map<const VectorXd> bias(d_->qfrc_bias, n), applied(d_->qfrc_applied, n), actuator(d_->qfrc_actuator, n);
+      VectorXd& sc = *row_scale;
+      sc = rods.cwiseAbs() + (passive - rods).cwiseAbs() + bias.cwiseAbs() + applied.cwiseAbs() +
+           (f - passive + bias - applied - actuator).cwiseAbs();  // (the last: the body wrenches)
+      for (int a = 0; a < m_->nu; ++a)
+        sc += std::abs(d_->actuator_force[a]) * Eigen::Map<const VectorXd>(d_->actuator_moment + a * n, n).cwiseAbs();
+    }
     return std::max({rods.norm(), (passive - rods).norm(), (f - passive).norm(), actuators, lambda * weight_scale_, 1e-300});
   }
 
@@ -224,7 +236,7 @@ class StaticProblem {
   // Tangent stiffness -df/dq at lambda by central differences in the tangent space of qpos. With
   // `noise`, bounds of the differences' rounding entry by entry (Linearization::Kt_noise): the
   // rounding of force i, taken as kForceRounding of the sum of the magnitudes of the terms that
-  // make it (row_scales), over the step 2 h_j. (Outside probe AM's antagonistic cables at 12 N on
+  // make it (force()'s row_scale), over the step 2 h_j. (Outside probe AM's antagonistic cables at 12 N on
   // a bent rod: its generalised forces, of terms of 0.013, scattered by 1e-16, 30 times the
   // double's epsilon of them. Per row, not one scale for the scene: outside probe AO's column past
   // its buckling load beside a heavy body on a spring had read stable with the body's forces
@@ -240,30 +252,14 @@ class StaticProblem {
       const double h = step_size(q0, j);
       e(j) = 1.0;
       move(q0, e, h);
-      force(lambda, fp, false);
-      if (noise) row_scales(fp, sp);
+      force(lambda, fp, false, noise ? &sp : nullptr);
       move(q0, e, -h);
-      force(lambda, fm, false);
-      if (noise) row_scales(fm, sm);
+      force(lambda, fm, false, noise ? &sm : nullptr);
       e(j) = 0.0;
       Kt.col(j) = -(fp - fm) / (2.0 * h);
       if (noise) noise->col(j) = kForceRounding / h * sp.cwiseMax(sm);
     }
     set_qpos(q0);
-  }
-
-  // After force(): per generalised force f_i, the sum of the magnitudes of the terms it is made of
-  // (the rods' elastic forces, the other passive forces, gravity's and the other bias forces, each
-  // actuator's, the applied forces and the body wrenches), whose rounding bounds f_i's.
-  void row_scales(const VectorXd& f, VectorXd& s) const {
-    const int n = m_->nv;
-    const VectorXd rods = rods_passive(s_, sd_);
-    const Eigen::Map<const VectorXd> passive(d_->qfrc_passive, n), bias(d_->qfrc_bias, n), applied(d_->qfrc_applied, n),
-        actuator(d_->qfrc_actuator, n);
-    s = rods.cwiseAbs() + (passive - rods).cwiseAbs() + bias.cwiseAbs() + applied.cwiseAbs() +
-        (f - passive + bias - applied - actuator).cwiseAbs();  // (the last: the body wrenches)
-    for (int a = 0; a < m_->nu; ++a)
-      s += std::abs(d_->actuator_force[a]) * Eigen::Map<const VectorXd>(d_->actuator_moment + a * n, n).cwiseAbs();
   }
 
   // The constraint rows `held` holds at the current qpos, at rest under the full loads: their
