@@ -30,7 +30,7 @@ namespace cosserat::mj {
 
 struct SceneStaticsOptions {
   int max_iterations = 50;       // Newton iterations per load step
-  double tolerance = 1e-10;      // on |f| relative to the force scale (see SceneStaticsResult)
+  double tolerance = 1e-10;      // on |f| relative to the force scales (see SceneStaticsResult::residual)
   int max_load_halvings = 12;    // continuation: smallest load increment 2^-12
   bool relaxation = true;        // fall back to dynamic relaxation when constraints carry load
   double relaxation_tolerance = 1e-6;  // the relaxation's (looser) target on the full residual
@@ -49,7 +49,10 @@ struct SceneStaticsResult {
   std::string method = "newton";  // "newton" or "dynamic relaxation"
   int iterations = 0;     // Newton iterations in total (relaxation: time steps)
   int load_steps = 0;     // continuation steps taken (1: solved directly)
-  double residual = 0.0;  // |f| / scale at the end (relaxation: |M qacc| / scale)
+  // |f| / scale at the end, or the largest over the scene's trees (the world's children with what
+  // hangs from them) of |f| on the tree's dofs over the tree's own scale if larger (relaxation:
+  // |M qacc| / scale)
+  double residual = 0.0;
   double scale = 0.0;     // force scale: max(|qfrc_passive|, |loads|, |qfrc_constraint|)
   int constraint_rows = 0;  // active constraint rows (contacts, limits, equalities) at the end
   double omega2_min = 0.0;  // Newton with opt.stable: smallest eigenvalue of Kt x = omega^2 M x [1/s^2]
