@@ -582,13 +582,22 @@ int cmd_run(int argc, char** argv) {
   if (s.scene().newton_for(s.integrator()) > 0 && k > 0) {
     // steps whose Newton corrections failed were split: the run took smaller steps than asked
     const auto& ns = s.data().newton_stats;
-    char b[256];
+    char b[512];
     if (ns.splits > k / 10) {
       std::snprintf(b, sizeof b,
                     "the Newton corrections failed to converge %ld times in %ld steps, each time splitting a step into "
                     "halves (down to h/64): the run's steps were smaller, and its cost higher, than --timestep says",
                     ns.splits, k);
-      warnings.push_back(b);
+      std::string w = b;
+      // the iteration matrix taken again at each step's first iterate often converges at the full
+      // step where the start's fails (README: --newton-refresh)
+      if (!s.scene().newton_refresh && !(s.scene().step_tol > 0))
+        w += std::string("; --newton-refresh (the iteration matrix taken again at each step's first iterate) often "
+                         "converges at the full step") +
+             (s.integrator() == Integrator::Trapezoidal || s.integrator() == Integrator::GeneralizedAlpha
+                  ? " (check the energy then: split steps can keep this scheme's energy bounded)"
+                  : "");
+      warnings.push_back(w);
     }
     if (ns.unconverged > 0) {
       std::snprintf(b, sizeof b, "%ld steps of h/64 were kept without converging", ns.unconverged);

@@ -48,7 +48,8 @@ struct NewtonOptions {
                                     "trapezoidal, genalpha, implicit with --newton: factorise the Newton matrix again at "
                                     "the first iterate (fewer corrections on smooth motion; at steps where the default "
                                     "iteration fails and splits, the scheme's full step is taken instead; always on "
-                                    "with --step-tol)",
+                                    "with --step-tol); midpoint: at its first midpoint state, where no constraint row "
+                                    "acts",
                                     newton_refresh));
   }
 

@@ -2905,7 +2905,8 @@ bool midpoint_step(const Scene& s, SceneData& sd, int iterations) {
   implicit_step(s, sd, true, 0.5);
   std::copy(d->qacc, d->qacc + nv, w.A.begin());
   // the start state's constraint rows in the iteration matrix (add_constraint_terms)
-  if (!smooth_only(sd) && d->nefc > 0) factor_implicit(s, sd, true, 0.5, 0.25, true);
+  const bool constrained = !smooth_only(sd) && d->nefc > 0;
+  if (constrained) factor_implicit(s, sd, true, 0.5, 0.25, true);
   mjtNum* Mv = w.A0.data();  // M(q_m) v_m (A0 and f0 are not used by this scheme)
   mjtNum* vm = w.f0.data();  // v_m
   bool converged = false;
@@ -2918,6 +2919,10 @@ bool midpoint_step(const Scene& s, SceneData& sd, int iterations) {
     advance(s, sd, w.A.data());
     m->opt.timestep = h;
     forward(s, sd, Need::Forces);
+    // Scene::newton_refresh where no constraint row acts at the start or at the first midpoint:
+    // the matrix at that midpoint state (with constraint rows, refreshed, it had needed more
+    // corrections and splits on the octopus arm's contacts)
+    if (k == 0 && s.newton_refresh && !constrained && smooth_only(sd)) factor_implicit(s, sd, true, 0.5, 0.25);
     ++sd.newton_stats.iterations;
     std::copy(d->qvel, d->qvel + nv, vm);
     mj_mulM(m, d, Mv, vm);
