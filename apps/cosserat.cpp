@@ -600,7 +600,7 @@ int cmd_run(int argc, char** argv) {
       warnings.push_back(w);
     }
     if (ns.unconverged > 0) {
-      std::snprintf(b, sizeof b, "%ld steps of h/64 were kept without converging", ns.unconverged);
+      std::snprintf(b, sizeof b, "%ld steps of h/64 did not converge and were taken as linearised backward Euler steps", ns.unconverged);
       warnings.push_back(b);
     }
   }
