@@ -1552,6 +1552,9 @@ TEST(Scene, ADivergenceHintNamesTheRemedyInTheProgramsTerms) {
   s->newton_iterations = 0;
   const std::string lin = divergence_hint(*s, fresh, Integrator::Trapezoidal);
   EXPECT_EQ(lin.rfind("try Scene::newton_iterations = 10 (gravity", 0), 0u) << lin;
+  // backward Euler's, with the matrix refreshed (energy cannot grow by it there)
+  const std::string be = divergence_hint(*s, fresh, Integrator::Implicit, Vocabulary::CommandLine);
+  EXPECT_EQ(be.rfind("try --newton 10 --newton-refresh (gravity", 0), 0u) << be;
   s->newton_iterations = 10;
   const std::string full = divergence_hint(*s, fresh, Integrator::Trapezoidal);
   EXPECT_EQ(full.rfind("try a smaller time step (m->opt.timestep), or more Newton corrections", 0), 0u) << full;
