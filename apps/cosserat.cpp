@@ -592,8 +592,11 @@ int cmd_run(int argc, char** argv) {
       // the iteration matrix taken again at each step's first iterate often converges at the full
       // step where the start's fails (README: --newton-refresh)
       if (!s.scene().newton_refresh && !(s.scene().step_tol > 0))
-        w += std::string("; --newton-refresh (the iteration matrix taken again at each step's first iterate) often "
-                         "converges at the full step") +
+        w += std::string("; --newton-refresh (the iteration matrix taken again at each step's first iterate") +
+             (s.integrator() == Integrator::Midpoint ? ", the midpoint rule's at its first midpoint state where no contact, "
+                                                       "limit or equality acts"
+                                                     : "") +
+             ") often converges at the full step" +
              (s.integrator() == Integrator::Trapezoidal || s.integrator() == Integrator::GeneralizedAlpha
                   ? " (check the energy then: split steps can keep this scheme's energy bounded)"
                   : "");

@@ -217,7 +217,8 @@ class StaticProblem {
   // of (the rods' elastic forces, the other passive forces, gravity's and the other bias forces,
   // each actuator's, the applied forces and the body wrenches), whose rounding bounds f_i's.
   // With `tree_scale`, the same scale per tree of the scene (dof_trees): the norms over the tree's
-  // dofs, its actuators' share, and its own weight (tree_weight_scales).
+  // dofs, its joints' and tendons' springs, its actuators' share, and its own weight
+  // (tree_weight_scales).
   double force(double lambda, VectorXd& f, bool mass = true, VectorXd* row_scale = nullptr, VectorXd* tree_scale = nullptr) {
     set_loads(lambda);
     mju_zero(d_->qvel, m_->nv);
@@ -243,6 +244,33 @@ class StaticProblem {
     double actuators = 0.0;
     for (int i = 0; i < m_->nu; ++i)
       actuators = std::max(actuators, std::abs(d_->actuator_force[i]) * mju_norm(d_->actuator_moment + i * m_->nv, m_->nv));
+    // the joints' and tendons' springs apart from the rest of qfrc_passive, where they can cancel
+    // each other (outside probe AQ: a hinge's spring balancing a tendon's, without gravity, had
+    // left the hinge's tree a scale of its own residual, and the scene's scale went to zero with the
+    // residual where a slide's spring and a tendon's balance: pre-existing, no equilibrium found)
+    VectorXd springs = VectorXd::Zero(ntree_);
+    if (!(m_->opt.disableflags & mjDSBL_PASSIVE)) {
+      for (int j = 0; j < m_->njnt; ++j) {
+        const int type = m_->jnt_type[j];
+        if (!(m_->jnt_stiffness[j] > 0) || (type != mjJNT_HINGE && type != mjJNT_SLIDE)) continue;
+        const int a = m_->jnt_qposadr[j];
+        const double fj = m_->jnt_stiffness[j] * (d_->qpos[a] - m_->qpos_spring[a]);
+        springs(tree_[m_->jnt_dofadr[j]]) += fj * fj;
+      }
+      for (int t = 0; t < m_->ntendon; ++t) {
+        if (!(m_->tendon_stiffness[t] > 0)) continue;
+        const double ft = m_->tendon_stiffness[t] * (d_->ten_length[t] - m_->tendon_lengthspring[t]);
+        if (mj_isSparse(m_)) {
+          for (int k = 0; k < d_->ten_J_rownnz[t]; ++k) {
+            const int adr = d_->ten_J_rowadr[t] + k;
+            springs(tree_[d_->ten_J_colind[adr]]) += ft * ft * d_->ten_J[adr] * d_->ten_J[adr];
+          }
+        } else {
+          for (int i = 0; i < m_->nv; ++i)
+            springs(tree_[i]) += ft * ft * d_->ten_J[t * m_->nv + i] * d_->ten_J[t * m_->nv + i];
+        }
+      }
+    }
     if (row_scale) {
       const int n = m_->nv;
       const Eigen::Map<const VectorXd> bias(d_->qfrc_bias, n), applied(d_->qfrc_applied, n), actuator(d_->qfrc_actuator, n);
@@ -268,9 +296,11 @@ class StaticProblem {
       VectorXd& ts = *tree_scale;
       ts.resize(ntree_);
       for (int t = 0; t < ntree_; ++t)
-        ts(t) = std::max({std::sqrt(r2(t)), std::sqrt(p2(t)), std::sqrt(o2(t)), act(t), lambda * tree_weights_(t), 1e-300});
+        ts(t) = std::max({std::sqrt(r2(t)), std::sqrt(p2(t)), std::sqrt(o2(t)), std::sqrt(springs(t)), act(t),
+                          lambda * tree_weights_(t), 1e-300});
     }
-    return std::max({rods.norm(), (passive - rods).norm(), (f - passive).norm(), actuators, lambda * weight_scale_, 1e-300});
+    return std::max({rods.norm(), (passive - rods).norm(), (f - passive).norm(), std::sqrt(springs.sum()), actuators,
+                     lambda * weight_scale_, 1e-300});
   }
 
   // Newton's residual (newton_residual) and its line search's measure of f: per tree of the scene,
@@ -482,9 +512,9 @@ VectorXd newton_direction(const MatrixXd& Kt, const VectorXd& f, int k) {
 // tree's dofs over the tree's own force scale. Per tree, a light part of a scene converges to the
 // tolerance of its own forces: on |f| / scale alone a pendulum beside a 10 t body on a spring had
 // stopped 6e-6 m off (its 1e-5 N m is 1e-10 of the spring's 1e5 N), and a buckled column beside a
-// 100 t one 1e-5 of its length (outside probe AO). The line search measures f the same way, with
-// the trees' scales at the iteration's start (the heavy part's rounding had blocked the light
-// part's progress on |f|).
+// 100 t one 1e-5 of its length (outside probe AO). The line search measures f the same way (the
+// heavy part's rounding had blocked the light part's progress on |f|), each tree on the larger of
+// its scales at the iterate and at the trial.
 //
 // Newton with backtracking at a fixed load factor. Returns true on convergence. Where the line
 // search cannot decrease the residual (a residual at round-off), the state counts as converged when
@@ -494,14 +524,20 @@ bool newton(StaticProblem& p, double lambda, const SceneStaticsOptions& opt, Sce
   VectorXd f(n), ft(n), trees, trees_t;
   MatrixXd Kt;
   double scale = p.force(lambda, f, true, nullptr, &trees);
+  // the scales do not fall below 1e-3 of what they were at the start: where every force vanishes
+  // at the equilibrium (springs and a tendon all at rest, no gravity) they fall with the residual,
+  // which then stayed at 1 (outside probe AQ, pre-existing: no equilibrium found)
+  const double scale_start = 1e-3 * scale;
+  const VectorXd trees_start = 1e-3 * trees;
+  auto residual = [&] { return std::max(f.norm() / std::max(scale, scale_start), p.tree_residual(f, trees.cwiseMax(trees_start))); };
   for (int it = 0; it < opt.max_iterations; ++it) {
-    res.residual = std::max(f.norm() / scale, p.tree_residual(f, trees));
+    res.residual = residual();
     res.scale = scale;
     if (res.residual <= opt.tolerance) return true;
     ++res.iterations;
     p.stiffness(lambda, Kt);
     const std::vector<mjtNum> q0 = p.qpos();
-    const double f0 = f.norm(), merit0 = p.tree_merit(f, trees);
+    const double f0 = f.norm();
     bool accepted = false;
     for (int k = 0; k < kDirections && !accepted; ++k) {
       const VectorXd dq = newton_direction(Kt, f, k);
@@ -510,7 +546,12 @@ bool newton(StaticProblem& p, double lambda, const SceneStaticsOptions& opt, Sce
       for (int ls = 0; ls < 30 && !accepted; ++ls, alpha *= 0.5) {
         p.move(q0, dq, alpha);
         const double st = p.force(lambda, ft, true, nullptr, &trees_t);
-        if (ft.allFinite() && p.tree_merit(ft, trees) <= (1.0 - 1e-4 * alpha) * merit0) {
+        // both states measured on the larger of their two scales per tree: a tree whose every
+        // force vanishes at the iterate (a spring at rest, no gravity) and that a step loads through
+        // a tendon from another tree has its scale from the trial (outside probe AQ: the iterate's
+        // 1e-300 had made every step's measure infinite, and Newton failed where it had converged)
+        const VectorXd both = trees.cwiseMax(trees_t);
+        if (ft.allFinite() && p.tree_merit(ft, both) <= (1.0 - 1e-4 * alpha) * p.tree_merit(f, both)) {
           f = ft;
           trees = trees_t;
           scale = st;
@@ -524,7 +565,7 @@ bool newton(StaticProblem& p, double lambda, const SceneStaticsOptions& opt, Sce
       return f0 / scale <= 1e3 * opt.tolerance;
     }
   }
-  res.residual = std::max(f.norm() / scale, p.tree_residual(f, trees));
+  res.residual = residual();
   return res.residual <= opt.tolerance;
 }
 

@@ -742,6 +742,43 @@ TEST(SceneStatics, ASceneWithoutDofsIsInEquilibrium) {
   EXPECT_EQ(r.residual, 0.0);
 }
 
+// Trees whose every force vanishes at the start (no gravity, a hinge's spring at rest) or at the
+// equilibrium. A 1000 kg slide on a spring pushed by a 1000 N motor pulls a light hinge through a
+// tendon spring: Newton converges (with the hinge's tree scaled by its own residual, every step's
+// measure had been infinite, and the relaxation took over: outside probe AQ). With the slide's
+// spring reference moved instead of a motor, everything is at rest at the equilibrium, q =
+// qpos_spring; the scales had fallen with the residual and no equilibrium was found (pre-existing).
+TEST(SceneStatics, TreesWithoutForcesConvergeByNewton) {
+  auto scene = [](const std::string& slide, const std::string& actuator) {
+    return R"(<mujoco><option gravity="0 0 0"/><worldbody>
+      <body name="A"><joint name="ja" type="slide" axis="1 0 0" stiffness="1e5")" + slide + R"(/>
+        <geom type="box" size="0.1 0.1 0.1" mass="1000" contype="0" conaffinity="0"/><site name="sa" pos="0 0.1 0"/></body>
+      <body name="B" pos="0 0.5 0"><joint name="jb" type="hinge" axis="0 0 1" stiffness="0.1"/>
+        <geom type="capsule" fromto="0 0 0 0.2 0 0" size="0.01" mass="0.01" contype="0" conaffinity="0"/>
+        <site name="sb" pos="0.2 0 0"/></body></worldbody>
+      <tendon><spatial name="t" stiffness="10"><site site="sa"/><site site="sb"/></spatial></tendon>)" + actuator + "</mujoco>";
+  };
+  {
+    auto s = load_scene_string(scene("", R"(<actuator><motor joint="ja"/></actuator>)"), kPath);
+    SceneData sd(*s);
+    sd.d->ctrl[0] = 1000.0;
+    const SceneStaticsResult r = equilibrium(*s, sd);
+    ASSERT_TRUE(r.converged) << r.message;
+    EXPECT_EQ(r.method, "newton");
+    EXPECT_GT(std::abs(sd.d->qpos[1]), 1e-3);  // the hinge turned
+    EXPECT_LT(mju_norm(sd.d->qfrc_smooth, s->m->nv), 1e-9 * 1000.0);
+  }
+  {
+    auto s = load_scene_string(scene(R"( springref="0.01")", ""), kPath);
+    SceneData sd(*s);
+    const SceneStaticsResult r = equilibrium(*s, sd);
+    ASSERT_TRUE(r.converged) << r.message;
+    EXPECT_EQ(r.method, "newton");
+    EXPECT_NEAR(sd.d->qpos[0], 0.01, 1e-12);
+    EXPECT_NEAR(sd.d->qpos[1], 0.0, 1e-12);
+  }
+}
+
 // A light part beside a heavy one settles where the light one is in equilibrium: a pendulum held
 // upside down (an unstable equilibrium: the relaxation starts it along its unstable mode) beside a
 // 10 t body on a spring hangs straight down. The relaxation's tolerance is relative to the scene's
