@@ -603,7 +603,10 @@ int cmd_run(int argc, char** argv) {
       warnings.push_back(w);
     }
     if (ns.unconverged > 0) {
-      std::snprintf(b, sizeof b, "%ld steps of h/64 did not converge and were taken as linearised backward Euler steps", ns.unconverged);
+      std::snprintf(b, sizeof b,
+                    "%ld steps of h/64 did not converge: %ld kept as the corrections left them, %ld (whose corrections "
+                    "stopped) taken as linearised backward Euler steps",
+                    ns.unconverged, ns.unconverged - ns.linearised, ns.linearised);
       warnings.push_back(b);
     }
   }
@@ -675,7 +678,7 @@ int cmd_run(int argc, char** argv) {
                        {"kept_at_min", as.kept_at_min}, {"finest_step", s.timestep() / (1 << as.finest)}};
     if (s.scene().newton_for(s.integrator()) > 0) {
       const auto& ns = s.data().newton_stats;
-      j["newton"] = {{"iterations", ns.iterations}, {"splits", ns.splits}, {"unconverged", ns.unconverged}};
+      j["newton"] = {{"iterations", ns.iterations}, {"splits", ns.splits}, {"unconverged", ns.unconverged}, {"linearised", ns.linearised}};
     }
     write_json(json_path, j);
   }

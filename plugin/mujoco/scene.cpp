@@ -2842,6 +2842,7 @@ bool newton_step(const Scene& s, SceneData& sd, const Scheme& sc, int iterations
     const Iterate it = apply_correction(s, sd, sc, k, stored, first);
     set_end_state(s, sd, sc);
     if (it == Iterate::Converged) converged = true;
+    if (it == Iterate::Stop) w.stopped = true;
     if (it != Iterate::Continue) break;
   }
   w.carry_valid = sc.carry;
@@ -2963,6 +2964,7 @@ bool midpoint_step(const Scene& s, SceneData& sd, int iterations) {
     solve_implicit(s, sd, w.delta.data(), w.r.data());
     const Iterate it = apply_correction(s, sd, sc, k, stored, first);
     if (it == Iterate::Converged) converged = !clamped;
+    if (it == Iterate::Stop) w.stopped = true;
     if (it != Iterate::Continue) break;
   }
   set_end_state(s, sd, sc);
@@ -2998,8 +3000,8 @@ bool single_step(const Scene& s, SceneData& sd, Integrator method) {
 }
 
 // single_step, with a step whose Newton iterations do not converge redone as two half steps (down
-// to h / 2^kMaxSplit; below that taken as a linearised backward Euler step and counted as
-// unconverged). One
+// to h / 2^kMaxSplit; below that counted as unconverged, and taken as a linearised backward Euler
+// step where the corrections stopped). One
 // correction per step (--newton 1) is a linearly implicit step of the scheme, by choice: it is
 // kept without a convergence test (splitting would chase a tolerance one correction cannot meet,
 // down to h/64 on every step).
@@ -3009,9 +3011,12 @@ bool single_step(const Scene& s, SceneData& sd, Integrator method) {
 // cable-driven scene stopped MuJoCo 2.2.2's sparse Newton solver, "Rank-defficient Hessian",
 // and ended the run at its first step, where dense Jacobians had split it and run on). An error
 // at the step's start state, or in the finest half steps, is passed on.
+bool state_finite(const mjModel* m, const mjData* d);
+
 void newton_step_split(const Scene& s, SceneData& sd, Integrator method, int depth = 0) {
   constexpr int kMaxSplit = 6;
   sd.newton.saved = false;
+  sd.newton.stopped = false;
   bool converged = false;
   try {
     converged = single_step(s, sd, method);
@@ -3021,15 +3026,20 @@ void newton_step_split(const Scene& s, SceneData& sd, Integrator method, int dep
   }
   if (converged) return;
   if (depth == kMaxSplit) {
-    // the finest step as a linearised backward Euler step instead of the last iterate, which the
-    // corrections may have left anywhere (outside probe AP: a soft leg buckling under a weight with
-    // its foot on a floor diverged under genalpha and trapezoidal at 1 ms after 184 and 601 such
-    // steps kept as they were; now they run, and implicit runs it at 5 ms)
+    // where the corrections stopped (non-finite, or grown tenfold) the finest step is taken as a
+    // linearised backward Euler step instead of their last iterate, which they may have left
+    // anywhere (outside probe AP: a soft leg buckling under a weight with its foot on a floor
+    // diverged under genalpha and trapezoidal at 1 ms after 184 and 601 such steps kept as they
+    // were). An iterate whose corrections ran out still contracting is kept: taking the linearised
+    // step there too made heavy tips gain energy in bench_stress (its explicit gravity and Coriolis)
     ++sd.newton_stats.unconverged;
-    restore_start(sd);
-    sd.newton.carry_valid = false;
-    forward(s, sd, Need::Forces);
-    implicit_step(s, sd);
+    if (sd.newton.stopped || !state_finite(s.m, sd.d)) {
+      ++sd.newton_stats.linearised;
+      restore_start(sd);
+      sd.newton.carry_valid = false;
+      forward(s, sd, Need::Forces);
+      implicit_step(s, sd);
+    }
     return;
   }
   restore_start(sd);

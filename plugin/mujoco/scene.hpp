@@ -358,6 +358,7 @@ struct SceneData {
     // the state this one ended with
     bool carry_valid = false;
     bool saved = false;  // the start state is saved (newton_step_split resets it before each step)
+    bool stopped = false;  // the step's corrections stopped, non-finite or grown tenfold (Iterate::Stop)
     std::vector<mjtNum> q_end, v_end;
     double t_end = 0.0;
     // Anderson acceleration: the previous iterate and correction, and the last differences of
@@ -384,6 +385,7 @@ struct SceneData {
     long iterations = 0;   // corrections (each one forward evaluation)
     long splits = 0;       // steps redone as two half steps
     long unconverged = 0;  // steps of h/64 kept without convergence
+    long linearised = 0;   // ... of them taken as linearised backward Euler steps (corrections that stopped)
   } newton_stats;
   // fluid (scene_fluid.hpp): damping in qM's sparse layout (nM), its force, body columns
   std::vector<mjtNum> fluid_qD, fluid_f;
