@@ -562,7 +562,7 @@ bool newton(StaticProblem& p, double lambda, const SceneStaticsOptions& opt, Sce
     if (!accepted) {
       p.set_qpos(q0);
       // a residual already at round-off level cannot decrease further
-      return f0 / scale <= 1e3 * opt.tolerance;
+      return f0 / std::max(scale, scale_start) <= 1e3 * opt.tolerance;
     }
   }
   res.residual = residual();
