@@ -2774,10 +2774,14 @@ Iterate apply_correction(const Scene& s, SceneData& sd, const Scheme& sc, int k,
   const int memory = std::clamp(s.newton_memory, 0, kMaxNewtonMemory);
   if (memory > 0 && !done) anderson_update(sd, nv, memory, k, stored);
   for (int i = 0; i < nv; ++i) w.A[i] += w.delta[i];  // delta: the (accelerated) correction
-  if (!std::isfinite(norm)) return Iterate::Stop;
+  // (a stop is recorded for newton_step_split: NewtonScratch::stopped)
+  const bool stop = !std::isfinite(norm) || (!done && k > 0 && norm > 10.0 * first);
+  if (stop) {
+    w.stopped = true;
+    return Iterate::Stop;
+  }
   if (done) return Iterate::Converged;
   if (k == 0) first = norm;
-  else if (norm > 10.0 * first) return Iterate::Stop;
   return Iterate::Continue;
 }
 
@@ -2842,7 +2846,6 @@ bool newton_step(const Scene& s, SceneData& sd, const Scheme& sc, int iterations
     const Iterate it = apply_correction(s, sd, sc, k, stored, first);
     set_end_state(s, sd, sc);
     if (it == Iterate::Converged) converged = true;
-    if (it == Iterate::Stop) w.stopped = true;
     if (it != Iterate::Continue) break;
   }
   w.carry_valid = sc.carry;
@@ -2964,7 +2967,6 @@ bool midpoint_step(const Scene& s, SceneData& sd, int iterations) {
     solve_implicit(s, sd, w.delta.data(), w.r.data());
     const Iterate it = apply_correction(s, sd, sc, k, stored, first);
     if (it == Iterate::Converged) converged = !clamped;
-    if (it == Iterate::Stop) w.stopped = true;
     if (it != Iterate::Continue) break;
   }
   set_end_state(s, sd, sc);
