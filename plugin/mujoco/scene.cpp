@@ -2873,6 +2873,90 @@ void kinetic_and_gravity(const Scene& s, SceneData& sd, SceneEnergy& e) {
   }
 }
 
+// MuJoCo's springs as mj_passive applies them and mj_energyPos counts them (none under
+// mjDSBL_PASSIVE), split by whether their energy is quadratic in the coordinates: hinge and slide
+// joints and a free joint's displacement (quadratic_spring_energy) against the rotations of ball and
+// free joints (the rotation vector from the rest orientation, mj_passive's mju_subQuat) and tendons
+// (nonlinear_spring_energy, after mj_tendon). spring_power: v . (the forces of the latter), after
+// fwd_velocity (ten_velocity at v = qvel).
+double quadratic_spring_energy(const mjModel* m, const mjData* d) {
+  if (m->opt.disableflags & mjDSBL_PASSIVE) return 0.0;
+  double e = 0.0;
+  for (int j = 0; j < m->njnt; ++j) {
+    const double k = m->jnt_stiffness[j];
+    if (!(k > 0) || m->jnt_type[j] == mjJNT_BALL) continue;
+    const int a = m->jnt_qposadr[j];
+    if (m->jnt_type[j] == mjJNT_FREE) {
+      mjtNum dif[3];
+      mju_sub3(dif, d->qpos + a, m->qpos_spring + a);
+      e += 0.5 * k * mju_dot3(dif, dif);
+    } else {
+      const double dq = d->qpos[a] - m->qpos_spring[a];
+      e += 0.5 * k * dq * dq;
+    }
+  }
+  return e;
+}
+
+namespace {
+
+// The rotation vector of ball or free joint j's spring (mj_passive's).
+void spring_rotation(const mjModel* m, const mjData* d, int j, mjtNum dif[3]) {
+  const int a = m->jnt_qposadr[j] + (m->jnt_type[j] == mjJNT_FREE ? 3 : 0);
+  mjtNum quat[4];
+  mju_copy4(quat, d->qpos + a);
+  mju_normalize4(quat);
+  mju_subQuat(dif, quat, m->qpos_spring + a);
+}
+
+bool rotational_spring(const mjModel* m, int j) {
+  return m->jnt_stiffness[j] > 0 && (m->jnt_type[j] == mjJNT_BALL || m->jnt_type[j] == mjJNT_FREE);
+}
+
+}  // namespace
+
+bool has_nonlinear_springs(const mjModel* m) {
+  if (m->opt.disableflags & mjDSBL_PASSIVE) return false;
+  for (int j = 0; j < m->njnt; ++j)
+    if (rotational_spring(m, j)) return true;
+  for (int t = 0; t < m->ntendon; ++t)
+    if (m->tendon_stiffness[t] > 0) return true;
+  return false;
+}
+
+double nonlinear_spring_energy(const mjModel* m, const mjData* d) {
+  if (m->opt.disableflags & mjDSBL_PASSIVE) return 0.0;
+  double e = 0.0;
+  for (int j = 0; j < m->njnt; ++j)
+    if (rotational_spring(m, j)) {
+      mjtNum dif[3];
+      spring_rotation(m, d, j, dif);
+      e += 0.5 * m->jnt_stiffness[j] * mju_dot3(dif, dif);
+    }
+  for (int t = 0; t < m->ntendon; ++t)
+    if (m->tendon_stiffness[t] > 0) {
+      const double dl = d->ten_length[t] - m->tendon_lengthspring[t];
+      e += 0.5 * m->tendon_stiffness[t] * dl * dl;
+    }
+  return e;
+}
+
+double nonlinear_spring_power(const mjModel* m, const mjData* d) {
+  if (m->opt.disableflags & mjDSBL_PASSIVE) return 0.0;
+  double p = 0.0;
+  for (int j = 0; j < m->njnt; ++j)
+    if (rotational_spring(m, j)) {
+      mjtNum dif[3];
+      spring_rotation(m, d, j, dif);
+      const int v = m->jnt_dofadr[j] + (m->jnt_type[j] == mjJNT_FREE ? 3 : 0);
+      p -= m->jnt_stiffness[j] * mju_dot3(dif, d->qvel + v);
+    }
+  for (int t = 0; t < m->ntendon; ++t)
+    if (m->tendon_stiffness[t] > 0)
+      p -= m->tendon_stiffness[t] * (d->ten_length[t] - m->tendon_lengthspring[t]) * d->ten_velocity[t];
+  return p;
+}
+
 // The energy-conserving implicit midpoint rule. With v_m = (v + v+)/2 and the midpoint state
 //   q_m = q + h/2 v_m (MuJoCo's position integration: quaternions along their geodesic), t + h/2,
 //   q+ = q + h v_m,  v+ = v + h A,  M(q_m) A = F(q_m, v_m) + mu M(q_m) v_m,
@@ -2882,17 +2966,21 @@ void kinetic_and_gravity(const Scene& s, SceneData& sd, SceneEnergy& e) {
 // trapezoidal rules blow up in nonlinear elastodynamics, as the trapezoidal rule does in
 // docs/bench/RESULTS.md's long run). The scalar mu (O(h^2)) restores the energy balance exactly,
 //   E(q+, v+) - E(q, v) = h v_m . (the non-conservative forces at the midpoint),
-// E = kinetic + gravity + the rods' elastic energy + the hinge and slide joints' springs: a
-// discrete gradient in Gonzalez's sense, corrected along v_m. Those elastic forces are linear in
-// the coordinates, so their midpoint values are exact discrete gradients, and the momentum equation
-// leaves
-//   h mu v_m' M v_m = h v_m' (M A + qfrc_bias) - [T + V_gravity](q+, v+) + [T + V_gravity](q, v),
-// M and qfrc_bias (Coriolis and gravity, rods included) at the midpoint. Each iteration evaluates
-// the forces at the midpoint (one forward) and T + V_gravity at the end (poses and mass matrix),
-// takes mu from the current iterate and corrects A with M + h/2 D + h^2/4 K (the linearisation of
-// M(q_m) (A - f(q_m, v_m)), the trapezoidal rule's matrix). Undamped, the energy is constant to
-// the Newton tolerance; with damping it can only decrease. Tendon springs and springs on ball and
-// free joints are nonlinear in the coordinates: their energy is kept to O(h^3) per step only.
+// E = kinetic + gravity + the rods' elastic energy + MuJoCo's springs (joints and tendons): a
+// discrete gradient in Gonzalez's sense, corrected along v_m. The rods' elastic forces and the
+// springs of hinge and slide joints (and a free joint's displacement) are linear in the
+// coordinates, so their midpoint values are exact discrete gradients; the others, V_s (tendon
+// springs, the rotations of ball and free joints: quadratic_spring_energy's note), are balanced
+// like gravity, and the momentum equation leaves
+//   h mu v_m' M v_m = h v_m' (M A + qfrc_bias - f_s) - [T + V_gravity + V_s](q+, v+)
+//                     + [T + V_gravity + V_s](q, v),
+// M, qfrc_bias (Coriolis and gravity, rods included) and f_s (the forces of V_s' springs) at the
+// midpoint. Each iteration evaluates the forces at the midpoint (one forward) and T + V_gravity +
+// V_s at the end (poses, mass matrix, tendon lengths), takes mu from the current iterate and
+// corrects A with M + h/2 D + h^2/4 K (the linearisation of M(q_m) (A - f(q_m, v_m)), the
+// trapezoidal rule's matrix). Undamped, the energy is constant to the Newton tolerance; with
+// damping it can only decrease. (Outside probe AQ: with V_s left to the midpoint forces, a rod and a
+// ball joint tied by tendon springs drifted 7e-5 of its energy in 0.5 s at 1 ms.)
 // A step whose correction would change the velocity by more than a quarter (|h mu| > 1/4: a step
 // too large for the motion, typically with the kinetic energy near zero while stiff modes are not
 // resolved) is not converged: it is split. On the undamped cantilever of the stress runs at 5 ms,
@@ -2906,9 +2994,13 @@ bool midpoint_step(const Scene& s, SceneData& sd, int iterations) {
   SceneData::NewtonScratch& w = sd.newton;
   const Scheme sc = midpoint_rule();
   forward(s, sd, Need::Forces);
-  SceneEnergy e0, e1;  // kinetic and gravity only (the elastic energy is balanced exactly)
+  // kinetic, gravity and the springs whose energy is not quadratic (the rest of the elastic energy
+  // is balanced exactly)
+  SceneEnergy e0, e1;
   kinetic_and_gravity(s, sd, e0);
-  const double E0 = e0.kinetic + e0.gravity;
+  const bool springs = has_nonlinear_springs(m);
+  const double V0 = springs ? nonlinear_spring_energy(m, d) : 0.0;
+  const double E0 = e0.kinetic + e0.gravity + V0;
   save_start(sd, m);
   // first iterate: the linearised trapezoidal step, whose average acceleration (d->qacc) is A
   implicit_step(s, sd, true, 0.5);
@@ -2937,7 +3029,9 @@ bool midpoint_step(const Scene& s, SceneData& sd, int iterations) {
     mj_mulM(m, d, Mv, vm);
     mj_mulM(m, d, w.y.data(), w.A.data());  // M A
     const double S = mju_dot(vm, Mv, nv);
-    const double P = mju_dot(vm, w.y.data(), nv) + mju_dot(vm, d->qfrc_bias, nv);
+    // (less the nonlinear springs' power at the midpoint: their work is in E's change)
+    const double P = mju_dot(vm, w.y.data(), nv) + mju_dot(vm, d->qfrc_bias, nv) -
+                     (springs ? nonlinear_spring_power(m, d) : 0.0);
     // r = M (f(q_m, v_m) - A); M f = qfrc_smooth when forward skipped the accelerations
     if (smooth_only(sd)) {
       mju_sub(w.r.data(), d->qfrc_smooth, w.y.data(), nv);
@@ -2954,12 +3048,18 @@ bool midpoint_step(const Scene& s, SceneData& sd, int iterations) {
     set_end_state(s, sd, sc);
     fwd_inertia(s, sd);
     kinetic_and_gravity(s, sd, e1);
+    double V1 = 0.0;
+    if (springs) {
+      mj_tendon(m, d);  // the lengths (the kinematics patched for rod sites)
+      V1 = nonlinear_spring_energy(m, d);
+    }
     // the energy defect the correction removes, unless it is within what the tolerance allows
     // anyway (the kinetic energy to newton_tol, the energies to round-off): a rod at rest has
     // S ~ 0 and a defect of round-off, whose quotient means nothing
-    const double defect = h * P - (e1.kinetic + e1.gravity - E0);
+    const double defect = h * P - (e1.kinetic + e1.gravity + V1 - E0);
     const double allowed = s.newton_tol * (e0.kinetic + e1.kinetic) +
-                           64 * DBL_EPSILON * (e0.kinetic + std::abs(e0.gravity) + e1.kinetic + std::abs(e1.gravity));
+                           64 * DBL_EPSILON *
+                               (e0.kinetic + std::abs(e0.gravity) + e1.kinetic + std::abs(e1.gravity) + V0 + V1);
     double mu = std::abs(defect) > allowed && S > 0.0 ? defect / (h * S) : 0.0;
     const bool clamped = !(std::abs(h * mu) <= kMaxCorrection);
     if (clamped) mu = std::isfinite(mu) ? std::copysign(kMaxCorrection / h, mu) : 0.0;
@@ -3334,40 +3434,9 @@ SceneEnergy energy(const Scene& s, SceneData& sd) {
   SceneEnergy e;
   kinetic_and_gravity(s, sd, e);
   for (size_t r = 0; r < s.rods.size(); ++r) e.elastic += cosserat::energy(s.rods[r].model, sd.rod[r]).elastic;
-  // MuJoCo's springs, as mj_energyPos counts them: joints (a free joint's displacement, a ball's or
-  // free joint's rotation vector from its rest orientation, mj_passive's mju_subQuat) and tendons
-  // (outside probe W: ball and free joint springs had been left out)
-  for (int j = 0; j < m->njnt; ++j) {
-    const double k = m->jnt_stiffness[j];
-    if (!(k > 0)) continue;
-    int a = m->jnt_qposadr[j];
-    switch (m->jnt_type[j]) {
-      case mjJNT_FREE: {
-        mjtNum dif[3];
-        mju_sub3(dif, d->qpos + a, m->qpos_spring + a);
-        e.elastic += 0.5 * k * mju_dot3(dif, dif);
-        a += 3;
-      }
-        [[fallthrough]];
-      case mjJNT_BALL: {
-        mjtNum quat[4], dif[3];
-        mju_copy4(quat, d->qpos + a);
-        mju_normalize4(quat);
-        mju_subQuat(dif, quat, m->qpos_spring + a);
-        e.elastic += 0.5 * k * mju_dot3(dif, dif);
-        break;
-      }
-      default: {
-        const double dq = d->qpos[a] - m->qpos_spring[a];
-        e.elastic += 0.5 * k * dq * dq;
-      }
-    }
-  }
-  for (int t = 0; t < m->ntendon; ++t)
-    if (m->tendon_stiffness[t] > 0) {
-      const double dl = d->ten_length[t] - m->tendon_lengthspring[t];
-      e.elastic += 0.5 * m->tendon_stiffness[t] * dl * dl;
-    }
+  // MuJoCo's springs, as mj_energyPos counts them (outside probe W: ball and free joint springs
+  // had been left out)
+  e.elastic += quadratic_spring_energy(s.m, d) + nonlinear_spring_energy(m, d);
   return e;
 }
 
