@@ -939,12 +939,49 @@ bool friction_takes_up(const mjModel* m, const mjData* d, const VectorXd& r, dou
   return true;
 }
 
+// Whether a contact of d touches the subtree of body b.
+bool touches(const mjModel* m, const mjData* d, int b) {
+  for (int c = 0; c < d->ncon; ++c)
+    if (is_descendant(m, m->geom_bodyid[d->contact[c].geom1], b) ||
+        is_descendant(m, m->geom_bodyid[d->contact[c].geom2], b))
+      return true;
+  return false;
+}
+
+// A free joint of `loose` (held by no weld or connect: only a contact can hold it) whose body has
+// fallen from q_start, along gravity, by more than `depth` and touches nothing now: a message naming
+// it, empty if none.
+std::string fallen_free_body(const mjModel* m, const mjData* d, const std::vector<mjtNum>& q_start,
+                             const std::vector<int>& loose, double depth, double elapsed) {
+  const double g = mju_norm3(m->opt.gravity);
+  for (int j : loose) {
+    const int a = m->jnt_qposadr[j], b = m->jnt_bodyid[j];
+    double fall = 0.0;
+    for (int i = 0; i < 3; ++i) fall += (d->qpos[a + i] - q_start[a + i]) * m->opt.gravity[i] / g;
+    if (!(fall > depth) || touches(m, d, b)) continue;
+    const char* name = mj_id2name(m, mjOBJ_BODY, b);
+    char buf[320];
+    std::snprintf(buf, sizeof buf,
+                  "'%s' (free joint), held by no weld or connect, fell %.3g m with nothing under it (no contact "
+                  "touches it) in %.3g s of relaxation: a free body has no static equilibrium without a support",
+                  name ? name : "?", fall, elapsed);
+    return buf;
+  }
+  return {};
+}
+
 // Dynamic relaxation with kinetic damping from qpos = q_start: the scene's own dynamics, with all
 // velocities zeroed whenever the kinetic energy passes a peak; converged when |M qacc| at rest is
 // below the tolerance. Contacts, limits and equality constraints take part exactly as in a run.
+// It stops early where a free joint of `loose` (equilibrium()'s free bodies that only a contact can
+// hold) falls more than ten times the scene's extent (mjStatistic::extent) while touching nothing,
+// and names one still falling when it does not settle (outside probe AQ: a box beside a pendulum,
+// which its geoms could touch, fell for the whole 30 s, and the message told only that the
+// relaxation had not settled).
 bool relax(const Scene& s, SceneData& sd, const std::vector<mjtNum>& q_start, const SceneStaticsOptions& opt,
-           SceneStaticsResult& res) {
+           const std::vector<int>& loose, SceneStaticsResult& res) {
   mjData* d = sd.d;
+  const double fall_limit = 10.0 * std::max(s.m->stat.extent, 1e-3);
   const double t0 = d->time, h = s.m->opt.timestep;
   std::copy(q_start.begin(), q_start.end(), d->qpos);
   mju_zero(d->qvel, s.m->nv);
@@ -971,6 +1008,12 @@ bool relax(const Scene& s, SceneData& sd, const std::vector<mjtNum>& q_start, co
       break;
     }
     ++res.iterations;
+    if (!loose.empty()) {
+      if (std::string fallen = fallen_free_body(s.m, d, q_start, loose, fall_limit, (k + 1) * h); !fallen.empty()) {
+        res.message = "dynamic relaxation stopped: " + fallen;
+        break;
+      }
+    }
     if (opt.progress && (k & 255) == 0) {
       char buf[128];
       std::snprintf(buf, sizeof buf, "dynamic relaxation, t = %.3g s of at most %g s", (k + 1) * h, opt.relaxation_time);
@@ -1001,6 +1044,10 @@ bool relax(const Scene& s, SceneData& sd, const std::vector<mjtNum>& q_start, co
       ke_prev = ke;
     }
   }
+  std::string fallen;  // a loose free body below its start, touching nothing (any depth)
+  if (!converged && res.message.empty() && !loose.empty()) {
+    fallen = fallen_free_body(s.m, d, q_start, loose, 0.0, res.iterations * h);
+  }
   d->time = t0;
   mju_zero(d->qvel, s.m->nv);
   if (!converged && res.message.empty()) {
@@ -1010,6 +1057,7 @@ bool relax(const Scene& s, SceneData& sd, const std::vector<mjtNum>& q_start, co
                   "SceneStaticsOptions::relaxation_time, the command line's --relaxation-time, allows more)",
                   opt.relaxation_time, res.residual, opt.relaxation_tolerance);
     res.message = buf;
+    if (!fallen.empty()) res.message += ": " + fallen;
   }
   return converged;
 }
@@ -1034,6 +1082,7 @@ SceneStaticsResult equilibrium(const Scene& s, SceneData& sd, const SceneStatics
   // subtree, or, under gravity, a contact (a box on a table); otherwise it floats or falls for ever
   // (a swimmer). (Outside probe AH: a box hanging from a `connect` on its free joint was refused.)
   const bool gravity = !(m->opt.disableflags & mjDSBL_GRAVITY) && mju_norm3(m->opt.gravity) > 0;
+  std::vector<int> loose;  // free joints only a contact can hold (relax watches them fall)
   for (int j = 0; j < m->njnt; ++j) {
     if (m->jnt_type[j] != mjJNT_FREE) continue;
     const int b = m->jnt_bodyid[j];
@@ -1042,9 +1091,13 @@ SceneStaticsResult equilibrium(const Scene& s, SceneData& sd, const SceneStatics
     for (int e = 0; e < m->neq && !held; ++e)
       if (m->eq_type[e] == mjEQ_CONNECT || m->eq_type[e] == mjEQ_WELD)
         held = is_descendant(m, m->eq_obj1id[e], b) != is_descendant(m, m->eq_obj2id[e], b);
+    if (held) continue;
     for (int g = 0; g < m->ngeom && !held; ++g)
       held = gravity && s.may_collide && (m->geom_contype[g] || m->geom_conaffinity[g]) && is_descendant(m, m->geom_bodyid[g], b);
-    if (held) continue;
+    if (held) {
+      loose.push_back(j);
+      continue;
+    }
     const char* name = mj_id2name(m, mjOBJ_BODY, b);
     res.message = std::string("a free-floating body has no static equilibrium: '") + (name ? name : "?") +
                   "' (free joint) is held by no weld or connect" + (gravity ? " and touches nothing" : "");
@@ -1125,7 +1178,7 @@ SceneStaticsResult equilibrium(const Scene& s, SceneData& sd, const SceneStatics
   }
   for (int attempt = 0;; ++attempt) {
     sd.compression = {};
-    res.converged = relax(s, sd, q_relax, opt, res);
+    res.converged = relax(s, sd, q_relax, opt, loose, res);
     res.message = (res.message.empty() ? "" : res.message + "; ") + "relaxation used because " + why + from;
     if (!res.converged) {
       // a relaxation that diverged or did not settle leaves a state of no meaning (probe O: inverted

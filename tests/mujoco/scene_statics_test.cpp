@@ -267,6 +267,47 @@ TEST(SceneStatics, AFreeBodyHeldByAConnectOrAFloorHasAnEquilibrium) {
   }
 }
 
+// A free body that only a contact could hold, with nothing under it: a box beside a pendulum whose
+// bob its geoms could touch (the filters allow the pair), so it is not refused at the start. The
+// relaxation stops once the box has fallen ten times the scene's extent touching nothing, and names
+// it (outside probe AQ: it fell for the whole 30 s, and the message said only that the relaxation
+// had not settled); a relaxation too short to reach that depth names it too. A box that falls onto a
+// floor from well above the scene's extent is not stopped.
+TEST(SceneStatics, AFreeBodyFallingWithNothingUnderItIsNamed) {
+  auto s = load_scene_string(R"(<mujoco><option timestep="0.001"/><worldbody>
+    <body name="P" pos="0 0 1"><joint type="hinge" axis="0 1 0"/><geom type="sphere" pos="0 0 -0.1" size="0.01" mass="0.01"/></body>
+    <body name="F" pos="1 0 1"><freejoint/><geom type="box" size="0.1 0.1 0.1"/></body></worldbody></mujoco>)",
+                             kPath);
+  {
+    SceneData sd(*s);
+    const SceneStaticsResult r = equilibrium(*s, sd);
+    EXPECT_FALSE(r.converged);
+    EXPECT_NE(r.message.find("dynamic relaxation stopped: 'F' (free joint), held by no weld or connect, fell "),
+              std::string::npos)
+        << r.message;
+    EXPECT_LT(r.iterations, 5000);  // 10 extents of free fall: about 1.5 s of the 30
+    EXPECT_EQ(body_pos(*s, sd, "F").z(), 1.0);  // the start's positions reported
+  }
+  {
+    SceneData sd(*s);
+    SceneStaticsOptions opt;
+    opt.relaxation_time = 0.2;
+    const SceneStaticsResult r = equilibrium(*s, sd, opt);
+    EXPECT_FALSE(r.converged);
+    EXPECT_NE(r.message.find("did not settle within 0.2 s"), std::string::npos) << r.message;
+    EXPECT_NE(r.message.find("'F' (free joint), held by no weld or connect, fell 0.19"), std::string::npos)
+        << r.message;  // g t^2 / 2 = 0.196 m
+  }
+  auto high = load_scene_string(R"(<mujoco><option timestep="0.002"/><worldbody>
+    <geom type="plane" size="0.2 0.2 0.1"/>
+    <body name="box" pos="0 0 8"><freejoint/><geom type="box" size="0.1 0.1 0.05" mass="1"/></body></worldbody></mujoco>)",
+                                kPath);
+  SceneData sd(*high);
+  const SceneStaticsResult r = equilibrium(*high, sd);
+  ASSERT_TRUE(r.converged) << r.message;
+  EXPECT_NEAR(body_pos(*high, sd, "box").z(), 0.05, 2e-3);
+}
+
 // A hinged arm whose smooth equilibrium would pass through the floor: contact carries load, so the
 // solver settles it by dynamic relaxation and says so; without relaxation it reports failure.
 TEST(SceneStatics, ContactSceneFallsBackToRelaxation) {
