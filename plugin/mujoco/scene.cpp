@@ -2877,8 +2877,8 @@ void kinetic_and_gravity(const Scene& s, SceneData& sd, SceneEnergy& e) {
 // mjDSBL_PASSIVE), split by whether their energy is quadratic in the coordinates: hinge and slide
 // joints and a free joint's displacement (quadratic_spring_energy) against the rotations of ball and
 // free joints (the rotation vector from the rest orientation, mj_passive's mju_subQuat) and tendons
-// (nonlinear_spring_energy, after mj_tendon). spring_power: v . (the forces of the latter), after
-// fwd_velocity (ten_velocity at v = qvel).
+// (nonlinear_springs' energy, after mj_tendon; its power: v . (their forces), after fwd_velocity,
+// v = qvel and ten_velocity as d holds them).
 double quadratic_spring_energy(const mjModel* m, const mjData* d) {
   if (m->opt.disableflags & mjDSBL_PASSIVE) return 0.0;
   double e = 0.0;
@@ -2924,37 +2924,27 @@ bool has_nonlinear_springs(const mjModel* m) {
   return false;
 }
 
-double nonlinear_spring_energy(const mjModel* m, const mjData* d) {
-  if (m->opt.disableflags & mjDSBL_PASSIVE) return 0.0;
-  double e = 0.0;
+struct SpringEnergy {
+  double energy = 0.0, power = 0.0;
+};
+SpringEnergy nonlinear_springs(const mjModel* m, const mjData* d) {
+  SpringEnergy e;
+  if (m->opt.disableflags & mjDSBL_PASSIVE) return e;
   for (int j = 0; j < m->njnt; ++j)
     if (rotational_spring(m, j)) {
       mjtNum dif[3];
       spring_rotation(m, d, j, dif);
-      e += 0.5 * m->jnt_stiffness[j] * mju_dot3(dif, dif);
+      const double k = m->jnt_stiffness[j];
+      e.energy += 0.5 * k * mju_dot3(dif, dif);
+      e.power -= k * mju_dot3(dif, d->qvel + m->jnt_dofadr[j] + (m->jnt_type[j] == mjJNT_FREE ? 3 : 0));
     }
   for (int t = 0; t < m->ntendon; ++t)
     if (m->tendon_stiffness[t] > 0) {
-      const double dl = d->ten_length[t] - m->tendon_lengthspring[t];
-      e += 0.5 * m->tendon_stiffness[t] * dl * dl;
+      const double k = m->tendon_stiffness[t], dl = d->ten_length[t] - m->tendon_lengthspring[t];
+      e.energy += 0.5 * k * dl * dl;
+      e.power -= k * dl * d->ten_velocity[t];
     }
   return e;
-}
-
-double nonlinear_spring_power(const mjModel* m, const mjData* d) {
-  if (m->opt.disableflags & mjDSBL_PASSIVE) return 0.0;
-  double p = 0.0;
-  for (int j = 0; j < m->njnt; ++j)
-    if (rotational_spring(m, j)) {
-      mjtNum dif[3];
-      spring_rotation(m, d, j, dif);
-      const int v = m->jnt_dofadr[j] + (m->jnt_type[j] == mjJNT_FREE ? 3 : 0);
-      p -= m->jnt_stiffness[j] * mju_dot3(dif, d->qvel + v);
-    }
-  for (int t = 0; t < m->ntendon; ++t)
-    if (m->tendon_stiffness[t] > 0)
-      p -= m->tendon_stiffness[t] * (d->ten_length[t] - m->tendon_lengthspring[t]) * d->ten_velocity[t];
-  return p;
 }
 
 // The energy-conserving implicit midpoint rule. With v_m = (v + v+)/2 and the midpoint state
@@ -2999,7 +2989,7 @@ bool midpoint_step(const Scene& s, SceneData& sd, int iterations) {
   SceneEnergy e0, e1;
   kinetic_and_gravity(s, sd, e0);
   const bool springs = has_nonlinear_springs(m);
-  const double V0 = springs ? nonlinear_spring_energy(m, d) : 0.0;
+  const double V0 = springs ? nonlinear_springs(m, d).energy : 0.0;
   const double E0 = e0.kinetic + e0.gravity + V0;
   save_start(sd, m);
   // first iterate: the linearised trapezoidal step, whose average acceleration (d->qacc) is A
@@ -3031,7 +3021,7 @@ bool midpoint_step(const Scene& s, SceneData& sd, int iterations) {
     const double S = mju_dot(vm, Mv, nv);
     // (less the nonlinear springs' power at the midpoint: their work is in E's change)
     const double P = mju_dot(vm, w.y.data(), nv) + mju_dot(vm, d->qfrc_bias, nv) -
-                     (springs ? nonlinear_spring_power(m, d) : 0.0);
+                     (springs ? nonlinear_springs(m, d).power : 0.0);
     // r = M (f(q_m, v_m) - A); M f = qfrc_smooth when forward skipped the accelerations
     if (smooth_only(sd)) {
       mju_sub(w.r.data(), d->qfrc_smooth, w.y.data(), nv);
@@ -3051,7 +3041,7 @@ bool midpoint_step(const Scene& s, SceneData& sd, int iterations) {
     double V1 = 0.0;
     if (springs) {
       mj_tendon(m, d);  // the lengths (the kinematics patched for rod sites)
-      V1 = nonlinear_spring_energy(m, d);
+      V1 = nonlinear_springs(m, d).energy;
     }
     // the energy defect the correction removes, unless it is within what the tolerance allows
     // anyway (the kinetic energy to newton_tol, the energies to round-off): a rod at rest has
@@ -3436,7 +3426,7 @@ SceneEnergy energy(const Scene& s, SceneData& sd) {
   for (size_t r = 0; r < s.rods.size(); ++r) e.elastic += cosserat::energy(s.rods[r].model, sd.rod[r]).elastic;
   // MuJoCo's springs, as mj_energyPos counts them (outside probe W: ball and free joint springs
   // had been left out)
-  e.elastic += quadratic_spring_energy(s.m, d) + nonlinear_spring_energy(m, d);
+  e.elastic += quadratic_spring_energy(s.m, d) + nonlinear_springs(m, d).energy;
   return e;
 }
 
