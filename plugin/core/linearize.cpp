@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include <Eigen/Eigenvalues>
 #include <Eigen/LU>
@@ -44,6 +45,15 @@ bool unstable_mode(const VecX& x, const MatX& K, const MatX& M, double noise) {
   return x.dot(K * x) < -std::max(1e-4 * ax.dot(K.cwiseAbs() * ax), noise);
 }
 
+bool unstable_mode_fd(const VecX& x, const MatX& K, const MatX& M, double noise, const MatX* held) {
+  const double mass = x.dot(M * x);
+  if (!(mass > 0)) return false;
+  const VecX ax = x.cwiseAbs();
+  const double held_scale = held && held->size() ? ax.dot(held->cwiseAbs() * ax) : 0.0;
+  const double rounding = static_cast<double>(x.size()) * std::numeric_limits<double>::epsilon() * ax.dot(K.cwiseAbs() * ax);
+  return x.dot(K * x) < -std::max({noise, 1e-4 * held_scale, rounding});
+}
+
 double noise_bound(const VecX& ax, const MatX& N) { return ax.dot(N * ax); }
 
 void state_space(Linearization& L) {
@@ -72,6 +82,10 @@ void state_space(Linearization& L) {
     const VecX ax = L.basis.size() ? VecX(L.basis.cwiseAbs() * x.cwiseAbs()) : VecX(x.cwiseAbs());
     return noise_bound(ax, L.Kt_noise);
   };
+  // (unstable_mode_fd where Kt comes from finite differences with their noise bound)
+  auto unstable = [&L, &noise](const VecX& x, const MatX& K) {
+    return L.Kt_noise.size() ? unstable_mode_fd(x, K, L.M, noise(x), &L.Kt_held) : unstable_mode(x, K, L.M);
+  };
   L.frequencies_hz.resize(n);
   L.omega2.resize(n);
   L.damping_ratios.resize(0);
@@ -86,7 +100,7 @@ void state_space(Linearization& L) {
       const VecX x = es.eigenvectors().col(i);
       L.frequencies_hz(i) = w / (2.0 * M_PI);
       L.damping_ratios(i) = w > 0 ? x.dot(L.D * x) / (2.0 * w) : std::nan("");
-      if (L.omega2(i) < 0 && unstable_mode(x, Ks, L.M, noise(x))) ++L.unstable_modes;
+      if (L.omega2(i) < 0 && unstable(x, Ks)) ++L.unstable_modes;
     }
   } else {
     // (follower loads) a real mode's quotient x'Kt x = x'Ks x (its eigenvector's real part)
@@ -100,7 +114,7 @@ void state_space(Linearization& L) {
       L.modes.col(i) = mass > 0 ? VecX(modes[i].second / std::sqrt(mass)) : modes[i].second;
       L.omega2(i) = modes[i].first;
       L.frequencies_hz(i) = std::sqrt(std::max(modes[i].first, 0.0)) / (2.0 * M_PI);
-      if (modes[i].first < 0 && unstable_mode(modes[i].second, Ks, L.M, noise(modes[i].second))) ++L.unstable_modes;
+      if (modes[i].first < 0 && unstable(modes[i].second, Ks)) ++L.unstable_modes;
     }
   }
 }

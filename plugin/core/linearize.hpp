@@ -27,6 +27,10 @@ struct Linearization {
   // entry by entry, in the coordinates of dq (before any basis); empty: Kt is exact (up to its own
   // rounding). unstable_mode takes modes within it for neutral.
   MatX Kt_noise;
+  // The part of Kt that is the stiffness of loads carried by constraint rows held rigid (a scene's
+  // StaticProblem::held_loads, in the coordinates of Kt); empty: none. unstable_mode_fd weighs its
+  // modelling error.
+  MatX Kt_held;
 };
 
 // Whether the mode x (an eigenvector of K x = omega^2 M x, K symmetric) shows the equilibrium
@@ -44,6 +48,20 @@ struct Linearization {
 // AM's buckled zig-zag under two antagonistic cables, has modes whose own stiffness scale is 0 and
 // whose quotients are the differences' rounding, 1e-10 of the forces' scale: read as unstable.)
 bool unstable_mode(const VecX& x, const MatX& K, const MatX& M, double noise = 0.0);
+
+// The same test where K comes from finite differences of forces with a bound of their rounding
+// (`noise`, as above): the quotient must lie below
+//   -max(noise, 1e-4 |x|'|Kh||x|, n eps |x|'|K||x|) / x'M x,
+// Kh (`held`, may be null) the stiffness of the loads that constraint rows held rigid carry. The
+// rows' Jacobians (MuJoCo's weld takes its rotation rows from a quaternion difference) are not the
+// exact gradients of what they hold, and that stiffness is modelled to a relative 1e-4 of its own
+// scale on the mode (a rod buckled between two welds past Greenhill's moment has a neutral family,
+// its buckled shape turned about the axis, read at omega^2 = -9.9e-4 against a held-load scale of
+// 50 and a rounding bound of 2.9e-4); the rest of K is exact to its rounding and the product's
+// (n eps). Without the held term, the whole of K's scale entered as in unstable_mode, and the stiff
+// stretch and shear of `kl` and `sr` rods hid an instability: the same rod twisted straight at 1.03
+// times Greenhill's moment, omega^2 = -0.76, against 1e-4 |x|'|K||x| = 3.2 (`kl`) and 47 (`sr`).
+bool unstable_mode_fd(const VecX& x, const MatX& K, const MatX& M, double noise, const MatX* held);
 
 // ax' N ax: the bound of x'E x for |x| <= ax entrywise and noise |E_ij| <= N_ij (or N_ji: E's
 // symmetric part is what the eigenproblems use).

@@ -618,6 +618,7 @@ bool stable_equilibrium(StaticProblem& p, const Scene& s, SceneData& sd, double 
                      Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(full.data(), n, n) *
                      N;
   const MatrixXd KN = N.transpose() * Kt * N;
+  const MatrixXd KcN = constraints ? MatrixXd(N.transpose() * Kc * N) : MatrixXd();
   const MatrixXd Ks = 0.5 * (KN + KN.transpose());
   Eigen::GeneralizedSelfAdjointEigenSolver<MatrixXd> es(Ks, M);
   if (es.info() != Eigen::Success) return true;  // M not positive definite: no verdict
@@ -631,8 +632,9 @@ bool stable_equilibrium(StaticProblem& p, const Scene& s, SceneData& sd, double 
   const double slowest = gravity ? 1e-6 * mju_norm3(s.m->opt.gravity) / std::max(s.m->stat.extent, 1e-6) : 0.0;
   const MatrixXd absN = N.cwiseAbs();
   for (int i = 0; i < w.size() && w(i) < -slowest; ++i)
-    if (cosserat::unstable_mode(es.eigenvectors().col(i), Ks, M,
-                                cosserat::noise_bound(absN * es.eigenvectors().col(i).cwiseAbs(), noise))) {
+    if (cosserat::unstable_mode_fd(es.eigenvectors().col(i), Ks, M,
+                                   cosserat::noise_bound(absN * es.eigenvectors().col(i).cwiseAbs(), noise),
+                                   constraints ? &KcN : nullptr)) {
       if (mode) *mode = N * es.eigenvectors().col(i);
       return false;
     }
@@ -1282,6 +1284,7 @@ SceneLinearization linearize(const Scene& s, SceneData& sd, const SceneLinearize
     if (J.rows() > 0) {
       const MatrixXd N = free_directions(J);
       L.Kt = N.transpose() * (L.Kt + Kc) * N;
+      L.Kt_held = N.transpose() * Kc * N;
       L.D = N.transpose() * L.D * N;
       L.M = N.transpose() * L.M * N;
       L.Bu = N.transpose() * L.Bu;
