@@ -4,6 +4,7 @@
 #include "../../apps/render_commands.cpp"
 
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <cstdlib>
 #include <filesystem>
@@ -51,7 +52,7 @@ class CommandsTest : public ::testing::Test {
  protected:
   void SetUp() override {
     unsetenv("DISPLAY");  // no display: OSMesa only
-    dir = fs::temp_directory_path() / ("cosserat_render_" + std::string(testing::UnitTest::GetInstance()->current_test_info()->name()));
+    dir = fs::temp_directory_path() / ("cosserat_render_" + std::to_string(::getpid()) + "_" + std::string(testing::UnitTest::GetInstance()->current_test_info()->name()));
     fs::remove_all(dir);
   }
   void TearDown() override { fs::remove_all(dir); }

@@ -2,6 +2,7 @@
 #include "video.hpp"
 
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <cstdlib>
 #include <filesystem>
@@ -19,7 +20,7 @@ TEST(VideoTest, FramePathsAreNumberedWithFiveDigits) {
 }
 
 TEST(VideoTest, RemoveFramesTouchesOnlyFrames) {
-  const fs::path dir = fs::temp_directory_path() / "cosserat_render_video_test";
+  const fs::path dir = fs::temp_directory_path() / ("cosserat_render_video_test_" + std::to_string(::getpid()));
   fs::remove_all(dir);
   fs::create_directories(dir);
   for (const char* name : {"frame_00000.png", "frame_00017.png", "frame_1.png", "frame_00000.png.bak", "other.png"})
