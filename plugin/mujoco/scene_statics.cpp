@@ -941,6 +941,46 @@ bool friction_takes_up(const mjModel* m, const mjData* d, const VectorXd& r, dou
   return true;
 }
 
+// Whether tendon t's path passes through body b's subtree (a site on it, or a geom it wraps).
+bool tendon_touches(const mjModel* m, int t, int b) {
+  for (int w = m->tendon_adr[t]; w < m->tendon_adr[t] + m->tendon_num[t]; ++w) {
+    const int type = m->wrap_type[w], id = m->wrap_objid[w];
+    if (type == mjWRAP_SITE && is_descendant(m, m->site_bodyid[id], b)) return true;
+    if ((type == mjWRAP_SPHERE || type == mjWRAP_CYLINDER) && is_descendant(m, m->geom_bodyid[id], b)) return true;
+  }
+  return false;
+}
+
+// Whether a force that grows with the displacement pulls free joint j's body (b) towards a place:
+// the joint's own spring, a tendon through its subtree with a spring (or, under gravity, a length
+// limit: a rope), a tendon equality on such a tendon, or an actuator with a length or position
+// gain on the joint, on a site of the subtree or on such a tendon (a servo). (Outside probe AR: a
+// box on a rope, on a tendon spring or on its free joint's spring was refused as free-floating.)
+bool held_by_forces(const mjModel* m, int j, bool gravity) {
+  const int b = m->jnt_bodyid[j];
+  const bool passive = !(m->opt.disableflags & mjDSBL_PASSIVE);
+  if (passive && m->jnt_stiffness[j] > 0) return true;
+  for (int t = 0; t < m->ntendon; ++t)
+    if (((passive && m->tendon_stiffness[t] > 0) || (gravity && m->tendon_limited[t])) && tendon_touches(m, t, b))
+      return true;
+  for (int e = 0; e < m->neq; ++e)
+    if (m->eq_type[e] == mjEQ_TENDON &&
+        (tendon_touches(m, m->eq_obj1id[e], b) || (m->eq_obj2id[e] >= 0 && tendon_touches(m, m->eq_obj2id[e], b))))
+      return true;
+  if (!(m->opt.disableflags & mjDSBL_ACTUATION))
+    for (int a = 0; a < m->nu; ++a) {
+      const bool servo = (m->actuator_gaintype[a] == mjGAIN_AFFINE && m->actuator_gainprm[mjNGAIN * a + 1] != 0) ||
+                         (m->actuator_biastype[a] == mjBIAS_AFFINE && m->actuator_biasprm[mjNBIAS * a + 1] != 0);
+      if (!servo) continue;
+      const int type = m->actuator_trntype[a], id = m->actuator_trnid[2 * a];
+      if (((type == mjTRN_JOINT || type == mjTRN_JOINTINPARENT) && id == j) ||
+          (type == mjTRN_SITE && is_descendant(m, m->site_bodyid[id], b)) ||
+          (type == mjTRN_TENDON && tendon_touches(m, id, b)))
+        return true;
+    }
+  return false;
+}
+
 // Whether a contact of d touches the subtree of body b.
 bool touches(const mjModel* m, const mjData* d, int b) {
   for (int c = 0; c < d->ncon; ++c)
@@ -950,9 +990,9 @@ bool touches(const mjModel* m, const mjData* d, int b) {
   return false;
 }
 
-// A free joint of `loose` (held by no weld or connect: only a contact can hold it) whose body has
-// fallen from q_start, along gravity, by more than `depth` and touches nothing now: a message naming
-// it, empty if none.
+// A free joint of `loose` (held by no weld, connect or force: only a contact can hold it) whose
+// body has fallen from q_start, along gravity, by more than `depth` and touches nothing now: a
+// message naming it, empty if none.
 std::string fallen_free_body(const mjModel* m, const mjData* d, const std::vector<mjtNum>& q_start,
                              const std::vector<int>& loose, double depth, double elapsed) {
   const double g = mju_norm3(m->opt.gravity);
@@ -964,8 +1004,9 @@ std::string fallen_free_body(const mjModel* m, const mjData* d, const std::vecto
     const char* name = mj_id2name(m, mjOBJ_BODY, b);
     char buf[320];
     std::snprintf(buf, sizeof buf,
-                  "'%s' (free joint), held by no weld or connect, fell %.3g m with nothing under it (no contact "
-                  "touches it) in %.3g s of relaxation: a free body has no static equilibrium without a support",
+                  "'%s' (free joint), held by no weld, connect, spring, rope or servo, has fallen %.3g m below its "
+                  "start in %.3g s of relaxation and touches nothing: a free body has no static equilibrium without "
+                  "a support",
                   name ? name : "?", fall, elapsed);
     return buf;
   }
@@ -976,17 +1017,32 @@ std::string fallen_free_body(const mjModel* m, const mjData* d, const std::vecto
 // velocities zeroed whenever the kinetic energy passes a peak; converged when |M qacc| at rest is
 // below the tolerance. Contacts, limits and equality constraints take part exactly as in a run.
 // It stops early where a free joint of `loose` (equilibrium()'s free bodies that only a contact can
-// hold) falls more than ten times the scene's extent (mjStatistic::extent) while touching nothing,
-// and names one still falling when it does not settle (outside probe AQ: a box beside a pendulum,
+// hold) falls more than ten times the scene's size while touching nothing (the larger of
+// mjStatistic::extent and the diagonal of the box around the bodies and geoms at q_start: outside
+// probe AR's keyframe put a box 30 m above its floor, beyond ten times the extent at qpos0), and
+// names one still falling when it does not settle (outside probe AQ: a box beside a pendulum,
 // which its geoms could touch, fell for the whole 30 s, and the message told only that the
 // relaxation had not settled).
 bool relax(const Scene& s, SceneData& sd, const std::vector<mjtNum>& q_start, const SceneStaticsOptions& opt,
            const std::vector<int>& loose, SceneStaticsResult& res) {
   mjData* d = sd.d;
-  const double fall_limit = 10.0 * std::max(s.m->stat.extent, 1e-3);
   const double t0 = d->time, h = s.m->opt.timestep;
   std::copy(q_start.begin(), q_start.end(), d->qpos);
   mju_zero(d->qvel, s.m->nv);
+  double fall_limit = 10.0 * std::max(s.m->stat.extent, 1e-3);
+  if (!loose.empty()) {
+    fwd_inertia(s, sd, false);  // the poses at q_start
+    Vec3 lo = Vec3::Constant(HUGE_VAL), hi = -lo;
+    for (int b = 1; b < s.m->nbody; ++b) {
+      const Vec3 x(d->xpos[3 * b], d->xpos[3 * b + 1], d->xpos[3 * b + 2]);
+      lo = lo.cwiseMin(x), hi = hi.cwiseMax(x);
+    }
+    for (int g = 0; g < s.m->ngeom; ++g) {
+      const Vec3 x(d->geom_xpos[3 * g], d->geom_xpos[3 * g + 1], d->geom_xpos[3 * g + 2]);
+      lo = lo.cwiseMin(x), hi = hi.cwiseMax(x);
+    }
+    if (lo.allFinite() && hi.allFinite()) fall_limit = std::max(fall_limit, 10.0 * (hi - lo).norm());
+  }
   settle_activations(s.m, d);
   res.method = "dynamic relaxation";
   res.iterations = 0;
@@ -1093,7 +1149,7 @@ SceneStaticsResult equilibrium(const Scene& s, SceneData& sd, const SceneStatics
     for (int e = 0; e < m->neq && !held; ++e)
       if (m->eq_type[e] == mjEQ_CONNECT || m->eq_type[e] == mjEQ_WELD)
         held = is_descendant(m, m->eq_obj1id[e], b) != is_descendant(m, m->eq_obj2id[e], b);
-    if (held) continue;
+    if (held || held_by_forces(m, j, gravity)) continue;
     for (int g = 0; g < m->ngeom && !held; ++g)
       held = gravity && s.may_collide && (m->geom_contype[g] || m->geom_conaffinity[g]) && is_descendant(m, m->geom_bodyid[g], b);
     if (held) {
@@ -1102,7 +1158,8 @@ SceneStaticsResult equilibrium(const Scene& s, SceneData& sd, const SceneStatics
     }
     const char* name = mj_id2name(m, mjOBJ_BODY, b);
     res.message = std::string("a free-floating body has no static equilibrium: '") + (name ? name : "?") +
-                  "' (free joint) is held by no weld or connect" + (gravity ? " and touches nothing" : "");
+                  "' (free joint) is held by no weld, connect, spring, rope or servo" +
+                  (gravity ? " and touches nothing" : "");
     mju_zero(d->qvel, m->nv);
     forward(s, sd);
     return res;

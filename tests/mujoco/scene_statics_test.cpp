@@ -218,8 +218,8 @@ TEST(SceneStatics, FreeBodiesAreRefused) {
   const SceneStaticsResult res = equilibrium(*s, sd);
   EXPECT_FALSE(res.converged);
   EXPECT_EQ(res.message,
-            "a free-floating body has no static equilibrium: 'ball' (free joint) is held by no weld or connect and "
-            "touches nothing");
+            "a free-floating body has no static equilibrium: 'ball' (free joint) is held by no weld, connect, spring, "
+            "rope or servo and touches nothing");
   // a weld inside the free body's own subtree holds nothing (outside probe AI: it counted, and the
   // relaxation fell for 30 s)
   auto inner = load_scene_string(R"(<mujoco><option gravity="0 0 -9.81"/><worldbody><body name="box" pos="0 0 1">
@@ -230,7 +230,7 @@ TEST(SceneStatics, FreeBodiesAreRefused) {
   SceneData isd(*inner);
   const SceneStaticsResult ir = equilibrium(*inner, isd);
   EXPECT_FALSE(ir.converged);
-  EXPECT_NE(ir.message.find("'box' (free joint) is held by no weld or connect"), std::string::npos) << ir.message;
+  EXPECT_NE(ir.message.find("'box' (free joint) is held by no weld, connect"), std::string::npos) << ir.message;
 }
 
 // A free body that something holds has an equilibrium (outside probe AH: refused as "free-floating"):
@@ -282,7 +282,8 @@ TEST(SceneStatics, AFreeBodyFallingWithNothingUnderItIsNamed) {
     SceneData sd(*s);
     const SceneStaticsResult r = equilibrium(*s, sd);
     EXPECT_FALSE(r.converged);
-    EXPECT_NE(r.message.find("dynamic relaxation stopped: 'F' (free joint), held by no weld or connect, fell "),
+    EXPECT_NE(r.message.find("dynamic relaxation stopped: 'F' (free joint), held by no weld, connect, spring, rope or "
+                             "servo, has fallen "),
               std::string::npos)
         << r.message;
     EXPECT_LT(r.iterations, 5000);  // 10 extents of free fall: about 1.5 s of the 30
@@ -295,17 +296,54 @@ TEST(SceneStatics, AFreeBodyFallingWithNothingUnderItIsNamed) {
     const SceneStaticsResult r = equilibrium(*s, sd, opt);
     EXPECT_FALSE(r.converged);
     EXPECT_NE(r.message.find("did not settle within 0.2 s"), std::string::npos) << r.message;
-    EXPECT_NE(r.message.find("'F' (free joint), held by no weld or connect, fell 0.19"), std::string::npos)
+    EXPECT_NE(r.message.find("'F' (free joint), held by no weld, connect, spring, rope or servo, has fallen 0.19"),
+              std::string::npos)
         << r.message;  // g t^2 / 2 = 0.196 m
   }
+  // a box resting on its floor at qpos0, started 30 m up by a keyframe: ten extents at qpos0 are
+  // 20 m (outside probe AR: stopped at 20 m), ten times the start's size 300 m
   auto high = load_scene_string(R"(<mujoco><option timestep="0.002"/><worldbody>
-    <geom type="plane" size="0.2 0.2 0.1"/>
-    <body name="box" pos="0 0 8"><freejoint/><geom type="box" size="0.1 0.1 0.05" mass="1"/></body></worldbody></mujoco>)",
+    <geom type="plane" size="0 0 1"/>
+    <body name="box" pos="0 0 0.05"><freejoint/><geom type="box" size="0.1 0.1 0.05" mass="1"/></body></worldbody>
+    <keyframe><key qpos="0 0 30 1 0 0 0"/></keyframe></mujoco>)",
                                 kPath);
   SceneData sd(*high);
+  mj_resetDataKeyframe(high->m, sd.d, 0);
   const SceneStaticsResult r = equilibrium(*high, sd);
   ASSERT_TRUE(r.converged) << r.message;
   EXPECT_NEAR(body_pos(*high, sd, "box").z(), 0.05, 2e-3);
+}
+
+// A free body held by a force that grows with its displacement has an equilibrium (outside probe
+// AR: refused as free-floating): a box on a rope (a spatial tendon with a length limit) 12 m below
+// its hook, slack by 8 m at the start; on a tendon spring and on its free joint's spring, whose
+// sags are m g / k = 4.905 m. Newton solves the springs; the rope's limit, a constraint row, is
+// the relaxation's. With something collidable beside it the rope holds it too (200 m of rope: the
+// relaxation is not stopped as for a fall with nothing under it, which ten times the scene's size,
+// 120 m, would have).
+TEST(SceneStatics, AFreeBodyOnARopeOrASpringHasAnEquilibrium) {
+  const std::string box = R"(<body name="box" pos="0 0 0"><geom type="box" size="0.1 0.1 0.1" mass="1"/><site name="eye" pos="0 0 0.1"/>)";
+  const std::pair<std::string, double> cases[] = {
+      {R"(<worldbody><site name="hook" pos="0 0 12"/>)" + box + R"(<freejoint/></body></worldbody>
+         <tendon><spatial limited="true" range="0 20"><site site="hook"/><site site="eye"/></spatial></tendon>)",
+       12 - 20 - 0.1},
+      {R"(<worldbody><geom type="box" pos="1 0 0" size="0.05 0.05 0.05"/><site name="hook" pos="0 0 12"/>)" + box +
+           R"(<freejoint/></body></worldbody>
+         <tendon><spatial limited="true" range="0 200"><site site="hook"/><site site="eye"/></spatial></tendon>)",
+       12 - 200 - 0.1},
+      {R"(<worldbody><site name="hook" pos="0 0 1"/>)" + box + R"(<freejoint/></body></worldbody>
+         <tendon><spatial stiffness="2" springlength="0.9" damping="1"><site site="hook"/><site site="eye"/></spatial></tendon>)",
+       1 - 0.9 - 9.81 / 2 - 0.1},
+      {R"(<worldbody>)" + box + R"(<joint type="free" stiffness="2" damping="1"/></body></worldbody>)", -9.81 / 2},
+  };
+  for (const auto& [xml, z] : cases) {
+    SCOPED_TRACE(xml);
+    auto s = load_scene_string(R"(<mujoco><option timestep="0.002"/>)" + xml + "</mujoco>", kPath);
+    SceneData sd(*s);
+    const SceneStaticsResult r = equilibrium(*s, sd);
+    ASSERT_TRUE(r.converged) << r.message;
+    EXPECT_NEAR(body_pos(*s, sd, "box").z(), z, 1e-3 * std::abs(z));
+  }
 }
 
 // A hinged arm whose smooth equilibrium would pass through the floor: contact carries load, so the
