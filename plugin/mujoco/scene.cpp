@@ -1417,6 +1417,7 @@ SceneData::SceneData(const Scene& s) {
   const int nv = s.m->nv, nq = s.m->nq, na = s.m->na;
   tmp_nv.assign(nv, 0);
   qacc_tmp.assign(nv, 0);
+  for (auto* v : {&spring_V0, &spring_V1, &spring_P, &spring_w0, &spring_w1}) v->assign(s.m->njnt + s.m->ntendon, 0.0);
   geom_sag.assign(s.m->ngeom, 0.0);
   step_start.size(s.m);
   rk_q0.assign(nq, 0);
@@ -2924,27 +2925,38 @@ bool has_nonlinear_springs(const mjModel* m) {
   return false;
 }
 
-struct SpringEnergy {
-  double energy = 0.0, power = 0.0;
-};
-SpringEnergy nonlinear_springs(const mjModel* m, const mjData* d) {
-  SpringEnergy e;
-  if (m->opt.disableflags & mjDSBL_PASSIVE) return e;
+// Each of those springs' energy and power (v . its force), into energy[k] and power[k], and for
+// ball and free joints the scalar part of the rotation from the rest orientation into w[k] (its
+// sign flips where the rotation passes pi); any may be null; k a joint's index or njnt plus a
+// tendon's (0 for the rest). Returns the total energy.
+double nonlinear_springs(const mjModel* m, const mjData* d, double* energy, double* power, double* w = nullptr) {
+  const int n = m->njnt + m->ntendon;
+  if (energy) std::fill(energy, energy + n, 0.0);
+  if (power) std::fill(power, power + n, 0.0);
+  if (w) std::fill(w, w + n, 0.0);
+  if (m->opt.disableflags & mjDSBL_PASSIVE) return 0.0;
+  double total = 0.0;
   for (int j = 0; j < m->njnt; ++j)
     if (rotational_spring(m, j)) {
       mjtNum dif[3];
       spring_rotation(m, d, j, dif);
-      const double k = m->jnt_stiffness[j];
-      e.energy += 0.5 * k * mju_dot3(dif, dif);
-      e.power -= k * mju_dot3(dif, d->qvel + m->jnt_dofadr[j] + (m->jnt_type[j] == mjJNT_FREE ? 3 : 0));
+      const double k = m->jnt_stiffness[j], e = 0.5 * k * mju_dot3(dif, dif);
+      total += e;
+      if (energy) energy[j] = e;
+      if (power) power[j] = -k * mju_dot3(dif, d->qvel + m->jnt_dofadr[j] + (m->jnt_type[j] == mjJNT_FREE ? 3 : 0));
+      if (w) {
+        const int a = m->jnt_qposadr[j] + (m->jnt_type[j] == mjJNT_FREE ? 3 : 0);
+        w[j] = mju_dot(d->qpos + a, m->qpos_spring + a, 4);
+      }
     }
   for (int t = 0; t < m->ntendon; ++t)
     if (m->tendon_stiffness[t] > 0) {
-      const double k = m->tendon_stiffness[t], dl = d->ten_length[t] - m->tendon_lengthspring[t];
-      e.energy += 0.5 * k * dl * dl;
-      e.power -= k * dl * d->ten_velocity[t];
+      const double k = m->tendon_stiffness[t], dl = d->ten_length[t] - m->tendon_lengthspring[t], e = 0.5 * k * dl * dl;
+      total += e;
+      if (energy) energy[m->njnt + t] = e;
+      if (power) power[m->njnt + t] = -k * dl * d->ten_velocity[t];
     }
-  return e;
+  return total;
 }
 
 // The energy-conserving implicit midpoint rule. With v_m = (v + v+)/2 and the midpoint state
@@ -2989,8 +3001,13 @@ bool midpoint_step(const Scene& s, SceneData& sd, int iterations) {
   SceneEnergy e0, e1;
   kinetic_and_gravity(s, sd, e0);
   const bool springs = has_nonlinear_springs(m);
-  const double V0 = springs ? nonlinear_springs(m, d).energy : 0.0;
-  const double E0 = e0.kinetic + e0.gravity + V0;
+  const int nsp = m->njnt + m->ntendon;
+  double* V0 = sd.spring_V0.data();
+  double* V1 = sd.spring_V1.data();
+  double* Ps = sd.spring_P.data();
+  double* W0 = sd.spring_w0.data();
+  double* W1 = sd.spring_w1.data();
+  const double V0_all = springs ? nonlinear_springs(m, d, V0, nullptr, W0) : 0.0;
   save_start(sd, m);
   // first iterate: the linearised trapezoidal step, whose average acceleration (d->qacc) is A
   implicit_step(s, sd, true, 0.5);
@@ -3019,9 +3036,8 @@ bool midpoint_step(const Scene& s, SceneData& sd, int iterations) {
     mj_mulM(m, d, Mv, vm);
     mj_mulM(m, d, w.y.data(), w.A.data());  // M A
     const double S = mju_dot(vm, Mv, nv);
-    // (less the nonlinear springs' power at the midpoint: their work is in E's change)
-    const double P = mju_dot(vm, w.y.data(), nv) + mju_dot(vm, d->qfrc_bias, nv) -
-                     (springs ? nonlinear_springs(m, d).power : 0.0);
+    double P = mju_dot(vm, w.y.data(), nv) + mju_dot(vm, d->qfrc_bias, nv);
+    if (springs) nonlinear_springs(m, d, nullptr, Ps);
     // r = M (f(q_m, v_m) - A); M f = qfrc_smooth when forward skipped the accelerations
     if (smooth_only(sd)) {
       mju_sub(w.r.data(), d->qfrc_smooth, w.y.data(), nv);
@@ -3038,18 +3054,31 @@ bool midpoint_step(const Scene& s, SceneData& sd, int iterations) {
     set_end_state(s, sd, sc);
     fwd_inertia(s, sd);
     kinetic_and_gravity(s, sd, e1);
-    double V1 = 0.0;
+    // the springs whose energy is balanced: their energy at both ends less their power at the
+    // midpoint (their work is in E's change), but a ball's or free joint's spring whose rotation
+    // from rest passes pi in the step (the scalar part of that rotation changes sign), where
+    // mj_passive's force flips: it is left to its midpoint force for the step, as the damping is
+    // (outside probe AR: balanced through pi, a spinning free body's spring left 78 steps
+    // unconverged and the energy jumped). (Where MuJoCo's wrapping makes a tendon's length jump,
+    // as where a site enters the wrapped geom, the balance turns the jump of its spring's energy
+    // into a change of the speeds, within the correction's limit.)
+    double Vs0 = 0.0, Vs1 = 0.0, V1_all = 0.0;
     if (springs) {
       mj_tendon(m, d);  // the lengths (the kinematics patched for rod sites)
-      V1 = nonlinear_springs(m, d).energy;
+      V1_all = nonlinear_springs(m, d, V1, nullptr, W1);
+      for (int k = 0; k < nsp; ++k) {
+        if (W0[k] * W1[k] < 0) continue;
+        Vs0 += V0[k], Vs1 += V1[k];
+        P -= Ps[k];
+      }
     }
     // the energy defect the correction removes, unless it is within what the tolerance allows
     // anyway (the kinetic energy to newton_tol, the energies to round-off): a rod at rest has
     // S ~ 0 and a defect of round-off, whose quotient means nothing
-    const double defect = h * P - (e1.kinetic + e1.gravity + V1 - E0);
+    const double defect = h * P - (e1.kinetic + e1.gravity + Vs1 - (e0.kinetic + e0.gravity + Vs0));
     const double allowed = s.newton_tol * (e0.kinetic + e1.kinetic) +
                            64 * DBL_EPSILON *
-                               (e0.kinetic + std::abs(e0.gravity) + e1.kinetic + std::abs(e1.gravity) + V0 + V1);
+                               (e0.kinetic + std::abs(e0.gravity) + e1.kinetic + std::abs(e1.gravity) + V0_all + V1_all);
     double mu = std::abs(defect) > allowed && S > 0.0 ? defect / (h * S) : 0.0;
     const bool clamped = !(std::abs(h * mu) <= kMaxCorrection);
     if (clamped) mu = std::isfinite(mu) ? std::copysign(kMaxCorrection / h, mu) : 0.0;
@@ -3426,7 +3455,7 @@ SceneEnergy energy(const Scene& s, SceneData& sd) {
   for (size_t r = 0; r < s.rods.size(); ++r) e.elastic += cosserat::energy(s.rods[r].model, sd.rod[r]).elastic;
   // MuJoCo's springs, as mj_energyPos counts them (outside probe W: ball and free joint springs
   // had been left out)
-  e.elastic += quadratic_spring_energy(s.m, d) + nonlinear_springs(m, d).energy;
+  e.elastic += quadratic_spring_energy(s.m, d) + nonlinear_springs(m, d, nullptr, nullptr);
   return e;
 }
 

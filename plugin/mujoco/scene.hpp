@@ -292,6 +292,9 @@ struct SceneData {
   std::vector<double> geom_sag;
   // scratch (sized once)
   std::vector<mjtNum> tmp_nv, qacc_tmp;
+  // the midpoint rule's springs whose energy is not quadratic: energy at the step's start and end,
+  // power at the midpoint, one entry per joint then per tendon (midpoint_step)
+  std::vector<double> spring_V0, spring_V1, spring_P, spring_w0, spring_w1;
   // A copy of the state (qpos, qvel, act, act_dot, time), sized by the constructor.
   struct SavedState {
     std::vector<mjtNum> q0, v0, act0, act_dot0;
