@@ -341,6 +341,16 @@ TEST_F(Cli, RunSaysWhatExchangesEnergy) {
     EXPECT_NE(std::find(ex.begin(), ex.end(), e), ex.end()) << e;
   EXPECT_EQ(std::find(ex.begin(), ex.end(), "contacts"), ex.end());  // nothing to touch
   EXPECT_NE(r.out.find("not conserved here: "), std::string::npos) << r.out;
+  // MuJoCo's dampers are off under <flag passive="disable"/>: a hinge with damping and a tendon
+  // spring, undamped then, exchanges nothing (outside probe AR: "joint or tendon damping" was listed)
+  const fs::path xml = scratch() / "passive_off.xml";
+  std::ofstream(xml) << R"(<mujoco><option gravity="0 0 -9.81"><flag passive="disable"/></option><worldbody>
+    <body><joint type="hinge" axis="0 1 0" damping="0.5" stiffness="2"/><geom type="capsule" fromto="0 0 0 0.3 0 0" size="0.02"/>
+    </body></worldbody></mujoco>)";
+  const fs::path out2 = scratch() / "passive_off.json";
+  const Result r2 = cosserat("run '" + xml.string() + "' --integrator rk4 --duration 0.2 --json '" + out2.string() + "'");
+  ASSERT_EQ(r2.status, 0) << r2.err;
+  EXPECT_TRUE(json::parse(read_text(out2))["energy"]["exchanged_by"].empty()) << r2.out;
 }
 
 // Sampling the energy (an evaluation of the pipeline between steps) does not change the run: the
