@@ -1086,10 +1086,13 @@ bool relax(const Scene& s, SceneData& sd, const std::vector<mjtNum>& q_start, co
       res.scale = r.scale;
       converged = res.residual <= opt.relaxation_tolerance;
       // the residual's progress: the static friction is asked only once it has stopped falling (no
-      // gain of 10% for 1 s of simulated time), lest a state still settling be taken
+      // gain of 10% for 1 s of simulated time), lest a state still settling be taken; at any level
+      // of the residual (outside probe AR: a box on a 20 degree slope with friction 1 crept at
+      // 1.7 mm/s with a residual of 1e-2, above the 1e-3 the question had waited for, and the
+      // relaxation ran its 30 s)
       const double t = (k + 1) * h;
       if (res.residual < 0.9 * best) best = res.residual, best_time = t;
-      if (!converged && d->ncon > 0 && res.residual <= 1e3 * opt.relaxation_tolerance && t - best_time > 1.0) {
+      if (!converged && d->ncon > 0 && t - best_time > 1.0) {
         if (friction_takes_up(s.m, d, r.Ma, opt.relaxation_tolerance * r.scale)) {
           converged = true;
           char buf[200];
