@@ -1137,6 +1137,7 @@ TEST(SceneStatics, StaticFrictionHoldsWhatMuJoCosSoftFrictionLetsCreep) {
   struct Case {
     const char* xml;
     const char* body;
+    double moved = 1e-3;  // how far from where it was put it may settle
   };
   const Case cases[] = {
       {R"(<mujoco><option timestep="0.001" gravity="0 0 -9.81"/><worldbody><geom name="floor" type="plane" size="3 3 0.1"/>
@@ -1149,6 +1150,13 @@ TEST(SceneStatics, StaticFrictionHoldsWhatMuJoCosSoftFrictionLetsCreep) {
             <cosserat name="rod" length="0.5" sections="4" strain="kl" radius="0.005" density="1000" young="1e9"
                       poisson="0.5"/></body></worldbody></mujoco>)",
        "rod_b"},
+      // a box on a 20 degree slope with friction 1: it creeps at 1.7 mm/s with a residual of 1e-2,
+      // which friction was not asked to take up until the thirty-fourth session (outside probe AR;
+      // put 2 mm into the slope, it is pushed out, and creeps for the second the stall takes)
+      {R"(<mujoco><worldbody><geom type="plane" size="1 1 0.1" euler="0 20 0" friction="1 0.005 0.0001"/>
+          <body name="box" pos="0 0 0.051" euler="0 20 0"><freejoint/><geom type="box" size="0.05 0.05 0.05" mass="0.2"/>
+          </body></worldbody></mujoco>)",
+       "box", 5e-3},
   };
   for (const Case& c : cases) {
     SCOPED_TRACE(c.body);
@@ -1158,7 +1166,7 @@ TEST(SceneStatics, StaticFrictionHoldsWhatMuJoCosSoftFrictionLetsCreep) {
     const SceneStaticsResult r = equilibrium(*s, sd);
     ASSERT_TRUE(r.converged) << r.message;
     EXPECT_NE(r.message.find("taken up by the contacts' static friction"), std::string::npos) << r.message;
-    EXPECT_LT((body_pos(*s, sd, c.body) - start).norm(), 1e-3);  // where it was put, on its supports
+    EXPECT_LT((body_pos(*s, sd, c.body) - start).norm(), c.moved);  // where it was put, on its supports
   }
 }
 
