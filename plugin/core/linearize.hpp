@@ -31,6 +31,10 @@ struct Linearization {
   // StaticProblem::held_loads, in the coordinates of Kt); empty: none. unstable_mode_fd weighs its
   // modelling error.
   MatX Kt_held;
+  // Modes with omega^2 >= -neutral_omega2 are not counted unstable: too slow a fall to act on (a
+  // MuJoCo scene under gravity sets 1e-6 g / extent, an e-folding time of 1000 sqrt(extent / g), as
+  // its equilibrium's stability check does). 0: every mode below the noise counts.
+  double neutral_omega2 = 0.0;
 };
 
 // Whether the mode x (an eigenvector of K x = omega^2 M x, K symmetric) shows the equilibrium

@@ -591,6 +591,13 @@ bool newton(StaticProblem& p, double lambda, const SceneStaticsOptions& opt, Sce
 // twenty-eighth session equilibria where constraint rows carried load were not checked: outside
 // probe AG's rod twisted 11 times past Greenhill's load by a weld came back straight and
 // "converged".)
+// Under gravity, the omega^2 of a fall too slow to act on: 1e-6 g / extent, an e-folding time of
+// 1000 sqrt(extent / g) (0 without gravity).
+double slowest_fall(const mjModel* m) {
+  const bool gravity = !(m->opt.disableflags & mjDSBL_GRAVITY);
+  return gravity ? 1e-6 * mju_norm3(m->opt.gravity) / std::max(m->stat.extent, 1e-6) : 0.0;
+}
+
 bool stable_equilibrium(StaticProblem& p, const Scene& s, SceneData& sd, double lambda, double& omega2_min,
                         VectorXd* mode = nullptr, bool constraints = false) {
   const int n = p.nv();
@@ -628,8 +635,7 @@ bool stable_equilibrium(StaticProblem& p, const Scene& s, SceneData& sd, double 
   // to act on: outside probe AI's capsule lying on a floor, held at one contact, had a neutral
   // direction at omega^2 = -1e-7 1/s^2, the noise of a stiffness that is all noise there (no
   // elastic forces, gravity's constant), and was reported unstable
-  const bool gravity = !(s.m->opt.disableflags & mjDSBL_GRAVITY);
-  const double slowest = gravity ? 1e-6 * mju_norm3(s.m->opt.gravity) / std::max(s.m->stat.extent, 1e-6) : 0.0;
+  const double slowest = slowest_fall(s.m);
   const MatrixXd absN = N.cwiseAbs();
   for (int i = 0; i < w.size() && w(i) < -slowest; ++i)
     if (cosserat::unstable_mode_fd(es.eigenvectors().col(i), Ks, M,
@@ -1355,6 +1361,10 @@ SceneLinearization linearize(const Scene& s, SceneData& sd, const SceneLinearize
     forward(s, sd);
   }
 
+  // (linearize counts as equilibrium's check does: outside probe AS's box hung by a connect had its
+  // neutral yaw at omega^2 = -1.3e-10 counted unstable, and scenes with their contacts left out
+  // their bodies' free motions at -5e-8)
+  L.neutral_omega2 = slowest_fall(m);
   state_space(L);
   return L;
 }
