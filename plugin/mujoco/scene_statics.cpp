@@ -569,6 +569,13 @@ bool newton(StaticProblem& p, double lambda, const SceneStaticsOptions& opt, Sce
   return res.residual <= opt.tolerance;
 }
 
+// Under gravity, the omega^2 of a fall too slow to act on: 1e-6 g / extent, an e-folding time of
+// 1000 sqrt(extent / g) (0 without gravity).
+double slowest_fall(const mjModel* m) {
+  const bool gravity = !(m->opt.disableflags & mjDSBL_GRAVITY);
+  return gravity ? 1e-6 * mju_norm3(m->opt.gravity) / std::max(m->stat.extent, 1e-6) : 0.0;
+}
+
 // Stability of the equilibrium at the current qpos under load factor lambda: the smallest
 // eigenvalue omega^2 of Ks x = omega^2 M x, Ks the symmetric part of the tangent stiffness (a
 // negative one: the equilibrium is unstable, the rod would fall away from it). Returns true when
@@ -591,13 +598,6 @@ bool newton(StaticProblem& p, double lambda, const SceneStaticsOptions& opt, Sce
 // twenty-eighth session equilibria where constraint rows carried load were not checked: outside
 // probe AG's rod twisted 11 times past Greenhill's load by a weld came back straight and
 // "converged".)
-// Under gravity, the omega^2 of a fall too slow to act on: 1e-6 g / extent, an e-folding time of
-// 1000 sqrt(extent / g) (0 without gravity).
-double slowest_fall(const mjModel* m) {
-  const bool gravity = !(m->opt.disableflags & mjDSBL_GRAVITY);
-  return gravity ? 1e-6 * mju_norm3(m->opt.gravity) / std::max(m->stat.extent, 1e-6) : 0.0;
-}
-
 bool stable_equilibrium(StaticProblem& p, const Scene& s, SceneData& sd, double lambda, double& omega2_min,
                         VectorXd* mode = nullptr, bool constraints = false) {
   const int n = p.nv();
@@ -1146,8 +1146,9 @@ SceneStaticsResult equilibrium(const Scene& s, SceneData& sd, const SceneStatics
   mjData* d = sd.d;
   SceneStaticsResult res;
   // A free body has an equilibrium only where something holds it: an equality constraint on its
-  // subtree, or, under gravity, a contact (a box on a table); otherwise it floats or falls for ever
-  // (a swimmer). (Outside probe AH: a box hanging from a `connect` on its free joint was refused.)
+  // subtree, a force that grows with its displacement (held_by_forces), or, under gravity, a
+  // contact (a box on a table); otherwise it floats or falls for ever (a swimmer). (Outside probe
+  // AH: a box hanging from a `connect` on its free joint was refused.)
   const bool gravity = !(m->opt.disableflags & mjDSBL_GRAVITY) && mju_norm3(m->opt.gravity) > 0;
   std::vector<int> loose;  // free joints only a contact can hold (relax watches them fall)
   for (int j = 0; j < m->njnt; ++j) {
