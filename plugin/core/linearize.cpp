@@ -100,7 +100,7 @@ void state_space(Linearization& L) {
       const VecX x = es.eigenvectors().col(i);
       L.frequencies_hz(i) = w / (2.0 * M_PI);
       L.damping_ratios(i) = w > 0 ? x.dot(L.D * x) / (2.0 * w) : std::nan("");
-      if (L.omega2(i) < -L.neutral_omega2 && L.omega2(i) < 0 && unstable(x, Ks)) ++L.unstable_modes;
+      if (L.omega2(i) < -L.neutral_omega2 && unstable(x, Ks)) ++L.unstable_modes;
     }
   } else {
     // (follower loads) a real mode's quotient x'Kt x = x'Ks x (its eigenvector's real part)
@@ -114,7 +114,7 @@ void state_space(Linearization& L) {
       L.modes.col(i) = mass > 0 ? VecX(modes[i].second / std::sqrt(mass)) : modes[i].second;
       L.omega2(i) = modes[i].first;
       L.frequencies_hz(i) = std::sqrt(std::max(modes[i].first, 0.0)) / (2.0 * M_PI);
-      if (modes[i].first < -L.neutral_omega2 && modes[i].first < 0 && unstable(modes[i].second, Ks)) ++L.unstable_modes;
+      if (modes[i].first < -L.neutral_omega2 && unstable(modes[i].second, Ks)) ++L.unstable_modes;
     }
   }
 }
