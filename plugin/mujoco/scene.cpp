@@ -2899,22 +2899,21 @@ double quadratic_spring_energy(const mjModel* m, const mjData* d) {
   return e;
 }
 
-namespace {
-
-// The rotation vector of ball or free joint j's spring (mj_passive's).
-void spring_rotation(const mjModel* m, const mjData* d, int j, mjtNum dif[3]) {
+// The rotation vector of ball or free joint j's spring (mj_passive's); returns the scalar part of
+// that rotation (the rest quaternion's dot product with the joint's), whose sign flips where the
+// rotation passes pi.
+double spring_rotation(const mjModel* m, const mjData* d, int j, mjtNum dif[3]) {
   const int a = m->jnt_qposadr[j] + (m->jnt_type[j] == mjJNT_FREE ? 3 : 0);
   mjtNum quat[4];
   mju_copy4(quat, d->qpos + a);
   mju_normalize4(quat);
   mju_subQuat(dif, quat, m->qpos_spring + a);
+  return mju_dot(quat, m->qpos_spring + a, 4);
 }
 
 bool rotational_spring(const mjModel* m, int j) {
   return m->jnt_stiffness[j] > 0 && (m->jnt_type[j] == mjJNT_BALL || m->jnt_type[j] == mjJNT_FREE);
 }
-
-}  // namespace
 
 bool has_nonlinear_springs(const mjModel* m) {
   if (m->opt.disableflags & mjDSBL_PASSIVE) return false;
@@ -2939,15 +2938,12 @@ double nonlinear_springs(const mjModel* m, const mjData* d, double* energy, doub
   for (int j = 0; j < m->njnt; ++j)
     if (rotational_spring(m, j)) {
       mjtNum dif[3];
-      spring_rotation(m, d, j, dif);
+      const double scalar = spring_rotation(m, d, j, dif);
       const double k = m->jnt_stiffness[j], e = 0.5 * k * mju_dot3(dif, dif);
       total += e;
       if (energy) energy[j] = e;
       if (power) power[j] = -k * mju_dot3(dif, d->qvel + m->jnt_dofadr[j] + (m->jnt_type[j] == mjJNT_FREE ? 3 : 0));
-      if (w) {
-        const int a = m->jnt_qposadr[j] + (m->jnt_type[j] == mjJNT_FREE ? 3 : 0);
-        w[j] = mju_dot(d->qpos + a, m->qpos_spring + a, 4);
-      }
+      if (w) w[j] = scalar;
     }
   for (int t = 0; t < m->ntendon; ++t)
     if (m->tendon_stiffness[t] > 0) {

@@ -1111,10 +1111,6 @@ bool relax(const Scene& s, SceneData& sd, const std::vector<mjtNum>& q_start, co
       ke_prev = ke;
     }
   }
-  std::string fallen;  // a loose free body below its start, touching nothing (any depth)
-  if (!converged && res.message.empty() && !loose.empty()) {
-    fallen = fallen_free_body(s.m, d, q_start, loose, 0.0, res.iterations * h);
-  }
   d->time = t0;
   mju_zero(d->qvel, s.m->nv);
   if (!converged && res.message.empty()) {
@@ -1124,7 +1120,9 @@ bool relax(const Scene& s, SceneData& sd, const std::vector<mjtNum>& q_start, co
                   "SceneStaticsOptions::relaxation_time, the command line's --relaxation-time, allows more)",
                   opt.relaxation_time, res.residual, opt.relaxation_tolerance);
     res.message = buf;
-    if (!fallen.empty()) res.message += ": " + fallen;
+    // a loose free body below its start, touching nothing (any depth)
+    if (const std::string fallen = fallen_free_body(s.m, d, q_start, loose, 0.0, res.iterations * h); !fallen.empty())
+      res.message += ": " + fallen;
   }
   return converged;
 }
