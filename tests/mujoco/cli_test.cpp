@@ -679,7 +679,7 @@ TEST_F(Cli, LinearizeHoldsEqualitiesRigidAndSaysWhatItLeavesOut) {
 }
 
 // linearize warns when it holds rigid an equality constraint that MuJoCo's soft rows left open at
-// the equilibrium (outside probe AH: a weld with solref 0.2 open by 0.105 rad gave a first
+// the equilibrium, and equilibrium when it reports one (outside probe AH: a weld with solref 0.2 open by 0.105 rad gave a first
 // frequency of 2.06 Hz against 3.21 Hz with solref 0.002), naming the constraint and the gap.
 TEST_F(Cli, LinearizeWarnsOfAnOpenEqualityItHoldsRigid) {
   const fs::path model = scratch() / "open_weld.xml";
@@ -693,6 +693,14 @@ TEST_F(Cli, LinearizeWarnsOfAnOpenEqualityItHoldsRigid) {
     ASSERT_EQ(r.status, 0) << r.err;
     const bool soft = std::string(solref) == "0.2 1";
     EXPECT_EQ(r.out.find("warning: equality constraint 'clamp' (weld) is open by") != std::string::npos, soft) << r.out;
+    // equilibrium names it too (on stderr, and in the JSON's warnings): the equilibrium found is
+    // that of the open constraint
+    const Result e = cosserat("equilibrium '" + model.string() + "' --json -");
+    ASSERT_EQ(e.status, 0) << e.err;
+    EXPECT_EQ(e.err.find("warning: equality constraint 'clamp' (weld) is open by") != std::string::npos, soft) << e.err;
+    const json j = json::parse(e.out);
+    ASSERT_EQ(j.contains("warnings"), soft) << e.out;
+    if (soft) EXPECT_NE(j["warnings"][0].get<std::string>().find("'clamp' (weld) is open by"), std::string::npos);
   }
 }
 
