@@ -1019,6 +1019,23 @@ std::string fallen_free_body(const mjModel* m, const mjData* d, const std::vecto
   return {};
 }
 
+// The joint a dof belongs to, for a message: "hinge joint 'NAME'" (a rod's strain joints are named
+// ROD/s<i>/<coordinate>), or the body of an unnamed joint, and the component of a free or ball
+// joint's dof.
+std::string dof_name(const mjModel* m, int dof) {
+  const int j = m->dof_jntid[dof], b = m->jnt_bodyid[j], k = dof - m->jnt_dofadr[j];
+  const char* jn = mj_id2name(m, mjOBJ_JOINT, j);
+  const char* bn = mj_id2name(m, mjOBJ_BODY, b);
+  const int type = m->jnt_type[j];
+  const char* kind = type == mjJNT_FREE ? "free" : type == mjJNT_BALL ? "ball" : type == mjJNT_SLIDE ? "slide" : "hinge";
+  std::string out = jn && *jn ? std::string(kind) + " joint '" + jn + "'"
+                              : std::string(kind) + " joint of body '" + (bn && *bn ? bn : "#" + std::to_string(b)) + "'";
+  static const char* axis[] = {"x", "y", "z"};
+  if (type == mjJNT_FREE) out += k < 3 ? std::string(", translation along ") + axis[k] : std::string(", rotation about ") + axis[k - 3];
+  if (type == mjJNT_BALL) out += std::string(", rotation about ") + axis[k];
+  return out;
+}
+
 // Dynamic relaxation with kinetic damping from qpos = q_start: the scene's own dynamics, with all
 // velocities zeroed whenever the kinetic energy passes a peak; converged when |M qacc| at rest is
 // below the tolerance. Contacts, limits and equality constraints take part exactly as in a run.
@@ -1055,6 +1072,7 @@ bool relax(const Scene& s, SceneData& sd, const std::vector<mjtNum>& q_start, co
   res.message.clear();
   const long max_steps = static_cast<long>(std::ceil(opt.relaxation_time / h));
   double ke_prev = 0.0, best = HUGE_VAL, best_time = 0.0;
+  VectorXd last_Ma;  // the residual force M qacc at the last rest
   bool converged = false;
   for (long k = 0; k < max_steps && !converged; ++k) {
     // a MuJoCo error raised in a step (where the application's mju_user_error handler throws) ends
@@ -1090,6 +1108,7 @@ bool relax(const Scene& s, SceneData& sd, const std::vector<mjtNum>& q_start, co
       const FullResidual r = full_residual(s, sd);
       res.residual = r.force / r.scale;
       res.scale = r.scale;
+      last_Ma = r.Ma;
       converged = res.residual <= opt.relaxation_tolerance;
       // the residual's progress: the static friction is asked only once it has stopped falling (no
       // gain of 10% for 1 s of simulated time), lest a state still settling be taken; at any level
@@ -1114,15 +1133,31 @@ bool relax(const Scene& s, SceneData& sd, const std::vector<mjtNum>& q_start, co
   d->time = t0;
   mju_zero(d->qvel, s.m->nv);
   if (!converged && res.message.empty()) {
+    if (last_Ma.size() == 0 && res.iterations > 0) {  // no rest yet: the last state's residual, at rest
+      forward(s, sd);
+      const FullResidual r = full_residual(s, sd);
+      res.residual = r.force / r.scale;
+      res.scale = r.scale;
+      last_Ma = r.Ma;
+    }
     char buf[320];
     std::snprintf(buf, sizeof buf,
                   "dynamic relaxation did not settle within %g s of simulated time (residual %.3g, target %g; "
                   "SceneStaticsOptions::relaxation_time, the command line's --relaxation-time, allows more)",
                   opt.relaxation_time, res.residual, opt.relaxation_tolerance);
     res.message = buf;
-    // a loose free body below its start, touching nothing (any depth)
-    if (const std::string fallen = fallen_free_body(s.m, d, q_start, loose, 0.0, res.iterations * h); !fallen.empty())
+    // a loose free body below its start, touching nothing (any depth); else where the residual is
+    // (the shipped octopus arm: the cylinder it drapes over rocks on the single point of MuJoCo's
+    // cylinder-box contact, and the message had not said where the residual was)
+    if (const std::string fallen = fallen_free_body(s.m, d, q_start, loose, 0.0, res.iterations * h); !fallen.empty()) {
       res.message += ": " + fallen;
+    } else if (last_Ma.size() > 0 && last_Ma.allFinite()) {
+      int worst = 0;
+      last_Ma.cwiseAbs().maxCoeff(&worst);
+      std::snprintf(buf, sizeof buf, "; the residual force |M qacc| at rest, %.3g, is largest (%.3g) on the ",
+                    last_Ma.norm(), last_Ma(worst));
+      res.message += buf + dof_name(s.m, worst);
+    }
   }
   return converged;
 }

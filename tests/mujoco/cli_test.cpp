@@ -718,6 +718,19 @@ TEST_F(Cli, EquilibriumRelaxationTimeIsAnOption) {
   EXPECT_EQ(short_.status, 1);
   EXPECT_NE(short_.err.find("did not settle within 0.01 s"), std::string::npos) << short_.err;
   EXPECT_NE(short_.err.find("--relaxation-time"), std::string::npos) << short_.err;
+  // the failure names where the residual force is largest: a pendulum released level beside a box
+  // at rest on the floor, the hinge (m g L / 2)
+  const fs::path pendulum = scratch() / "pendulum.xml";
+  std::ofstream(pendulum) << R"(<mujoco><option gravity="0 0 -9.81" timestep="0.002"/><worldbody>
+    <geom type="plane" size="1 1 0.1"/>
+    <body name="box" pos="0 0 0.05"><freejoint/><geom type="box" size="0.1 0.1 0.05" mass="1"/></body>
+    <body name="arm" pos="1 0 1"><joint name="swing" type="hinge" axis="0 1 0"/>
+      <geom type="capsule" fromto="0 0 0 0.5 0 0" size="0.02" mass="1" contype="0" conaffinity="0"/></body>
+    </worldbody></mujoco>)";
+  const Result swings = cosserat("equilibrium '" + pendulum.string() + "' --relaxation-time 0.05");
+  EXPECT_EQ(swings.status, 1);
+  EXPECT_NE(swings.err.find("is largest (2.45) on the hinge joint 'swing'"), std::string::npos) << swings.err;
+  EXPECT_EQ(cosserat("equilibrium '" + pendulum.string() + "'").status, 0);
   EXPECT_NE(cosserat("linearize '" + model.string() + "' --relaxation-time 0.01").err.find("--relaxation-time"),
             std::string::npos);
   EXPECT_EQ(cosserat("equilibrium '" + model.string() + "' --relaxation-time 0").status, 1);
