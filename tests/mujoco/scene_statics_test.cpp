@@ -364,6 +364,48 @@ TEST(SceneStatics, AFreeBodyOnARopeOrASpringHasAnEquilibrium) {
   }
 }
 
+// The dynamic relaxation leaves MuJoCo's joint and tendon dampers out, which have no part in an
+// equilibrium: a box on a soft, damped spring (its sag 49 m, damping ratio 0.56) beside a box
+// resting on a floor (the floor's load makes it a relaxation) had not settled after 30 s of
+// simulated time (outside probe AR); it settles in about 7 s. Where the relaxation diverges without
+// them (a stiff spring that MuJoCo's Euler keeps stable at the model's step only through its
+// implicit damper: omega h = 4), it runs again with them. The model's dampers are restored.
+TEST(SceneStatics, TheRelaxationLeavesJointAndTendonDampersOut) {
+  const std::string head = R"(<mujoco><option timestep="0.002"/><worldbody>
+    <geom type="plane" size="1 1 0.1"/>
+    <body name="rest" pos="1 0 0.05"><freejoint/><geom type="box" size="0.05 0.05 0.05" mass="0.1"/></body>)";
+  const std::string box = R"(<body name="box" pos="0 0 0.5"><geom type="box" size="0.1 0.1 0.1" mass="1" contype="2" conaffinity="2"/>
+    <site name="eye" pos="0 0 0.1"/>)";
+  struct Case {
+    std::string xml;
+    const char* body;
+    double z, sag;  // the body's height at the equilibrium, and its sag from the start
+  };
+  const Case cases[] = {
+      {head + box + R"(<joint type="free" stiffness="0.2" damping="0.5"/></body></worldbody></mujoco>)", "box",
+       0.5 - 9.81 / 0.2, 9.81 / 0.2},
+      {head + R"(<site name="hook" pos="0 0 1.5"/>)" + box + R"(<freejoint/></body></worldbody>
+         <tendon><spatial stiffness="0.2" springlength="0.9" damping="0.5"><site site="hook"/><site site="eye"/></spatial></tendon></mujoco>)",
+       "box", 1.5 - 0.9 - 9.81 / 0.2 - 0.1, 9.81 / 0.2},
+      {head + R"(<body name="bob" pos="0 0 1"><joint type="slide" axis="0 0 1" stiffness="4e6" damping="2e4"/>
+         <geom type="sphere" size="0.05" mass="1" contype="0" conaffinity="0"/></body></worldbody></mujoco>)",
+       "bob", 1 - 9.81 / 4e6, 9.81 / 4e6},
+  };
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.xml);
+    auto s = load_scene_string(c.xml, kPath);
+    const std::vector<mjtNum> dof_damping(s->m->dof_damping, s->m->dof_damping + s->m->nv);
+    const std::vector<mjtNum> tendon_damping(s->m->tendon_damping, s->m->tendon_damping + s->m->ntendon);
+    SceneData sd(*s);
+    const SceneStaticsResult r = equilibrium(*s, sd);
+    ASSERT_TRUE(r.converged) << r.message;
+    EXPECT_EQ(r.method, "dynamic relaxation");
+    EXPECT_NEAR(body_pos(*s, sd, c.body).z(), c.z, 1e-3 * c.sag) << "sag " << c.sag;
+    EXPECT_EQ(std::vector<mjtNum>(s->m->dof_damping, s->m->dof_damping + s->m->nv), dof_damping);
+    EXPECT_EQ(std::vector<mjtNum>(s->m->tendon_damping, s->m->tendon_damping + s->m->ntendon), tendon_damping);
+  }
+}
+
 // A hinged arm whose smooth equilibrium would pass through the floor: contact carries load, so the
 // solver settles it by dynamic relaxation and says so; without relaxation it reports failure.
 TEST(SceneStatics, ContactSceneFallsBackToRelaxation) {
