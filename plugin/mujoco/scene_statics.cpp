@@ -4,6 +4,7 @@
 #include "scene_statics.hpp"
 
 #include <algorithm>
+#include <cfloat>
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -238,12 +239,18 @@ class StaticProblem {
       tree_weights_ = tree_weight_scales(s_, d_, gravity_.data(), tree_, ntree_);
     }
     const VectorXd rods = rods_passive(s_, sd_);
-    // each actuator's own generalised force |force_i| |moment_i| too: forces that cancel in their
-    // sum (three cables at 120 degrees on a straight arm) had left a scale of round-off, and Newton
-    // hundreds of iterations on a state that was already the equilibrium (outside probe AM)
+    // each actuator's own generalised force |force_i| |moment_i| too, as the rounding it leaves
+    // where actuators cancel each other in their sum: without it, three cables at 120 degrees on a
+    // straight arm had left a scale of round-off, and Newton hundreds of iterations on a state that
+    // was already the equilibrium (outside probe AM). Weighted by kCancelling, so that the
+    // default tolerance (1e-10) accepts 100 times the rounding of their sum: at its full weight,
+    // two antagonistic motors of 5e9 N on a pendulum's hinge let Newton stop 0.066 rad off (1e7 N:
+    // 1e-4 rad), where the rounding of their sum is 2e-6 N m (1e-6 rad).
+    constexpr double kCancelling = 1e12 * DBL_EPSILON;
     double actuators = 0.0;
     for (int i = 0; i < m_->nu; ++i)
-      actuators = std::max(actuators, std::abs(d_->actuator_force[i]) * mju_norm(d_->actuator_moment + i * m_->nv, m_->nv));
+      actuators = std::max(actuators, kCancelling * std::abs(d_->actuator_force[i]) *
+                                          mju_norm(d_->actuator_moment + i * m_->nv, m_->nv));
     // the joints' and tendons' springs apart from the rest of qfrc_passive, where they can cancel
     // each other (outside probe AQ: a hinge's spring balancing a tendon's, without gravity, had
     // left the hinge's tree a scale of its own residual, and the scene's scale went to zero with the
@@ -291,7 +298,7 @@ class StaticProblem {
       for (int a = 0; a < m_->nu; ++a) {
         m2.setZero();
         for (int i = 0; i < n; ++i) m2(tree_[i]) += d_->actuator_moment[a * n + i] * d_->actuator_moment[a * n + i];
-        act = act.cwiseMax(std::abs(d_->actuator_force[a]) * m2.cwiseSqrt());
+        act = act.cwiseMax(kCancelling * std::abs(d_->actuator_force[a]) * m2.cwiseSqrt());
       }
       VectorXd& ts = *tree_scale;
       ts.resize(ntree_);

@@ -789,6 +789,28 @@ TEST(SceneStatics, CableForcesCancellingInTheirSumConvergeAtOnce) {
   for (int i = 0; i < s->m->nq; ++i) EXPECT_LT(std::abs(sd.d->qpos[i]), 1e-10) << "qpos " << i;
 }
 
+// ... and where they are large, each actuator's force enters the scale as the rounding of their
+// sum, not at its own size: two antagonistic motors on a pendulum's hinge (their sum zero) leave
+// it hanging straight down from 1 rad off. At their full size in the scale, 5e9 N had let Newton
+// stop 0.066 rad off (1e7 N: 1e-4 rad).
+TEST(SceneStatics, AntagonisticMotorsDoNotLoosenTheTolerance) {
+  for (const char* force : {"0", "1e7", "5e9"}) {
+    SCOPED_TRACE(force);
+    auto s = load_scene_string(std::string(R"(<mujoco><worldbody>
+      <body name="arm" pos="0 0 1"><joint name="h" type="hinge" axis="0 1 0"/>
+        <geom type="capsule" fromto="0 0 0 0 0 -0.5" size="0.02" mass="1"/><site name="tip" pos="0 0 -0.5"/></body></worldbody>
+      <actuator><motor joint="h"/><motor joint="h"/></actuator>
+      <keyframe><key qpos="1" ctrl=")") + force + " -" + force + R"("/></keyframe></mujoco>)",
+                               kPath);
+    SceneData sd(*s);
+    mj_resetDataKeyframe(s->m, sd.d, 0);
+    const SceneStaticsResult r = equilibrium(*s, sd);
+    ASSERT_TRUE(r.converged) << r.message;
+    EXPECT_EQ(r.method, "newton");
+    EXPECT_LT(std::abs(sd.d->qpos[0]), 1e-9);
+  }
+}
+
 // A neutral family of equilibria is stable. Two antagonistic cables at +-d through sites at the ends
 // of a rod's 8 inextensible sections: each chord lies in one section, and the pair's length there,
 // 4 sin(k h / 2) / k, depends on the section's |k| only, so past the spacer-disk buckling load
