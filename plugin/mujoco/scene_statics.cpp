@@ -1052,9 +1052,10 @@ std::string dof_name(const mjModel* m, int dof) {
 // probe AR's keyframe put a box 30 m above its floor, beyond ten times the extent at qpos0), and
 // names one still falling when it does not settle (outside probe AQ: a box beside a pendulum,
 // which its geoms could touch, fell for the whole 30 s, and the message told only that the
-// relaxation had not settled).
+// relaxation had not settled). `diverged` tells a step that diverged (or raised a MuJoCo error).
 bool relax_once(const Scene& s, SceneData& sd, const std::vector<mjtNum>& q_start, const SceneStaticsOptions& opt,
-                const std::vector<int>& loose, SceneStaticsResult& res) {
+                const std::vector<int>& loose, SceneStaticsResult& res, bool& diverged) {
+  diverged = false;
   mjData* d = sd.d;
   const double t0 = d->time, h = s.m->opt.timestep;
   std::copy(q_start.begin(), q_start.end(), d->qpos);
@@ -1093,6 +1094,7 @@ bool relax_once(const Scene& s, SceneData& sd, const std::vector<mjtNum>& q_star
       status = Status::Diverged;
     }
     if (status != Status::Ok) {
+      diverged = true;
       res.message = "dynamic relaxation diverged: " + sd.warning;
       break;
     }
@@ -1169,7 +1171,6 @@ bool relax_once(const Scene& s, SceneData& sd, const std::vector<mjtNum>& q_star
   return converged;
 }
 
-
 // MuJoCo's joint and tendon damping, zeroed for the guard's life and restored after (the scene's
 // model is shared: no other thread may step it meanwhile).
 class WithoutJointDamping {
@@ -1206,16 +1207,17 @@ bool relax(const Scene& s, SceneData& sd, const std::vector<mjtNum>& q_start, co
   bool damped = false;
   for (int i = 0; i < m->nv && !damped; ++i) damped = m->dof_damping[i] > 0;
   for (int t = 0; t < m->ntendon && !damped; ++t) damped = m->tendon_damping[t] > 0;
+  bool diverged = false;
   if (damped) {
     bool converged = false;
     {
       WithoutJointDamping undamped(s.m);
-      converged = relax_once(s, sd, q_start, opt, loose, res);
+      converged = relax_once(s, sd, q_start, opt, loose, res, diverged);
     }
-    if (converged || res.message.rfind("dynamic relaxation diverged", 0) != 0) return converged;
+    if (!diverged) return converged;
     sd.compression = {};
   }
-  return relax_once(s, sd, q_start, opt, loose, res);
+  return relax_once(s, sd, q_start, opt, loose, res, diverged);
 }
 
 }  // namespace
