@@ -1211,6 +1211,39 @@ TEST(SceneStatics, ATwistHeldByAWeldIsNotUndoneThroughIt) {
   }
 }
 
+// A rod resting on two cylinders (MuJoCo collides a capsule with a cylinder by libccd's MPR)
+// sags as a simply supported beam: 5 w L^4 / (384 E I) less the overhangs' share, to 0.44% with 16
+// sections (the contacts' depth and the contact points rolling inward take some). At MuJoCo's MPR
+// tolerance of 1e-6 the contact points moved by that much between evaluations: the relaxation
+// crawled (27605 and 23859 steps) and the finite differences of the held contacts read an
+// instability (omega^2 = -3.8e5), so that no equilibrium was found (outside probe AT); the statics
+// now collide to 1e-12.
+TEST(SceneStatics, ARodOnTwoCylindersSagsAsASimplySupportedBeam) {
+  for (const int sections : {4, 16}) {
+    SCOPED_TRACE(sections);
+    auto s = load_scene_string(R"(<mujoco><option timestep="0.0005"/><size nconmax="200" njmax="1200"/><worldbody>
+      <geom type="cylinder" size="0.01 0.05" pos="0.02 0 -0.02" euler="90 0 0" friction="1 0.005 0.0001"/>
+      <geom type="cylinder" size="0.01 0.05" pos="0.98 0 -0.02" euler="90 0 0" friction="1 0.005 0.0001"/>
+      <body name="hub"><freejoint/><inertial pos="0 0 0" mass="1e-4" diaginertia="1e-9 1e-9 1e-9"/>
+        <cosserat name="rod" length="1" sections=")" + std::to_string(sections) + R"(" strain="kl" radius="0.01"
+                  density="1000" young="1e9" poisson="0.3" viscosity="50" friction="1 0.005 0.0001">
+          <site name="A" at="0.02"/><site name="mid" at="0.5"/><site name="B" at="0.98"/></cosserat></body>
+      </worldbody></mujoco>)",
+                               kPath);
+    const int mpr_iterations = s->m->opt.mpr_iterations;
+    SceneData sd(*s);
+    const SceneStaticsResult r = equilibrium(*s, sd);
+    ASSERT_TRUE(r.converged) << r.message;
+    EXPECT_EQ(s->m->opt.mpr_tolerance, 1e-6);  // (restored)
+    EXPECT_EQ(s->m->opt.mpr_iterations, mpr_iterations);
+    if (sections < 16) continue;
+    const double E = 1e9, I = M_PI * 1e-8 / 4, w = 1000 * M_PI * 1e-4 * 9.81, span = 0.96, a = 0.02;
+    const double sag = 5 * w * std::pow(span, 4) / (384 * E * I) - w * a * a / 2 * span * span / (8 * E * I);
+    const double z = 0.5 * (site_pos(*s, sd, "A").z() + site_pos(*s, sd, "B").z()) - site_pos(*s, sd, "mid").z();
+    EXPECT_NEAR(z, sag, 0.01 * sag);
+  }
+}
+
 // MuJoCo's soft friction cannot hold a tangential load at zero velocity: the contact creeps
 // (um/s), and where friction carries load the relaxation's residual stalls near 1e-5 to 1e-4. Once it
 // has stopped falling, the residual is taken up by the contacts' static friction where forces in
