@@ -30,6 +30,13 @@ Vec3 site_pos(const Scene& s, const SceneData& sd, const char* name) {
 Vec3 body_pos(const Scene& s, const SceneData& sd, const char* name) {
   return Eigen::Map<const Vec3>(sd.d->xpos + 3 * body(s, name));
 }
+// x with all its digits (std::to_string keeps 6 decimals: outside probe AU found a 1e-6 kg load
+// written as 0.000006, 5% light)
+std::string full_precision(double x) {
+  char b[32];
+  std::snprintf(b, sizeof b, "%.17g", x);
+  return b;
+}
 // The equilibrium from keyframe 0, found by Newton (in at most `iterations`).
 void newton_from_key(const Scene& s, SceneData& sd, int iterations = 1000) {
   mj_resetDataKeyframe(s.m, sd.d, 0);
@@ -649,12 +656,13 @@ TEST(SceneStatics, LinearizeCountsAColumnAboveItsBucklingLoadUnstable) {
   }
   // the same column scaled to 1 mm (r = 20 um, 32 sections, the rod 1e-4 of the load): its stiff
   // modes reach omega^2 = 6.7e18, where a threshold relative to the largest eigenvalue (1e-15 of
-  // it, outside probe AG) hid the pair at -6344 and -5945
+  // it, outside probe AG) hid the pair (now -6676 and -5664; until the thirty-fifth session the
+  // load's mass was written to 6 decimals, 5% light: the column was at 1.9 P_cr, outside probe AU)
   const double l = 1e-3, r = 2e-5, EIs = 1e8 * M_PI * std::pow(r, 4) / 4, Pcs = M_PI * M_PI * EIs / (4 * l * l);
   auto s = load_scene_string(std::string(R"(<mujoco><option gravity="0 0 -9.81"/><worldbody>
       <cosserat name="col" euler="0 -90 0" length="0.001" sections="32" strain="ikl" radius="2e-05" density="0.1"
                 young="1e8" poisson="0.5" contype="0" conaffinity="0">
-        <body name="load"><inertial pos="0 0 0" mass=")") + std::to_string(2 * Pcs / 9.81) +
+        <body name="load"><inertial pos="0 0 0" mass=")") + full_precision(2 * Pcs / 9.81) +
                              R"(" diaginertia="1e-14 1e-14 1e-14"/></body></cosserat></worldbody></mujoco>)",
                              kPath);
   SceneData sd(*s);
@@ -1088,7 +1096,7 @@ TEST(SceneStatics, ModeShapesAreEulerBernoullis) {
 TEST(SceneStatics, AConnectsEndLoadSoftensAndBucklesAPinnedColumn) {
   const double L = 1.0, EI = 1e8 * M_PI * std::pow(0.02, 4) / 4, Pcr = M_PI * M_PI * EI / (L * L);
   auto column = [&](double ratio) {
-    const double tip_mass = 1.0;  // (heavy enough for MuJoCo's soft connect to hold the tip within 1e-6 m)
+    const double tip_mass = 1.0;  // (MuJoCo's soft connect leaves the tip 1.6 mm off, which the load does not change)
     return std::string(R"(<mujoco><option gravity="0 0 )") + (ratio > 0 ? "-9.81" : "0") + R"(" timestep="0.001"/>
       <worldbody><body name="foot"><joint name="pin" type="hinge" axis="0 1 0"/>
         <inertial pos="0 0 0" mass="1e-6" diaginertia="1e-15 1e-15 1e-15"/>
