@@ -194,9 +194,7 @@ struct Scene {
   Integrator integrator = Integrator::Implicit;
   // Newton iterations of the implicit and trapezoidal steps. With N > 0 the step is the fully
   // implicit theta method (backward Euler, or the trapezoidal rule, with every force at the end of
-  // the step, but for the trapezoidal rule, the generalized alpha and the midpoint rule the
-  // constraint forces, which are the start's, held over the step: newton_step), solved by up to N
-  // simplified-Newton corrections to the relative velocity tolerance
+  // the step), solved by up to N simplified-Newton corrections to the relative velocity tolerance
   // newton_tol; a step that does not converge is redone as two half steps (down to h/64). 1: one
   // correction after the linearised solve, without a convergence test or splitting. 0: one
   // linearised solve (stiffness and damping implicit, the rest explicit). -1 (default): 10 for
@@ -345,7 +343,7 @@ struct SceneData {
   std::vector<mjtNum> W_rows, W_coef, W_Z, W_S, W_t;
   int W_nrows = 0;
   std::vector<int> tree_nz;  // scratch of add_outer_in_tree (nv)
-  // The constraint rows backward Euler's Newton iteration matrix holds (add_constraint_terms: rows in
+  // The constraint rows the Newton schemes' iteration matrix holds (add_constraint_terms: rows in
   // MuJoCo's quadratic state at the matrix's evaluation, on one branch of the tree), frozen with
   // it: row r has D = frozen_D[r], its coefficient in the matrix frozen_c[r] (D (1 + h B + h^2 K I))
   // and the entries frozen_val at dofs frozen_dof, from frozen_begin[r] to frozen_begin[r + 1]
