@@ -1457,7 +1457,7 @@ SceneData::SceneData(const Scene& s) {
     ten_J_mark.assign(static_cast<size_t>(s.m->ntendon) * nv, 0);
   }
   newton.size(s.m);
-  for (auto* v : {&newton.f0, &newton.A0, &newton.A, &newton.r, &newton.y, &newton.delta, &newton.qfrc_c0, &newton.v_end})
+  for (auto* v : {&newton.f0, &newton.A0, &newton.A, &newton.r, &newton.y, &newton.delta, &newton.v_end})
     v->assign(nv, 0);
   newton.q_end.assign(nq, 0);
   newton.x_prev.assign(nv, 0);
@@ -2809,16 +2809,6 @@ bool newton_step(const Scene& s, SceneData& sd, const Scheme& sc, int iterations
     std::fill(w.f0.begin(), w.f0.end(), 0.0);
   else
     std::copy(d->qacc, d->qacc + nv, w.f0.begin());
-  // The trapezoidal rule and the generalized alpha hold the start's constraint forces over the
-  // step, as MuJoCo's own step does (its soft constraints are built for it: the force it solves
-  // for acts over the step to come). Taken at each iterate's end state instead, a contact that
-  // comes and goes within the step enters the average with half its force, and these schemes leave
-  // stiff modes undamped: a soft rod in sliding or chattering contact gained energy without bound
-  // (outside probe AT: a one-section rod pushed along a floor with friction went from 1.4 J to
-  // 4.9e4 J and flew 20 m up; an undamped rod dropped tilted onto a frictionless floor from 0.1 J
-  // to 20 J). Backward Euler, which damps them, keeps the end state's.
-  const bool hold_constraints = !be && !smooth_only(sd) && d->nefc > 0;
-  if (hold_constraints) std::copy(d->qfrc_constraint, d->qfrc_constraint + nv, w.qfrc_c0.begin());
   if (!carried) std::copy(w.f0.begin(), w.f0.end(), w.A0.begin());
   // first iterate: the linearised step (backward Euler, or the trapezoidal rule whose average
   // acceleration a gives A = 2 a - f(q, v))
@@ -2829,9 +2819,9 @@ bool newton_step(const Scene& s, SceneData& sd, const Scheme& sc, int iterations
   const bool refresh = s.newton_refresh || s.step_tol > 0;
   // the start state's constraint rows (d->efc_*: the first iterate ran no forward) enter the
   // iteration matrix (add_constraint_terms), which the linearised step's must not hold
-  const bool constrained = !smooth_only(sd) && d->nefc > 0 && !hold_constraints;
+  const bool constrained = !smooth_only(sd) && d->nefc > 0;
   if (!refresh && (constrained || (!be && (c * sc.cv1 != 0.5 || c * sc.cq1 != 0.25))))
-    factor_implicit(s, sd, true, c * sc.cv1, c * sc.cq1, !hold_constraints);  // the start state's, the scheme's coefficients
+    factor_implicit(s, sd, true, c * sc.cv1, c * sc.cq1, true);  // the start state's, the scheme's coefficients
   if (!be) set_end_state(s, sd, sc);
   bool converged = false;
   double first = 0.0;  // size of the first correction
@@ -2840,23 +2830,19 @@ bool newton_step(const Scene& s, SceneData& sd, const Scheme& sc, int iterations
     forward(s, sd, Need::Forces);  // at (q+, v+)
     // the iteration matrix at the first iterate's state (Scene::newton_refresh; the rods' D and K
     // are constant)
-    if (k == 0 && refresh)
-      factor_implicit(s, sd, true, be ? 1.0 : c * sc.cv1, be ? 1.0 : c * sc.cq1, !hold_constraints);
+    if (k == 0 && refresh) factor_implicit(s, sd, true, be ? 1.0 : c * sc.cv1, be ? 1.0 : c * sc.cq1, true);
     ++sd.newton_stats.iterations;
     // y = M r, M at (q+, v+), r = c f(q+, v+) + z; when forward skipped the accelerations (no
-    // constraints), M f(q+, v+) = qfrc_smooth: y = M z + c qfrc_smooth; with the start's
-    // constraint forces held, M f(q+, v+) = qfrc_smooth + qfrc_c0
-    const bool smooth = smooth_only(sd) || hold_constraints;
+    // constraints), M f(q+, v+) = qfrc_smooth: y = M z + c qfrc_smooth
     for (int i = 0; i < nv; ++i) {
       w.r[i] = (sc.af * w.f0[i] - sc.am * w.A0[i]) / (1.0 - sc.am) - w.A[i];
-      if (!smooth) w.r[i] += c * d->qacc[i];
+      if (!smooth_only(sd)) w.r[i] += c * d->qacc[i];
     }
     mj_mulM(m, d, w.y.data(), w.r.data());
-    if (smooth) mju_addToScl(w.y.data(), d->qfrc_smooth, c, nv);
-    if (hold_constraints) mju_addToScl(w.y.data(), w.qfrc_c0.data(), c, nv);
+    if (smooth_only(sd)) mju_addToScl(w.y.data(), d->qfrc_smooth, c, nv);
     // (M + J'DJ) r with the rows the matrix holds (add_constraint_terms; where this iterate has no
     // constraint rows, f's part of r is not at hand: M r, the matrix stiffer than the iterate's)
-    if (!smooth) add_constraint_mass(sd, w.r.data(), w.y.data());
+    if (!smooth_only(sd)) add_constraint_mass(sd, w.r.data(), w.y.data());
     solve_implicit(s, sd, w.delta.data(), w.y.data());
     const Iterate it = apply_correction(s, sd, sc, k, stored, first);
     set_end_state(s, sd, sc);
@@ -3019,15 +3005,12 @@ bool midpoint_step(const Scene& s, SceneData& sd, int iterations) {
   double* W1 = sd.spring_w1.data();
   const double V0_all = springs ? nonlinear_springs(m, d, V0, nullptr, W0) : 0.0;
   save_start(sd, m);
-  // the start's constraint forces, held over the step (as in newton_step)
-  const bool hold_constraints = !smooth_only(sd) && d->nefc > 0;
-  if (hold_constraints) std::copy(d->qfrc_constraint, d->qfrc_constraint + nv, w.qfrc_c0.begin());
   // first iterate: the linearised trapezoidal step, whose average acceleration (d->qacc) is A
   implicit_step(s, sd, true, 0.5);
   std::copy(d->qacc, d->qacc + nv, w.A.begin());
-  // (the matrix holds no constraint rows: their forces are the start's)
-  const bool constrained = hold_constraints;
-  if (constrained) factor_implicit(s, sd, true, 0.5, 0.25);
+  // the start state's constraint rows in the iteration matrix (add_constraint_terms)
+  const bool constrained = !smooth_only(sd) && d->nefc > 0;
+  if (constrained) factor_implicit(s, sd, true, 0.5, 0.25, true);
   mjtNum* Mv = w.A0.data();  // M(q_m) v_m (A0 and f0 are not used by this scheme)
   mjtNum* vm = w.f0.data();  // v_m
   bool converged = false;
@@ -3051,9 +3034,19 @@ bool midpoint_step(const Scene& s, SceneData& sd, int iterations) {
     const double S = mju_dot(vm, Mv, nv);
     double P = mju_dot(vm, w.y.data(), nv) + mju_dot(vm, d->qfrc_bias, nv);
     if (springs) nonlinear_springs(m, d, nullptr, Ps);
-    // r = M (f(q_m, v_m) - A) with the start's constraint forces: qfrc_smooth + qfrc_c0 - M A
-    mju_sub(w.r.data(), d->qfrc_smooth, w.y.data(), nv);
-    if (hold_constraints) mju_addTo(w.r.data(), w.qfrc_c0.data(), nv);
+    // r = M (f(q_m, v_m) - A); M f = qfrc_smooth when forward skipped the accelerations
+    if (smooth_only(sd)) {
+      mju_sub(w.r.data(), d->qfrc_smooth, w.y.data(), nv);
+    } else {
+      mj_mulM(m, d, w.r.data(), d->qacc);
+      mju_subFrom(w.r.data(), w.y.data(), nv);
+    }
+    // (M + J'DJ) (f - A) with the constraint rows the matrix holds (add_constraint_terms; M (f - A)
+    // where this iterate has none, as in newton_step)
+    if (!sd.frozen_D.empty() && !smooth_only(sd)) {
+      mju_sub(w.delta.data(), d->qacc, w.A.data(), nv);
+      add_constraint_mass(sd, w.delta.data(), w.r.data());
+    }
     set_end_state(s, sd, sc);
     fwd_inertia(s, sd);
     kinetic_and_gravity(s, sd, e1);

@@ -357,9 +357,6 @@ struct SceneData {
   std::vector<char> ten_J_mark;
   struct NewtonScratch : SavedState {  // the step's start state, and:
     std::vector<mjtNum> f0, A0, A, r, y, delta;
-    // the constraint forces of the step's start (qfrc_constraint), which the trapezoidal rule, the
-    // generalized alpha and the midpoint rule hold over the whole step (newton_step)
-    std::vector<mjtNum> qfrc_c0;
     // generalized alpha: the end acceleration A0 carries over to the next step if it starts from
     // the state this one ended with
     bool carry_valid = false;

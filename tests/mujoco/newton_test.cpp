@@ -245,10 +245,7 @@ TEST(Newton, UnconvergedStepsSplit) {
 // h/64 and each of its 64 pieces is kept so); where they stopped (non-finite, or grown tenfold) it
 // is taken as a linearised backward Euler step. Outside probe AP's soft leg buckling under a
 // weight with its foot on a floor (docs/bench/repro/buckling_leg_on_floor.xml) had diverged under
-// genalpha at 1 ms at 0.68 s with every such piece kept; it now runs on through 0.75 s (since the
-// thirty-fifth session without any such step: the schemes hold the start's contact forces). A soft
-// rod pushed along a floor with friction still meets one under the trapezoidal rule, and stops
-// where Coulomb's law stops it.
+// genalpha at 1 ms at 0.68 s with every such piece kept; it now runs on through 0.75 s.
 TEST(Newton, StepsThatFailAtTheFinestSplitFallBackWhereTheirCorrectionsStopped) {
   {
     auto s = load_scene_string(cantilever_xml(1e7, 0.005, 4, 2e-3), kPath);
@@ -260,29 +257,15 @@ TEST(Newton, StepsThatFailAtTheFinestSplitFallBackWhereTheirCorrectionsStopped) 
     EXPECT_EQ(sd.newton_stats.unconverged, 5 * 64);
     EXPECT_EQ(sd.newton_stats.linearised, 0);
   }
-  {
-    auto s = load_scene(std::string(COSSERAT_SOURCE_DIR) + "/docs/bench/repro/buckling_leg_on_floor.xml");
-    SceneData sd(*s);
-    Status st = Status::Ok;
-    while (st == Status::Ok && sd.d->time < 0.75 - 1e-9) st = step(*s, sd, Integrator::GeneralizedAlpha);
-    std::printf("genalpha: %s at %.3f s, %ld split, %ld unconverged, %ld linearised\n",
-                st == Status::Ok ? "ran" : "diverged", sd.d->time, sd.newton_stats.splits, sd.newton_stats.unconverged,
-                sd.newton_stats.linearised);
-    EXPECT_EQ(st, Status::Ok);
-  }
-  auto s = load_scene_string(R"(<mujoco><option timestep="0.001"/><worldbody>
-    <geom name="floor" type="plane" size="20 20 0.1" friction="0.3 0.005 0.0001"/>
-    <body name="hub" pos="0 0 0.02"><freejoint/><inertial pos="0 0 0" mass="1e-4" diaginertia="1e-9 1e-9 1e-9"/>
-      <cosserat name="rod" length="0.5" sections="1" strain="kl" radius="0.02" density="1000" young="1e9" poisson="0.3"
-                friction="0.3 0.005 0.0001"/></body></worldbody></mujoco>)",
-                             kPath);
+  auto s = load_scene(std::string(COSSERAT_SOURCE_DIR) + "/docs/bench/repro/buckling_leg_on_floor.xml");
   SceneData sd(*s);
-  sd.d->qvel[0] = 2.0;
   Status st = Status::Ok;
-  while (st == Status::Ok && sd.d->time < 1.0 - 1e-9) st = step(*s, sd, Integrator::Trapezoidal);
+  while (st == Status::Ok && sd.d->time < 0.75 - 1e-9) st = step(*s, sd, Integrator::GeneralizedAlpha);
+  std::printf("genalpha: %s at %.3f s, %ld split, %ld unconverged, %ld linearised\n",
+              st == Status::Ok ? "ran" : "diverged", sd.d->time, sd.newton_stats.splits, sd.newton_stats.unconverged,
+              sd.newton_stats.linearised);
   EXPECT_EQ(st, Status::Ok);
   EXPECT_GT(sd.newton_stats.linearised, 0);
-  EXPECT_NEAR(sd.d->qpos[0], 2.0 * 2.0 / (2 * 0.3 * 9.81), 1e-2 * 0.68);  // v^2 / (2 mu g)
 }
 
 // Anderson acceleration (Scene::newton_memory) extrapolates the corrections of the simplified
