@@ -395,10 +395,7 @@ std::vector<std::string> energy_exchanges(const mj::Scene& sc, bool touched) {
   // (MuJoCo's dampers and fluid are off under <flag passive="disable"/>, and its actuators under
   // actuation="disable"; the rods' own damping and fluid stay on)
   const bool passive = !(m->opt.disableflags & mjDSBL_PASSIVE);
-  bool joint_damping = false;
-  for (int i = 0; i < m->nv && passive; ++i) joint_damping = joint_damping || m->dof_damping[i] > 0;
-  for (int i = 0; i < m->ntendon && passive; ++i) joint_damping = joint_damping || m->tendon_damping[i] > 0;
-  if (joint_damping) out.push_back("joint or tendon damping");
+  if (passive && mj::has_joint_damping(m)) out.push_back("joint or tendon damping");
   if (m->nu > 0 && !(m->opt.disableflags & mjDSBL_ACTUATION)) out.push_back("actuators");
   if (sc.fluid.active || (passive && (m->opt.density > 0 || m->opt.viscosity > 0))) out.push_back("fluid");
   if (touched) out.push_back("contacts");

@@ -2107,6 +2107,14 @@ std::unique_ptr<Scene> load_scene(const std::string& path) { return compile(prep
 
 bool implicit_is_mujocos(const Scene& s) { return s.rods.empty() && !s.fluid.active; }
 
+bool has_joint_damping(const mjModel* m) {
+  for (int i = 0; i < m->nv; ++i)
+    if (m->dof_damping[i] > 0) return true;
+  for (int t = 0; t < m->ntendon; ++t)
+    if (m->tendon_damping[t] > 0) return true;
+  return false;
+}
+
 std::unique_ptr<Scene> load_scene_string(const std::string& xml, const std::string& path) {
   return compile(preprocess_string(xml, path));
 }

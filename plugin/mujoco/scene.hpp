@@ -436,6 +436,10 @@ enum class Need { Acceleration, Forces, StaticForces, SmoothStaticForces };
 // Euler (implicit_step: stiffness implicit, Coriolis explicit).
 bool implicit_is_mujocos(const Scene& s);
 
+// Whether some joint or tendon of m has a damper (dof_damping, tendon_damping > 0), whatever
+// <flag passive> says.
+bool has_joint_damping(const mjModel* m);
+
 // Row t of the tendon Jacobian dL_t/dq (nv values, the rod-site corrections included) after
 // forward(), in either of MuJoCo's layouts of d->ten_J (dense rows, or compressed where its
 // Jacobians are sparse). Null for a scene without rods in the compressed layout: nothing there

@@ -1081,6 +1081,16 @@ bool relax_once(const Scene& s, SceneData& sd, const std::vector<mjtNum>& q_star
   const long max_steps = static_cast<long>(std::ceil(opt.relaxation_time / h));
   double ke_prev = 0.0, best = HUGE_VAL, best_time = 0.0;
   VectorXd last_Ma;  // the residual force M qacc at the last rest
+  // the velocities zeroed, the residual there (into res and last_Ma)
+  auto at_rest = [&] {
+    mju_zero(d->qvel, s.m->nv);
+    forward(s, sd);
+    FullResidual r = full_residual(s, sd);
+    res.residual = r.force / r.scale;
+    res.scale = r.scale;
+    last_Ma = r.Ma;
+    return r;
+  };
   bool converged = false;
   for (long k = 0; k < max_steps && !converged; ++k) {
     // a MuJoCo error raised in a step (where the application's mju_user_error handler throws) ends
@@ -1112,12 +1122,7 @@ bool relax_once(const Scene& s, SceneData& sd, const std::vector<mjtNum>& q_star
     }
     const double ke = kinetic_energy(s, sd);
     if (ke < ke_prev || ke == 0.0) {  // past a peak (or at rest): stop, and test for equilibrium
-      mju_zero(d->qvel, s.m->nv);
-      forward(s, sd);
-      const FullResidual r = full_residual(s, sd);
-      res.residual = r.force / r.scale;
-      res.scale = r.scale;
-      last_Ma = r.Ma;
+      const FullResidual r = at_rest();
       converged = res.residual <= opt.relaxation_tolerance;
       // the residual's progress: the static friction is asked only once it has stopped falling (no
       // gain of 10% for 1 s of simulated time), lest a state still settling be taken; at any level
@@ -1145,13 +1150,7 @@ bool relax_once(const Scene& s, SceneData& sd, const std::vector<mjtNum>& q_star
     // no rest at all: the kinetic energy grew from the start to the end (a slow fall along an
     // unstable mode); the residual then is the last state's, at rest
     const bool never_rested = last_Ma.size() == 0 && res.iterations > 0;
-    if (never_rested) {
-      forward(s, sd);
-      const FullResidual r = full_residual(s, sd);
-      res.residual = r.force / r.scale;
-      res.scale = r.scale;
-      last_Ma = r.Ma;
-    }
+    if (never_rested) at_rest();
     char buf[400];
     std::snprintf(buf, sizeof buf,
                   "dynamic relaxation did not settle within %g s of simulated time (%s %.3g, target %g; "
@@ -1234,12 +1233,8 @@ class WithoutJointDamping {
 // steps instead of 3145).
 bool relax(const Scene& s, SceneData& sd, const std::vector<mjtNum>& q_start, const SceneStaticsOptions& opt,
            const std::vector<int>& loose, SceneStaticsResult& res) {
-  const mjModel* m = s.m;
-  bool damped = false;
-  for (int i = 0; i < m->nv && !damped; ++i) damped = m->dof_damping[i] > 0;
-  for (int t = 0; t < m->ntendon && !damped; ++t) damped = m->tendon_damping[t] > 0;
   bool diverged = false;
-  if (damped) {
+  if (has_joint_damping(s.m)) {
     bool converged = false;
     {
       WithoutJointDamping undamped(s.m);
