@@ -664,10 +664,7 @@ int cmd_run(int argc, char** argv) {
                   "the energy grew by %.3g J, %.3g times what the run started with, though what exchanges energy here "
                   "(%s) only takes it away: the integrator supplied it (%s)",
                   energy.max_gain(), energy.max_rel_gain(), list.c_str(),
-                  newton_scheme ? "the trapezoidal, midpoint and generalized-alpha schemes, whose Newton iterations take "
-                                  "the contacts at the end of each step, can pump energy into a soft rod in sliding or "
-                                  "chattering contact: --integrator implicit"
-                                : "try a smaller --timestep");
+                  newton_scheme ? "try a smaller --timestep, or --integrator implicit" : "try a smaller --timestep");
     warnings.push_back(b);
   }
   if (with_sensors)
@@ -709,7 +706,8 @@ int cmd_run(int argc, char** argv) {
                        {"kept_at_min", as.kept_at_min}, {"finest_step", s.timestep() / (1 << as.finest)}};
     if (s.scene().newton_for(s.integrator()) > 0) {
       const auto& ns = s.data().newton_stats;
-      j["newton"] = {{"iterations", ns.iterations}, {"splits", ns.splits}, {"unconverged", ns.unconverged}, {"linearised", ns.linearised}};
+      j["newton"] = {{"iterations", ns.iterations}, {"splits", ns.splits}, {"unconverged", ns.unconverged}, {"linearised", ns.linearised},
+                     {"events", ns.events}};
     }
     write_json(json_path, j);
   }

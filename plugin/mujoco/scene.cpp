@@ -1460,6 +1460,8 @@ SceneData::SceneData(const Scene& s) {
   for (auto* v : {&newton.f0, &newton.A0, &newton.A, &newton.r, &newton.y, &newton.delta, &newton.v_end})
     v->assign(nv, 0);
   newton.q_end.assign(nq, 0);
+  // constraint_pattern's largest: the contacts' geom pairs and two entries per constraint row
+  for (auto* p : {&newton.pattern0, &newton.pattern}) p->reserve(1 + 2 * static_cast<size_t>(s.m->nconmax + s.m->njmax));
   newton.x_prev.assign(nv, 0);
   newton.F_prev.assign(nv, 0);
   newton.dX.assign(static_cast<size_t>(nv) * kMaxNewtonMemory, 0);
@@ -2794,6 +2796,56 @@ Iterate apply_correction(const Scene& s, SceneData& sd, const Scheme& sc, int k,
   return Iterate::Continue;
 }
 
+// The pattern of a state's non-smooth constraints, into p: its contacts (geom pairs) and the type
+// and state of each constraint row but the equalities' (contacts, joint and tendon limits, friction
+// loss: loaded or not, sticking or sliding; MuJoCo's efc_state, or under its PGS solver, which does
+// not set it, whether the row carries a force). A pattern that changes within a step marks an
+// event (an impact, a release, a switch between sticking and sliding) that the Newton schemes do
+// not integrate: their iterations take the constraint forces at the end (or the midpoint) of the
+// step, where such an event makes them a discontinuous function of the state. The trapezoidal rule,
+// the generalized alpha and the midpoint rule, which leave stiff modes undamped, then pumped
+// energy into soft rods in sliding or chattering contact without bound (outside probe AT: a
+// one-section rod pushed along a floor with friction went from 1.4 J to 4.9e4 J and flew 20 m up;
+// an undamped rod dropped tilted onto a frictionless floor, from 0.1 J to 20 J; a rod sliding down
+// a slope accelerated 88% faster than Coulomb's friction lets it), and backward Euler's
+// iterations split most such steps down to h/64. Such a step is taken as a linearised backward
+// Euler step instead (event_step), whose constraint forces are the start's, as in MuJoCo's own
+// step, and whose damping of the stiff modes ends the chatter. Contacts that persist without
+// changing state (rolling, resting, sliding steadily) keep the scheme's end-of-step forces and its
+// order (holding the start's forces instead had made rolling first order, and broken equality
+// constraints: outside probe AV).
+void constraint_pattern(const mjModel* m, const mjData* d, std::vector<int>& p) {
+  p.clear();
+  p.push_back(d->ncon);
+  for (int c = 0; c < d->ncon; ++c) {
+    p.push_back(d->contact[c].geom1);
+    p.push_back(d->contact[c].geom2);
+  }
+  const bool states = m->opt.solver != mjSOL_PGS;
+  for (int r = 0; r < d->nefc; ++r)
+    if (d->efc_type[r] != mjCNSTR_EQUALITY) {
+      p.push_back(d->efc_type[r]);
+      p.push_back(states ? d->efc_state[r] : d->efc_force[r] != 0.0);
+    }
+}
+
+// Whether the state's pattern differs from the step's start's (after a forward at an iterate).
+bool constraint_event(const Scene& s, SceneData& sd) {
+  SceneData::NewtonScratch& w = sd.newton;
+  if (w.pattern0.size() == 1 && sd.d->ncon == 0 && sd.d->nefc == sd.d->ne) return false;  // none before or now
+  constraint_pattern(s.m, sd.d, w.pattern);
+  return w.pattern != w.pattern0;
+}
+
+// The step of an event (constraint_pattern), from the saved start state: linearised backward Euler.
+void event_step(const Scene& s, SceneData& sd) {
+  ++sd.newton_stats.events;
+  restore_start(sd);
+  sd.newton.carry_valid = false;
+  forward(s, sd, Need::Forces);
+  implicit_step(s, sd);
+}
+
 // One step of the scheme by simplified Newton iterations: the first iterate is the linearised
 // step, each correction solves A_N delta = M r with the matrix
 //   A_N = M + c (cv1 h D + cq1 h^2 K),  c = (1 - af) / (1 - am),
@@ -2818,6 +2870,7 @@ bool newton_step(const Scene& s, SceneData& sd, const Scheme& sc, int iterations
   else
     std::copy(d->qacc, d->qacc + nv, w.f0.begin());
   if (!carried) std::copy(w.f0.begin(), w.f0.end(), w.A0.begin());
+  constraint_pattern(m, d, w.pattern0);
   // first iterate: the linearised step (backward Euler, or the trapezoidal rule whose average
   // acceleration a gives A = 2 a - f(q, v))
   implicit_step(s, sd, true, be ? 1.0 : 0.5);
@@ -2856,6 +2909,12 @@ bool newton_step(const Scene& s, SceneData& sd, const Scheme& sc, int iterations
     set_end_state(s, sd, sc);
     if (it == Iterate::Converged) converged = true;
     if (it != Iterate::Continue) break;
+  }
+  // the pattern of the last iterate's forward (the first iterates' can differ on the way)
+  if (iterations > 0 && constraint_event(s, sd)) {
+    event_step(s, sd);
+    record_end(w, d);
+    return true;
   }
   w.carry_valid = sc.carry;
   std::copy(w.A.begin(), w.A.end(), w.A0.begin());
@@ -3013,6 +3072,7 @@ bool midpoint_step(const Scene& s, SceneData& sd, int iterations) {
   double* W1 = sd.spring_w1.data();
   const double V0_all = springs ? nonlinear_springs(m, d, V0, nullptr, W0) : 0.0;
   save_start(sd, m);
+  constraint_pattern(m, d, w.pattern0);
   // first iterate: the linearised trapezoidal step, whose average acceleration (d->qacc) is A
   implicit_step(s, sd, true, 0.5);
   std::copy(d->qacc, d->qacc + nv, w.A.begin());
@@ -3091,6 +3151,10 @@ bool midpoint_step(const Scene& s, SceneData& sd, int iterations) {
     const Iterate it = apply_correction(s, sd, sc, k, stored, first);
     if (it == Iterate::Converged) converged = !clamped;
     if (it != Iterate::Continue) break;
+  }
+  if (constraint_event(s, sd)) {  // at the last midpoint state (as in newton_step)
+    event_step(s, sd);
+    return true;
   }
   set_end_state(s, sd, sc);
   w.carry_valid = false;

@@ -367,6 +367,8 @@ struct SceneData {
     // Anderson acceleration: the previous iterate and correction, and the last differences of
     // iterates and corrections (columns of nv, ring buffers of Scene::newton_memory columns)
     std::vector<mjtNum> x_prev, F_prev, dX, dF;
+    // the start state's non-smooth constraint pattern, and an iterate's (constraint_pattern)
+    std::vector<int> pattern0, pattern;
   } newton;
   // Scene::step_tol > 0: the adaptive substeps' state. The substep's start (restored when it is
   // rejected), the last accepted substep's mean acceleration and the state it ended in (the
@@ -389,6 +391,8 @@ struct SceneData {
     long splits = 0;       // steps redone as two half steps
     long unconverged = 0;  // steps of h/64 kept without convergence
     long linearised = 0;   // ... of them taken as linearised backward Euler steps (corrections that stopped)
+    long events = 0;       // steps taken as linearised backward Euler steps because a contact, limit or
+                           // friction loss changed state within them (constraint_pattern)
   } newton_stats;
   // fluid (scene_fluid.hpp): damping in qM's sparse layout (nM), its force, body columns
   std::vector<mjtNum> fluid_qD, fluid_f;
