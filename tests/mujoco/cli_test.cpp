@@ -941,7 +941,8 @@ TEST_F(Cli, EnergyGainedWhereOnlyContactsAndDampersActIsWarnedAbout) {
     <keyframe><key name="push" qvel="2 0 0 0 0 0 0 0 0 0"/></keyframe></mujoco>)";
   for (const char* in : {"implicit", "trapezoidal", "midpoint", "genalpha"}) {
     SCOPED_TRACE(in);
-    const Result r = cosserat("run '" + model.string() + "' --key push --duration 1 --json - --integrator " + in);
+    const Result r =
+        cosserat("run '" + model.string() + "' --key push --duration 1 --timestep 0.00025 --json - --integrator " + in);
     ASSERT_EQ(r.status, 0) << r.err;
     EXPECT_EQ(r.out.find("energy grew"), std::string::npos) << r.out;
     const json j = json::parse(r.out);

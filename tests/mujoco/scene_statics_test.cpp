@@ -14,9 +14,11 @@
 #include "kinematics.hpp"
 #include "linearize.hpp"
 #include "statics.hpp"
+#include "support/text_file.hpp"
 
 using namespace cosserat;
 using namespace cosserat::mj;
+using cosserat::testing::full_precision;
 
 namespace {
 
@@ -29,13 +31,6 @@ Vec3 site_pos(const Scene& s, const SceneData& sd, const char* name) {
 }
 Vec3 body_pos(const Scene& s, const SceneData& sd, const char* name) {
   return Eigen::Map<const Vec3>(sd.d->xpos + 3 * body(s, name));
-}
-// x with all its digits (std::to_string keeps 6 decimals: outside probe AU found a 1e-6 kg load
-// written as 0.000006, 5% light)
-std::string full_precision(double x) {
-  char b[32];
-  std::snprintf(b, sizeof b, "%.17g", x);
-  return b;
 }
 // The equilibrium from keyframe 0, found by Newton (in at most `iterations`).
 void newton_from_key(const Scene& s, SceneData& sd, int iterations = 1000) {
@@ -1177,7 +1172,9 @@ TEST(SceneStatics, AnUnloadedRodWeldedWhereItLiesIsAtRest) {
 // weld elsewhere in the scene (a body on a vertical hinge welded to the world: rows with R at
 // MuJoCo's floor, 1e-15) set a global threshold of 5e3 N, which hid the load of the `connect`
 // pinning a rod's tip, and the smooth solution with the connect torn open 0.47 m was reported. The
-// rod stays pinned where it starts, its tip at (0.4957, 0, 0.9988) as without the rotor.
+// rod stays pinned where it starts, its tip at (0.4971, 0, 0.9993) as without the rotor ((0.4957,
+// 0, 0.9988) until the sections' inverse weights were taken at their centres of mass: a softer
+// connect).
 TEST(SceneStatics, AStiffConstraintElsewhereHidesNoLoad) {
   auto s = load_scene_string(R"(<mujoco><option timestep="0.001" gravity="0 0 -9.81"/><worldbody>
       <cosserat name="rod" pos="0 0 1" length="0.5" sections="8" strain="kl" radius="0.002" density="1000"
@@ -1191,8 +1188,8 @@ TEST(SceneStatics, AStiffConstraintElsewhereHidesNoLoad) {
   ASSERT_TRUE(r.converged) << r.message;
   EXPECT_EQ(r.method, "dynamic relaxation");
   const Vec3 tip = rod_frame(*s, sd, 0, 0.5).u;
-  EXPECT_NEAR(tip.x(), 0.4957, 1e-3);
-  EXPECT_NEAR(tip.z(), 0.9988, 1e-3);
+  EXPECT_NEAR(tip.x(), 0.4971, 1e-4);
+  EXPECT_NEAR(tip.z(), 0.9993, 1e-4);
 }
 
 // A rod twisted whole turns between a clamp and a weld keeps its twist: the smooth solution, which
@@ -1257,11 +1254,15 @@ TEST(SceneStatics, ARodOnTwoCylindersSagsAsASimplySupportedBeam) {
 // has stopped falling, the residual is taken up by the contacts' static friction where forces in
 // their friction cones can cancel it (outside probe AI: a box over a step's edge, its centre of mass
 // over the step, and a stiff rod across two supports were reported "no equilibrium" after 30 s).
+// The rod's contacts have had a 4 times smaller regulariser since its sections' inverse weights are
+// taken at their centres of mass (it sinks 0.027 mm instead of 0.110 mm): it now settles to the
+// tolerance in 535 relaxation steps, where it stalled at 2.6e-6 for static friction to take up.
 TEST(SceneStatics, StaticFrictionHoldsWhatMuJoCosSoftFrictionLetsCreep) {
   struct Case {
     const char* xml;
     const char* body;
     double moved = 1e-3;  // how far from where it was put it may settle
+    bool friction = true;  // static friction takes up the residual (else the relaxation settles)
   };
   const Case cases[] = {
       {R"(<mujoco><option timestep="0.001" gravity="0 0 -9.81"/><worldbody><geom name="floor" type="plane" size="3 3 0.1"/>
@@ -1273,7 +1274,7 @@ TEST(SceneStatics, StaticFrictionHoldsWhatMuJoCosSoftFrictionLetsCreep) {
           <body name="rod_b" pos="0 0 0.105"><freejoint/><inertial pos="0 0 0" mass="0.001" diaginertia="1e-7 1e-7 1e-7"/>
             <cosserat name="rod" length="0.5" sections="4" strain="kl" radius="0.005" density="1000" young="1e9"
                       poisson="0.5"/></body></worldbody></mujoco>)",
-       "rod_b"},
+       "rod_b", 1e-3, false},
       // a box on a 20 degree slope with friction 1: it creeps at 1.7 mm/s with a residual of 1e-2,
       // which friction was not asked to take up until the thirty-fourth session (outside probe AR;
       // put 2 mm into the slope, it is pushed out, and creeps for the second the stall takes)
@@ -1289,7 +1290,7 @@ TEST(SceneStatics, StaticFrictionHoldsWhatMuJoCosSoftFrictionLetsCreep) {
     const Vec3 start = Eigen::Map<const Vec3>(s->m->body_pos + 3 * body(*s, c.body));
     const SceneStaticsResult r = equilibrium(*s, sd);
     ASSERT_TRUE(r.converged) << r.message;
-    EXPECT_NE(r.message.find("taken up by the contacts' static friction"), std::string::npos) << r.message;
+    EXPECT_EQ(r.message.find("taken up by the contacts' static friction") != std::string::npos, c.friction) << r.message;
     EXPECT_LT((body_pos(*s, sd, c.body) - start).norm(), c.moved);  // where it was put, on its supports
   }
 }

@@ -2,6 +2,7 @@
 // and text replacement for model variants.
 #pragma once
 
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -20,6 +21,14 @@ inline std::string read_text(const std::filesystem::path& path) {
 inline std::string replace_all(std::string s, const std::string& a, const std::string& b) {
   for (size_t p = s.find(a); p != std::string::npos; p = s.find(a, p + b.size())) s.replace(p, a.size(), b);
   return s;
+}
+
+// x with all its digits, for numbers written into a model's text (std::to_string keeps 6
+// decimals: outside probe AU found a 1e-6 kg load written as 0.000006, 5% light)
+inline std::string full_precision(double x) {
+  char b[32];
+  std::snprintf(b, sizeof b, "%.17g", x);
+  return b;
 }
 
 }  // namespace cosserat::testing
