@@ -1653,6 +1653,15 @@ void fwd_velocity(const Scene& s, SceneData& sd) {
 void forward(const Scene& s, SceneData& sd, Need need) {
   const mjModel* m = s.m;
   mjData* d = sd.d;
+  // the constraint model of the step a substep belongs to (SceneData::constraint_timestep)
+  struct StepOfTheConstraints {
+    mjModel* m;
+    double h;
+    StepOfTheConstraints(mjModel* model, double c) : m(model), h(model->opt.timestep) {
+      if (c > 0) m->opt.timestep = c;
+    }
+    ~StepOfTheConstraints() { m->opt.timestep = h; }
+  } constraint_step(s.m, sd.constraint_timestep);
   const bool sensors = !sd.step_sensors_done;  // (SceneData::step_sensors_done)
   fwd_position(s, sd, need);
   if (sensors) {
@@ -2818,8 +2827,16 @@ Iterate apply_correction(const Scene& s, SceneData& sd, const Scheme& sc, int k,
 // Euler step instead (event_step), whose constraint forces are the start's, as in MuJoCo's own
 // step, and whose damping of the stiff modes ends the chatter. Contacts that persist without
 // changing state (rolling, resting, sliding steadily) keep the scheme's end-of-step forces and its
-// order (holding the start's forces instead had made rolling first order, and broken equality
-// constraints: outside probe AV).
+// order (holding the start's forces in every step instead had made rolling first order, and broken
+// equality constraints: outside probe AV). At an impact the event step is first order as
+// `implicit` is: a contact arising within the step gets no force until the next one, and the
+// energy the contact then gives back can exceed what it took (outside probe AW: a soft rod dropped
+// across a clamped one, docs/bench/repro/rod_cross_impact.xml, gains 20% at 2 ms, 6% at 1 ms, where
+// `implicit` gains 22% at 1 ms). Splitting a step with an event into pieces of h/8, backward Euler
+// only on the piece with the event, removed that gain (1.000), but on a rod sliding with friction
+// at 0.25 ms the pieces grew too short to damp the chatter, and it pumped again; h/2 halved the
+// impact's gain; neither was kept. Nor was backward Euler with one Newton correction (it blew up at
+// the impact).
 void constraint_pattern(const mjModel* m, const mjData* d, std::vector<int>& p) {
   p.clear();
   p.push_back(d->ncon);
@@ -3208,10 +3225,25 @@ bool single_step(const Scene& s, SceneData& sd, Integrator method) {
 // at the step's start state, or in the finest half steps, is passed on.
 bool state_finite(const mjModel* m, const mjData* d);
 
+// The substeps of a step (split or adaptive) evaluate the constraints as the whole step does
+// (SceneData::constraint_timestep): its step h from the outermost scope on, restored at its end.
+// (Outside probe AW's heavy tip on a hard floor, solref 0.002 at 5 ms: its substeps had seen
+// contacts 25 times stiffer than its whole steps, MuJoCo's refsafe raising the time constant to
+// 2h; split, it hovered 5 um deep with an event in most steps, where whole steps rest 109 um deep.)
+struct KeepConstraintStep {
+  SceneData& sd;
+  double c;
+  KeepConstraintStep(SceneData& x, double h) : sd(x), c(x.constraint_timestep) {
+    if (!(c > 0)) sd.constraint_timestep = h;
+  }
+  ~KeepConstraintStep() { sd.constraint_timestep = c; }
+};
+
 void newton_step_split(const Scene& s, SceneData& sd, Integrator method, int depth = 0) {
   constexpr int kMaxSplit = 6;
   sd.newton.saved = false;
   sd.newton.stopped = false;
+  const KeepConstraintStep keep_constraints(sd, s.m->opt.timestep);
   bool converged = false;
   try {
     converged = single_step(s, sd, method);
@@ -3268,6 +3300,7 @@ void adaptive_step(const Scene& s, SceneData& sd, Integrator method) {
   // ended 1.2 cm away from the first)
   bool history = a.valid && starts_at_end(a, d);
   int level = history ? std::clamp(a.level, 0, kMaxLevel) : 0;
+  const KeepConstraintStep keep_constraints(sd, H);
   int done = 0;  // units of H / kUnits
   ++sd.adapt_stats.steps;
   while (done < kUnits) {

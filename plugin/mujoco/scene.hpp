@@ -386,6 +386,11 @@ struct SceneData {
     long kept_at_min = 0; // substeps of h / 2^kMaxSubstepLevel kept above the tolerance or unconverged
     int finest = 0;       // the largest level k used
   } adapt_stats;
+  // The step whose MuJoCo constraint model the split and adaptive substeps of a step keep (forward
+  // evaluates the constraint rows with m->opt.timestep set to it): MuJoCo's refsafe raises every
+  // solref time constant to at least twice the step, so that a substep would otherwise see harder
+  // contacts, limits and equalities than the step it is part of. 0: m->opt.timestep.
+  double constraint_timestep = 0.0;
   struct NewtonStats {  // totals since construction (Scene::newton_iterations > 0)
     long iterations = 0;   // corrections (each one forward evaluation)
     long splits = 0;       // steps redone as two half steps
