@@ -288,6 +288,16 @@ TEST(MjcfErrors, ImplausibleValuesAreWarnedAbout) {
       {in_world(rod + R"( density="0.001"/>)"), "inline.xml:3: <cosserat>: density 0.001 kg/m^3 is outside the densities of real solids"},
       {in_world(rod + ">\n<section/>\n<section density=\"1e6\"/>\n</cosserat>"),
        "inline.xml:5: <section>: density 1e+06 kg/m^3 is outside the densities of real solids"},
+      // one soft PCS section touching at its two ends only, which its 2 Gauss points of mass let
+      // move without moving any mass (outside probe AX: lying on a floor it sank through it)
+      {in_world(rod + R"( sections="1" capsules="1"/>)"),
+       "inline.xml:3: <cosserat>: one section with capsules=\"1\" touches only at the section's two ends"},
+      {in_world(rod + R"( sections="1" capsules="2"/>)"), ""},
+      {in_world(rod + R"( sections="2" capsules="1"/>)"), ""},
+      {in_world(rod + R"( sections="1" capsules="1" quadrature="3"/>)"), ""},
+      {in_world(rod + R"( sections="1" capsules="1" quadrature="lobatto"/>)"), ""},
+      {in_world(rod + R"( sections="1" capsules="1" strain="rigid"/>)"), ""},
+      {in_world(rod + R"( sections="1" capsules="1" contype="0" conaffinity="0"/>)"), ""},
   };
   for (const auto& c : cases) {
     SCOPED_TRACE(c.xml);
