@@ -719,8 +719,11 @@ int cmd_run(int argc, char** argv) {
                 energy.max_rel_drift(), exchanged.c_str());
     if (s.scene().newton_for(s.integrator()) > 0) {
       const auto& ns = s.data().newton_stats;
-      std::printf("newton: %.2f corrections per step, %ld steps split, %ld unconverged\n",
-                  k > 0 ? double(ns.iterations) / double(k) : 0.0, ns.splits, ns.unconverged);
+      std::printf("newton: %.2f corrections per step, %ld steps split, %ld unconverged", k > 0 ? double(ns.iterations) / double(k) : 0.0,
+                  ns.splits, ns.unconverged);
+      // steps where a contact, limit or friction loss changed state (README, Known limitations)
+      if (ns.events > 0) std::printf(", %ld contact events taken as backward Euler steps", ns.events);
+      std::printf("\n");
     }
     if (adaptive)
       std::printf("adaptive: %.2f substeps per step (finest h/%d), %ld rejected, %ld kept at h/%d above the tolerance\n",
