@@ -1447,6 +1447,7 @@ SceneData::SceneData(const Scene& s) {
     const size_t rows = static_cast<size_t>(s.m->njmax);
     frozen_D.reserve(rows);
     frozen_c.reserve(rows);
+    frozen_kI.reserve(rows);
     frozen_begin.reserve(rows + 1);
     frozen_val.reserve(rows * std::min(nv, 64));
     frozen_dof.reserve(rows * std::min(nv, 64));
@@ -2288,7 +2289,8 @@ bool add_outer_in_tree(const mjModel* m, mjtNum* A, const mjtNum* u, double c, s
 // cone's) stay out. Without these terms a wire of short sections lying on a floor split every step
 // (outside probe AA: 300 corrections and 15 splits per 1 ms step under trapezoidal, midpoint and
 // genalpha; now 27 and 1).
-void add_constraint_terms(const mjModel* m, const char* strain, SceneData& sd, mjtNum* A, double hD, double hK) {
+void add_constraint_terms(const mjModel* m, const char* strain, SceneData& sd, mjtNum* A, double hD, double hK,
+                          bool equalities_only = false) {
   const mjData* d = sd.d;
   const int nv = m->nv;
   const bool sparse = mj_isSparse(m);
@@ -2296,11 +2298,13 @@ void add_constraint_terms(const mjModel* m, const char* strain, SceneData& sd, m
   mjtNum* row = sd.frozen_row.data();
   sd.frozen_D.clear();
   sd.frozen_c.clear();
+  sd.frozen_kI.clear();
   sd.frozen_val.clear();
   sd.frozen_dof.clear();
   sd.frozen_begin.assign(1, 0);
   for (int i = 0; i < d->nefc; ++i) {
     if (d->efc_state[i] != mjCNSTRSTATE_QUADRATIC || !(d->efc_D[i] > 0)) continue;
+    if (equalities_only && d->efc_type[i] != mjCNSTR_EQUALITY) continue;
     const mjtNum* u = sparse ? row : d->efc_J + static_cast<size_t>(i) * nv;
     int last = -1, count = 0;
     if (sparse) {
@@ -2322,6 +2326,7 @@ void add_constraint_terms(const mjModel* m, const char* strain, SceneData& sd, m
       const mjtNum* kbip = d->efc_KBIP + 4 * i;
       sd.frozen_D.push_back(d->efc_D[i]);
       sd.frozen_c.push_back(d->efc_D[i] * (1.0 + hD * kbip[1] + hK * kbip[0] * kbip[2]));
+      sd.frozen_kI.push_back(d->efc_D[i] * kbip[0] * kbip[2]);
       for (int a = 0; a < n; ++a) {
         sd.frozen_dof.push_back(nz[a]);
         sd.frozen_val.push_back(u[nz[a]]);
@@ -2422,7 +2427,8 @@ void factor_woodbury(const mjModel* m, SceneData& sd) {
 // and D live inside each section's dof chain, D_f in the kinematic tree's pattern), after
 // forward: assembled in sd.A_LD from qM and factorised there as MuJoCo factorises qM
 // (factor_ldl), with 1/diag(D) in sd.A_LDiagInv; mjData is not touched.
-void factor_implicit(const Scene& s, SceneData& sd, bool rods, double cD, double cK, bool constraints = false) {
+void factor_implicit(const Scene& s, SceneData& sd, bool rods, double cD, double cK, bool constraints = false,
+                     bool equalities = false) {
   const mjModel* m = s.m;
   mjData* d = sd.d;
   const double h = m->opt.timestep, hD = cD * h, hK = cK * h * h;
@@ -2479,7 +2485,7 @@ void factor_implicit(const Scene& s, SceneData& sd, bool rods, double cD, double
         }
   add_fluid_damping(s, sd, hD, A);  // fluid hook: + cD h D_f (no-op without the fluid)
   sd.frozen_D.clear();
-  if (constraints) add_constraint_terms(m, s.dof_strain.data(), sd, A, hD, hK);
+  if (constraints || equalities) add_constraint_terms(m, s.dof_strain.data(), sd, A, hD, hK, !constraints);
   factor_ldl(m, d, A, A, sd.A_LDiagInv.data(), s.dof_strain.data());  // (factor_mass: the rods keep their pivots)
   factor_woodbury(m, sd);
 }
@@ -2624,8 +2630,22 @@ void implicit_step(const Scene& s, SceneData& sd, bool rods = true, double theta
     mju_copy(sd.qacc_tmp.data(), d->qfrc_smooth, nv);
   else
     mj_mulM(m, d, sd.qacc_tmp.data(), d->qacc);
-  factor_implicit(s, sd, rods, theta, theta * theta);
+  const bool equalities = rods && d->ne > 0 && !smooth_only(sd);
+  factor_implicit(s, sd, rods, theta, theta * theta, false, equalities);
   if (rods) subtract_stiffness(s, sd, th, d->qvel, sd.qacc_tmp.data());
+  // the equality rows on rods, implicit as the Newton schemes' matrix takes them: their force at the
+  // step's end, linearised, -D (J a + B J v+ + K I r+), less the start's, leaves
+  // D J'(J a0) - theta h D K I J'(J v) on the right-hand side
+  mjtNum* rhs = sd.qacc_tmp.data();
+  for (size_t r = 0; equalities && r < sd.frozen_D.size(); ++r) {
+    double ja = 0.0, jv = 0.0;
+    for (int k = sd.frozen_begin[r]; k < sd.frozen_begin[r + 1]; ++k) {
+      ja += sd.frozen_val[k] * d->qacc[sd.frozen_dof[k]];
+      jv += sd.frozen_val[k] * d->qvel[sd.frozen_dof[k]];
+    }
+    const double c = sd.frozen_D[r] * ja - th * sd.frozen_kI[r] * jv;
+    for (int k = sd.frozen_begin[r]; k < sd.frozen_begin[r + 1]; ++k) rhs[sd.frozen_dof[k]] += sd.frozen_val[k] * c;
+  }
   solve_implicit(s, sd, d->qacc, sd.qacc_tmp.data());
   const int na = m->na;
   if (rods && na) {  // the start's activations, for filter_activations (RK4's scratch is free here)

@@ -349,6 +349,7 @@ struct SceneData {
   // and the entries frozen_val at dofs frozen_dof, from frozen_begin[r] to frozen_begin[r + 1]
   // (deepest dof first). frozen_row: scratch (nv).
   std::vector<mjtNum> frozen_D, frozen_c, frozen_val, frozen_row;
+  std::vector<mjtNum> frozen_kI;  // D K I of each row (the linearised step's right-hand side)
   std::vector<int> frozen_begin, frozen_dof;
   // The tendon Jacobian in rows of nv (ntendon x nv) of a scene with rods where MuJoCo keeps ten_J
   // compressed (sparse Jacobians: jacobian="sparse", or "auto" from nv = 60 on), as patch_tendons leaves it: the
