@@ -2347,15 +2347,20 @@ void add_constraint_terms(const mjModel* m, const char* strain, SceneData& sd, m
   }
 }
 
-// y += sum D J'(J x) over the rows add_constraint_terms froze with the matrix.
-void add_constraint_mass(const SceneData& sd, const mjtNum* x, mjtNum* y) {
+// y += scale sum coef[r] J_r'(J_r x) over the rows add_constraint_terms froze with the matrix
+// (coef: one of its per-row arrays, frozen_D or frozen_kI).
+void add_frozen_rows(const SceneData& sd, const std::vector<mjtNum>& coef, const mjtNum* x, mjtNum* y,
+                     double scale = 1.0) {
   for (size_t r = 0; r < sd.frozen_D.size(); ++r) {
     double jx = 0.0;
     for (int k = sd.frozen_begin[r]; k < sd.frozen_begin[r + 1]; ++k) jx += sd.frozen_val[k] * x[sd.frozen_dof[k]];
-    jx *= sd.frozen_D[r];
+    jx *= scale * coef[r];
     for (int k = sd.frozen_begin[r]; k < sd.frozen_begin[r + 1]; ++k) y[sd.frozen_dof[k]] += sd.frozen_val[k] * jx;
   }
 }
+
+// y += sum D J'(J x) over the rows add_constraint_terms froze with the matrix.
+void add_constraint_mass(const SceneData& sd, const mjtNum* x, mjtNum* y) { add_frozen_rows(sd, sd.frozen_D, x, y); }
 
 // A += (hD d + hK k) u u' for a row u of size nv (a tendon's Jacobian, an actuator's moment) with
 // damping d >= 0 and stiffness k >= 0: in qM's tree pattern where u's dofs lie on one branch, else
@@ -2636,15 +2641,9 @@ void implicit_step(const Scene& s, SceneData& sd, bool rods = true, double theta
   // the equality rows on rods, implicit as the Newton schemes' matrix takes them: their force at the
   // step's end, linearised, -D (J a + B J v+ + K I r+), less the start's, leaves
   // D J'(J a0) - theta h D K I J'(J v) on the right-hand side
-  mjtNum* rhs = sd.qacc_tmp.data();
-  for (size_t r = 0; equalities && r < sd.frozen_D.size(); ++r) {
-    double ja = 0.0, jv = 0.0;
-    for (int k = sd.frozen_begin[r]; k < sd.frozen_begin[r + 1]; ++k) {
-      ja += sd.frozen_val[k] * d->qacc[sd.frozen_dof[k]];
-      jv += sd.frozen_val[k] * d->qvel[sd.frozen_dof[k]];
-    }
-    const double c = sd.frozen_D[r] * ja - th * sd.frozen_kI[r] * jv;
-    for (int k = sd.frozen_begin[r]; k < sd.frozen_begin[r + 1]; ++k) rhs[sd.frozen_dof[k]] += sd.frozen_val[k] * c;
+  if (equalities) {
+    add_constraint_mass(sd, d->qacc, sd.qacc_tmp.data());
+    add_frozen_rows(sd, sd.frozen_kI, d->qvel, sd.qacc_tmp.data(), -th);
   }
   solve_implicit(s, sd, d->qacc, sd.qacc_tmp.data());
   const int na = m->na;
@@ -2922,7 +2921,7 @@ bool newton_step(const Scene& s, SceneData& sd, const Scheme& sc, int iterations
   // adaptive substeps control what the refreshed matrix's full steps would risk (Scene::step_tol)
   const bool refresh = s.newton_refresh || s.step_tol > 0;
   // the start state's constraint rows (d->efc_*: the first iterate ran no forward) enter the
-  // iteration matrix (add_constraint_terms), which the linearised step's must not hold
+  // iteration matrix (add_constraint_terms), of which the linearised step's holds the equalities only
   const bool constrained = !smooth_only(sd) && d->nefc > 0;
   if (!refresh && (constrained || (!be && (c * sc.cv1 != 0.5 || c * sc.cq1 != 0.25))))
     factor_implicit(s, sd, true, c * sc.cv1, c * sc.cq1, true);  // the start state's, the scheme's coefficients
