@@ -1249,6 +1249,40 @@ TEST(SceneStatics, ARodOnTwoCylindersSagsAsASimplySupportedBeam) {
   }
 }
 
+// A rigid rod lying across two cylinders is at rest, its rolling about its contacts neutral. MuJoCo
+// 2.2's MPR places a capsule's contact on a cylinder 3e-8 m along the cylinder's axis from where it
+// puts it at the symmetric configuration, and tilts its normal by 1.4e-6 rad, as soon as the capsule
+// is moved sideways at all: the held contacts' stiffness by differences of 1e-6 read the rolling
+// at omega^2 = -1.8 1/s^2 (on capsules, 1e-9), and equilibrium left the rod along that mode and
+// found no rest in 30 s (outside probe AX's ssc_rigid16). The held loads' stiffness now carries a
+// noise bound from differences of ten times the step, which such jumps exceed and smooth rows do not.
+TEST(SceneStatics, ARigidRodAcrossTwoCylindersRestsAndRollsNeutrally) {
+  for (const char* support : {"cylinder", "capsule"}) {
+    SCOPED_TRACE(support);
+    auto s = load_scene_string(std::string(R"(<mujoco><option timestep="0.0005"/><size nconmax="200" njmax="1200"/><worldbody>
+      <geom type=")") + support + R"(" size="0.01 0.05" pos="0.02 0 -0.02" euler="90 0 0" friction="1 0.005 0.0001"/>
+      <geom type=")" + support + R"(" size="0.01 0.05" pos="0.98 0 -0.02" euler="90 0 0" friction="1 0.005 0.0001"/>
+      <body name="hub"><freejoint/><inertial pos="0 0 0" mass="1e-4" diaginertia="1e-9 1e-9 1e-9"/>
+        <cosserat name="rod" length="1" sections="16" strain="rigid" radius="0.01" density="1000" young="1e9"
+                  poisson="0.3" friction="1 0.005 0.0001"/></body>
+      </worldbody></mujoco>)",
+                               kPath);
+    SceneData sd(*s);
+    const SceneStaticsResult r = equilibrium(*s, sd);
+    ASSERT_TRUE(r.converged) << r.message;
+    EXPECT_EQ(r.message.find("unstable"), std::string::npos) << r.message;
+    const Vec3 hub = body_pos(*s, sd, "hub");
+    EXPECT_LT(std::abs(hub.x()) + std::abs(hub.y()), 1e-6);  // where it was put
+    EXPECT_LT(hub.z(), 0.0);                                 // on its contacts' depth
+    EXPECT_GT(hub.z(), -1e-3);
+    SceneLinearizeOptions pins;
+    pins.rigid_contacts = true;
+    const SceneLinearization held = linearize(*s, sd, pins);
+    ASSERT_EQ(held.M.rows(), 1);  // the two contacts held as pins leave the rolling about them
+    EXPECT_EQ(held.unstable_modes, 0) << "omega^2 = " << held.omega2(0);
+  }
+}
+
 // MuJoCo's soft friction cannot hold a tangential load at zero velocity: the contact creeps
 // (um/s), and where friction carries load the relaxation's residual stalls near 1e-5 to 1e-4. Once it
 // has stopped falling, the residual is taken up by the contacts' static friction where forces in
