@@ -1283,6 +1283,36 @@ TEST(SceneStatics, ARigidRodAcrossTwoCylindersRestsAndRollsNeutrally) {
   }
 }
 
+// A plank on a log, rigid rod across one horizontal capsule or cylinder of radius R, the contact
+// in the middle of one of its capsules and held as a pin: its seesaw about the contact is the rolling
+// of a body whose centre of mass lies h = r above the contact, omega^2 = m g (R - h) / I_contact with
+// I_contact = m (L^2 / 12 + h^2) (the held contact's load moving with the rolling, Kc, against the
+// pendulum inverted about the pin), to 0.3% on the capsule (MuJoCo's analytic collider) and 0.8% on
+// the cylinder (MPR, with the held loads' noise bound): the bound does not hide a real stiffness.
+TEST(SceneStatics, APlankOnALogRocksAtItsRollingFrequencyWithContactsAsPins) {
+  for (const char* log : {"capsule", "cylinder"}) {
+    SCOPED_TRACE(log);
+    const double R = 0.1, h = 0.01, L = 1.0;
+    auto s = load_scene_string(std::string(R"(<mujoco><option timestep="0.0005"/><size nconmax="200" njmax="1200"/><worldbody>
+      <geom type=")") + log + R"(" size="0.1 0.05" pos="0.5 0 -0.11" euler="90 0 0" friction="1 0.005 0.0001"/>
+      <body name="hub"><freejoint/><inertial pos="0 0 0" mass="1e-4" diaginertia="1e-9 1e-9 1e-9"/>
+        <cosserat name="rod" length="1" sections="15" capsules="1" strain="rigid" radius="0.01" density="1000"
+                  young="1e9" poisson="0.3" friction="1 0.005 0.0001"/></body>
+      </worldbody></mujoco>)",
+                               kPath);
+    SceneData sd(*s);
+    const SceneStaticsResult r = equilibrium(*s, sd);
+    ASSERT_TRUE(r.converged) << r.message;
+    SceneLinearizeOptions pins;
+    pins.rigid_contacts = true;
+    const SceneLinearization held = linearize(*s, sd, pins);
+    ASSERT_EQ(held.M.rows(), 3);  // one contact: the rod turns about it
+    EXPECT_EQ(held.unstable_modes, 0);
+    const double omega2 = 9.81 * (R - h) / (L * L / 12 + h * h);  // (the hub's 1e-4 kg left out)
+    EXPECT_NEAR(held.omega2.maxCoeff() / omega2, 1.0, 1e-2);
+  }
+}
+
 // MuJoCo's soft friction cannot hold a tangential load at zero velocity: the contact creeps
 // (um/s), and where friction carries load the relaxation's residual stalls near 1e-5 to 1e-4. Once it
 // has stopped falling, the residual is taken up by the contacts' static friction where forces in
