@@ -1651,6 +1651,16 @@ void fwd_velocity(const Scene& s, SceneData& sd) {
   fluid_forces(s, sd);  // fluid hook: qfrc_passive -= D qvel; no-op without the fluid
 }
 
+// The smallest axial stretch of the current step's forward evaluations (SceneData::step_compression).
+void track_compression(const Scene& s, SceneData& sd) {
+  for (size_t r = 0; r < s.rods.size(); ++r) {
+    if (!s.rods[r].extensible) continue;
+    int section = -1;
+    const double stretch = cosserat::min_axial_stretch(s.rods[r].model, sd.rod[r], &section);
+    if (stretch < sd.step_compression.stretch) sd.step_compression = {stretch, 0.0, static_cast<int>(r), section, true};
+  }
+}
+
 void forward(const Scene& s, SceneData& sd, Need need) {
   const mjModel* m = s.m;
   mjData* d = sd.d;
@@ -1665,6 +1675,7 @@ void forward(const Scene& s, SceneData& sd, Need need) {
   } constraint_step(s.m, sd.constraint_timestep);
   const bool sensors = !sd.step_sensors_done;  // (SceneData::step_sensors_done)
   fwd_position(s, sd, need);
+  if (sd.in_step) track_compression(s, sd);
   if (sensors) {
     mj_sensorPos(m, d);
     patch_sensors(s, sd, mjSTAGE_POS);
@@ -2140,12 +2151,19 @@ std::unique_ptr<Scene> load_scene_string(const std::string& xml, const std::stri
 std::string collapse_warning(const Scene& s, const SceneData& sd) {
   const SceneData::Compression& c = sd.compression;
   if (!(c.stretch <= kCollapsedStretch)) return {};
-  char b[512];
-  std::snprintf(b, sizeof b,
-                "section %d of rod '%s' was compressed to %.3g of its length (t = %.6g s): the linear constitutive "
-                "law does not resist a section's collapse, and the motion from there on is not physical (a stiffer "
-                "or damped rod, or a smaller load)",
-                c.section, s.rods[c.rod].decl.name.c_str(), c.stretch, c.time);
+  char b[640];
+  if (c.diverged_step)
+    std::snprintf(b, sizeof b,
+                  "section %d of rod '%s' was compressed to %.3g of its length within the step from t = %.6g s that "
+                  "diverged: the linear constitutive law does not resist a section's collapse (if smaller steps "
+                  "crush it too, the load is more than the rod bears: a stiffer or damped rod, or a smaller load)",
+                  c.section, s.rods[c.rod].decl.name.c_str(), c.stretch, c.time);
+  else
+    std::snprintf(b, sizeof b,
+                  "section %d of rod '%s' was compressed to %.3g of its length (t = %.6g s): the linear constitutive "
+                  "law does not resist a section's collapse, and the motion from there on is not physical (a stiffer "
+                  "or damped rod, or a smaller load)",
+                  c.section, s.rods[c.rod].decl.name.c_str(), c.stretch, c.time);
   return b;
 }
 
@@ -2157,7 +2175,7 @@ std::string divergence_hint(const Scene& s, const SceneData& sd, Integrator in, 
   // an explicit step that is too large crushes sections on its way to blowing up: the step is the
   // cause there (outside probe Y: rk4 on a stiff rod at 0.2 ms was told to stiffen the rod)
   const bool explicit_step = in == Integrator::Euler || in == Integrator::RK4 || in == Integrator::Rosenbrock;
-  if (!collapse.empty() && !explicit_step) return "after a rod section collapsed: " + collapse;
+  if (!collapse.empty() && !explicit_step && !sd.compression.diverged_step) return "after a rod section collapsed: " + collapse;
   std::string hint;
   if (in == Integrator::Euler || in == Integrator::RK4)
     hint = "try " + smaller_step + ", or " + implicit +
@@ -2175,8 +2193,10 @@ std::string divergence_hint(const Scene& s, const SceneData& sd, Integrator in, 
            " (gravity, Coriolis and geometric stiffness are explicit in the linearised step) or " + smaller_step;
   else
     hint = "try " + smaller_step + ", or more " + (cli ? "--newton corrections" : "Newton corrections (Scene::newton_iterations)");
-  if (!collapse.empty())
+  if (!collapse.empty() && explicit_step)
     hint += "; a rod section also collapsed on the way, as under any unstable explicit step: " + collapse;
+  else if (!collapse.empty())
+    hint += "; a rod section also collapsed on the way: " + collapse;
   // MuJoCo 2.2.2's sparse Newton solver stops at a pivot below 1e-15 (the loader moves scenes whose
   // rods' inertias lie there at qpos0 to dense Jacobians, with a warning; a blowing-up state gets
   // there too)
@@ -3526,6 +3546,7 @@ Status step(const Scene& s, SceneData& sd, Integrator method) {
     ~InStep() { sd.in_step = false, sd.step_sensors_done = false; }
   } in_step(sd);
   save_state(sd.step_start, m, d);
+  sd.step_compression = {};
   const double t = d->time;
   // a step from an earlier time than the last step's end starts a new run (MuJoCo's mj_resetData
   // or a state set back between steps): the records of the last one (compression, divergence) are
@@ -3554,6 +3575,10 @@ Status step(const Scene& s, SceneData& sd, Integrator method) {
   }
   if (!state_finite(m, d)) {
     restore_state(sd.step_start, d);
+    if (sd.step_compression.stretch <= kCollapsedStretch && !(sd.compression.stretch <= kCollapsedStretch)) {
+      sd.compression = sd.step_compression;
+      sd.compression.time = t;
+    }
     sd.status = Status::Diverged;
     sd.warning = "the state became non-finite at t = " + std::to_string(t) + " s";
     return sd.status;

@@ -274,11 +274,17 @@ struct SceneData {
   // forward evaluation), with the step's start time, the rod and its section (local index); kept
   // from the first inversion (stretch <= 0) on. A section compressed towards zero length is outside what the
   // linear constitutive law describes.
+  // A step that diverges leaves no state to measure: the smallest stretch of its forward evaluations
+  // (stages, iterates, substeps) is recorded then, with `diverged_step` set, where it is a collapse
+  // and none was recorded before (a section crushed by a load no step resists and one crushed by
+  // an iteration diverging look the same there: collapse_warning and divergence_hint say both).
   struct Compression {
     double stretch = std::numeric_limits<double>::infinity();
     double time = 0.0;
     int rod = -1, section = -1;
+    bool diverged_step = false;
   } compression;
+  Compression step_compression;  // the current step's forward evaluations so far (inside step())
   // the last forward skipped M's factorisation and the accelerations (Need::Forces without
   // constraints, Need::StaticForces): d->qfrc_smooth holds the forces, d->qacc, d->qacc_smooth
   // and d->qLD are stale (and after Need::StaticForces d->qM too)
