@@ -245,8 +245,8 @@ struct SimOptions {
         "implicit, trapezoidal, genalpha, midpoint: adaptive substeps. Each step is taken as substeps of h/2^k "
         "(k <= 10, carried from step to step), halved where the mean acceleration changed from the previous "
         "substep's by more than TOL of the velocity scale (h_s |abar - abar_prev| <= TOL (|v| + h_s |abar|) in "
-        "the kinetic-energy norm) or the Newton iteration failed, doubled where the change fell below TOL/8 "
-        "(default: the model's <custom><numeric name=\"cosserat:step_tol\">, else off: fixed steps; 1e-2 keeps the energy of a whipping heavy-tipped rod to 0.1%, 1e-3 is "
+        "the kinetic-energy norm) or the Newton iteration failed, doubled where the change fell below TOL/8; a "
+        "substep of at most h/2 taken as a contact event's step is kept unchecked (default: the model's <custom><numeric name=\"cosserat:step_tol\">, else off: fixed steps; 1e-2 keeps the energy of a whipping heavy-tipped rod to 0.1%, 1e-3 is "
         "about 10 times more accurate)",
         step_tol));
     newton.add_rho_to(c);
