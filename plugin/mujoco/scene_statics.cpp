@@ -4,6 +4,7 @@
 #include "scene_statics.hpp"
 
 #include <algorithm>
+#include <optional>
 #include <cfloat>
 #include <cmath>
 #include <cstdio>
@@ -378,15 +379,21 @@ class StaticProblem {
   // geometric stiffness). The rows' own soft response (solref, solimp) is left out: with the rows
   // held rigid, motions along J are none. Throws std::runtime_error when a held row is gone
   // at a perturbed configuration (a contact at the edge of its margin).
-  // With `noise`: an entrywise bound of Kc's error, twice its change from differences of ten times
-  // the step. MuJoCo 2.2's general convex collider (MPR: pairs with a cylinder, box, ellipsoid or
-  // mesh but the analytic ones) places a contact with jumps where the configuration is symmetric (a
-  // capsule crossing a cylinder: 3e-8 m along the cylinder and 1.4e-6 rad in the normal between 0
-  // and any offset), which the differences divide by their step: outside probe AX's rigid rod lying
-  // across two cylinders read its rolling, neutral, at omega^2 = -1.8 1/s^2 (0 on capsules), and
-  // equilibrium left it along that "unstable" mode and never settled. Such an error shrinks tenfold
-  // at the larger step; where the geometry is smooth both agree to their truncation.
+  // Each column is also differenced at ten times the step, and Kc is the extrapolation that removes
+  // an error inversely proportional to the step, (10 Kc(10h) - Kc(h)) / 9, with `noise` (optional)
+  // an entrywise bound of what is left of it, a tenth of |Kc(h) - Kc(10h)|. MuJoCo 2.2's general
+  // convex collider (MPR: pairs with a cylinder, box, ellipsoid or mesh but the analytic ones)
+  // places a contact with a jump at a symmetric configuration (a capsule crossing a cylinder: 3e-8 m
+  // along the cylinder and 1.4e-6 rad in the normal between 0 and any offset), an error of J / h in
+  // the differences: outside probe AX's rigid rod lying across two cylinders read its rolling,
+  // neutral, at omega^2 = -1.8 1/s^2 (0 on capsules), and equilibrium left it along that mode and
+  // never settled. (A bound of twice |Kc(h) - Kc(10h)| alone, this session's first version, hid
+  // real instabilities of the same symmetric configurations, outside probe AY: a capsule standing on
+  // a cylinder's flat top at omega^2 = -14, an ellipsoid on its tip on a box at -39; and it left the
+  // state moved by 10h where a lightly loaded contact opened at that step.) Where a held row is gone
+  // at 10h the column keeps Kc(h).
   void held_loads(Held held, MatrixXd& J, MatrixXd& Kc, MatrixXd* noise = nullptr) {
+    constexpr double kCheckStep = 10.0, kJumpVariation = 0.1;
     const int n = m_->nv;
     VectorXd F(n);
     mju_zero(d_->qvel, n);
@@ -401,28 +408,35 @@ class StaticProblem {
     if (rows.empty()) return;
     VectorXd e = VectorXd::Zero(n);
     const std::vector<mjtNum> q0 = qpos();
-    auto load_at = [&](double h) {
+    // J(q)' f at q0 + h e, or nothing where a held row is gone there
+    auto load_at = [&](double h) -> std::optional<VectorXd> {
       move(q0, e, h);
       fwd_position(s_, sd_, Need::Acceleration);
       const std::vector<RowKey> now = row_keys(d_);
       std::vector<int> found;
       for (const RowKey& k : keys) {
         const auto it = std::find(now.begin(), now.end(), k);
-        if (it == now.end()) throw std::runtime_error("a constraint row held rigid is gone under a perturbation");
+        if (it == now.end()) return std::nullopt;
         found.push_back(static_cast<int>(it - now.begin()));
       }
       return VectorXd(constraint_jacobian(m_, d_, found).transpose() * f);
     };
     if (noise) noise->setZero(n, n);
-    constexpr double kCheckStep = 10.0, kNoiseMargin = 2.0;
     for (int j = 0; j < n; ++j) {
       const double h = step_size(q0, j);
       e(j) = 1.0;
-      const VectorXd fp = load_at(h), fm = load_at(-h);
-      Kc.col(j) = -(fp - fm) / (2.0 * h);
-      if (noise) {
-        const VectorXd gp = load_at(kCheckStep * h), gm = load_at(-kCheckStep * h);
-        noise->col(j) = kNoiseMargin * (Kc.col(j) + (gp - gm) / (2.0 * kCheckStep * h)).cwiseAbs();
+      const std::optional<VectorXd> fp = load_at(h), fm = load_at(-h);
+      if (!fp || !fm) {
+        set_qpos(q0);
+        total_force(F);  // (the caller's state as it was)
+        throw std::runtime_error("a constraint row held rigid is gone under a perturbation");
+      }
+      Kc.col(j) = -(*fp - *fm) / (2.0 * h);
+      const std::optional<VectorXd> gp = load_at(kCheckStep * h), gm = load_at(-kCheckStep * h);
+      if (gp && gm) {
+        const VectorXd wide = -(*gp - *gm) / (2.0 * kCheckStep * h);
+        if (noise) noise->col(j) = kJumpVariation * (Kc.col(j) - wide).cwiseAbs();
+        Kc.col(j) = (kCheckStep * wide - Kc.col(j)) / (kCheckStep - 1.0);
       }
       e(j) = 0.0;
     }
