@@ -4,11 +4,11 @@
 #include "scene_statics.hpp"
 
 #include <algorithm>
-#include <optional>
 #include <cfloat>
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <optional>
 #include <stdexcept>
 #include <vector>
 
@@ -378,7 +378,7 @@ class StaticProblem {
   // a connect's end load with the geometry, a contact's point moving over its geoms: their
   // geometric stiffness). The rows' own soft response (solref, solimp) is left out: with the rows
   // held rigid, motions along J are none. Throws std::runtime_error when a held row is gone
-  // at a perturbed configuration (a contact at the edge of its margin).
+  // at a perturbed configuration (a contact at the edge of its margin), the state restored.
   // Each column is also differenced at ten times the step, and Kc is the extrapolation that removes
   // an error inversely proportional to the step, (10 Kc(10h) - Kc(h)) / 9, with `noise` (optional)
   // an entrywise bound of what is left of it, a tenth of |Kc(h) - Kc(10h)|. MuJoCo 2.2's general
