@@ -604,6 +604,12 @@ int cmd_run(int argc, char** argv) {
              (s.integrator() == Integrator::Trapezoidal || s.integrator() == Integrator::GeneralizedAlpha
                   ? " (check the energy then: split steps can keep this scheme's energy bounded)"
                   : "");
+      // more than a split per step with contact events: a rod sliding over a round body, whose
+      // contact forces at the step's end the corrections do not find (README: a rope over a drum)
+      if (ns.events > 0 && ns.splits > k && s.integrator() != Integrator::Implicit)
+        w += "; with contacts changing state in " + std::to_string(ns.events) +
+             " steps, --integrator implicit (contact forces from each step's start, as MuJoCo takes them) is "
+             "often the robust choice (README, Known limitations: a rope over a drum)";
       warnings.push_back(w);
     }
     if (ns.unconverged > 0) {

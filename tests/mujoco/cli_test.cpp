@@ -986,6 +986,11 @@ TEST_F(Cli, EnergyGainedWhereOnlyContactsAndDampersActIsWarnedAbout) {
     EXPECT_NEAR(j["bodies"]["hub"][0].get<double>(), 2.0 * 2.0 / (2 * 0.3 * 9.81), 1e-2 * 0.68);
     EXPECT_LT(j["adaptive"]["substeps"].get<long>(), 8000);
   }
+  // a rope sliding over a drum splits more than every step: the warning points to implicit
+  const Result rope = cosserat("run '" + std::string(COSSERAT_SOURCE_DIR) +
+                               "/docs/bench/repro/rope_over_drum.xml' --duration 0.1 --integrator trapezoidal");
+  EXPECT_EQ(rope.status, 0) << rope.err;
+  EXPECT_NE(rope.out.find("--integrator implicit (contact forces from each step's start"), std::string::npos) << rope.out;
   // the summary counts the events
   const Result summary = cosserat("run '" + model.string() + "' --key push --duration 0.2 --integrator trapezoidal");
   EXPECT_NE(summary.out.find(" contact events taken as backward Euler steps"), std::string::npos) << summary.out;
