@@ -178,7 +178,7 @@ int Model::add_rod(int parent, const SE3& placement, const RodSpec& spec) {
     require(!ss.lobatto || (ss.order == 0 && ss.quadrature == 0),
             "rod '" + spec.name + "': the Gauss-Lobatto mass rule is for PCS sections (order 0), without a Gauss point count");
     const bool lobatto = ss.lobatto;
-    const int nq = lobatto ? 1 : ss.quadrature > 0 ? ss.quadrature : ss.order + 2;
+    const int nq = lobatto ? 1 : ss.gauss_points();
     if (lobatto) gx = {0.5}, gw = {2.0 / 3.0};
     else gauss_legendre01(nq, gx, gw);
     const double w_end = lobatto ? 1.0 / 6.0 : 0.0;  // weight of each end point

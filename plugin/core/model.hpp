@@ -60,13 +60,14 @@ struct SectionSpec {
   int order = 0;  // 0: piecewise constant strain (PCS); > 0: GVS Legendre order, <= kMaxSectionOrder
   Vec6 rest_strain = (Vec6() << 0, 0, 0, 1, 0, 0).finished();
   RodMaterial material;
-  int quadrature = 0;  // Gauss points of the mass quadrature; 0: order + 2
+  int quadrature = 0;  // Gauss points of the mass quadrature; 0: order + 2 (gauss_points())
   // PCS only: the 3-point Gauss-Lobatto mass rule instead (section ends and middle, weights 1/6,
   // 2/3, 1/6; the ends shared with the neighbouring sections): as exact as 2 Gauss points
   // (cubics), with two nodes and one exponential per section instead of three and two. Its end
   // points sit where a section bent through whole turns has a singular tangent operator: there
   // the section's inertia in some strain directions is underestimated (stiff, spurious modes).
   bool lobatto = false;
+  int gauss_points() const { return quadrature > 0 ? quadrature : order + 2; }  // (without lobatto)
   int substeps = 1;    // Magnus steps between consecutive quadrature points (GVS kinematic accuracy
                        // improves as substeps^-4; intermediate nodes carry no inertia)
 };

@@ -665,9 +665,8 @@ RodInput Preprocessor::read_rod(XMLElement* cosserat, const std::string& parent_
   if (rod.capsules == 1 && spec.overrides.size() == 1) {
     const SectionSpec& only = spec.overrides[0];
     const bool soft = std::any_of(only.dofs.begin(), only.dofs.end(), [](bool b) { return b; });
-    const int points = only.quadrature > 0 ? only.quadrature : only.order + 2;
     const bool colliding = !(r.text("contype") == "0" && r.text("conaffinity") == "0");
-    if (soft && only.order == 0 && !only.lobatto && points < 3 && colliding)
+    if (soft && only.order == 0 && !only.lobatto && only.gauss_points() < 3 && colliding)
       warnings_.push_back(where(r) + "one section with capsules=\"1\" touches only at the section's two ends, which "
                           "its two Gauss points of mass let move without moving any mass: lying on a floor such a rod "
                           "sinks through it; use capsules=\"2\", quadrature=\"3\" or \"lobatto\", or more sections");

@@ -1593,6 +1593,16 @@ void factor_mass(const Scene& s, SceneData& sd) {
 
 }  // namespace
 
+// m->opt.timestep set to h for a scope, the previous value back however the scope ends.
+struct TimestepScope {
+  mjModel* m;
+  double previous;
+  TimestepScope(mjModel* model, double h) : m(model), previous(model->opt.timestep) { m->opt.timestep = h; }
+  ~TimestepScope() { m->opt.timestep = previous; }
+  TimestepScope(const TimestepScope&) = delete;
+  TimestepScope& operator=(const TimestepScope&) = delete;
+};
+
 void fwd_position(const Scene& s, SceneData& sd, Need need) {
   const mjModel* m = s.m;
   mjData* d = sd.d;
@@ -1665,14 +1675,7 @@ void forward(const Scene& s, SceneData& sd, Need need) {
   const mjModel* m = s.m;
   mjData* d = sd.d;
   // the constraint model of the step a substep belongs to (SceneData::constraint_timestep)
-  struct StepOfTheConstraints {
-    mjModel* m;
-    double h;
-    StepOfTheConstraints(mjModel* model, double c) : m(model), h(model->opt.timestep) {
-      if (c > 0) m->opt.timestep = c;
-    }
-    ~StepOfTheConstraints() { m->opt.timestep = h; }
-  } constraint_step(s.m, sd.constraint_timestep);
+  const TimestepScope constraint_step(s.m, sd.constraint_timestep > 0 ? sd.constraint_timestep : s.m->opt.timestep);
   const bool sensors = !sd.step_sensors_done;  // (SceneData::step_sensors_done)
   fwd_position(s, sd, need);
   if (sd.in_step) track_compression(s, sd);
@@ -2152,18 +2155,14 @@ std::string collapse_warning(const Scene& s, const SceneData& sd) {
   const SceneData::Compression& c = sd.compression;
   if (!(c.stretch <= kCollapsedStretch)) return {};
   char b[640];
-  if (c.diverged_step)
-    std::snprintf(b, sizeof b,
-                  "section %d of rod '%s' was compressed to %.3g of its length within the step from t = %.6g s that "
-                  "diverged: the linear constitutive law does not resist a section's collapse (if smaller steps "
-                  "crush it too, the load is more than the rod bears: a stiffer or damped rod, or a smaller load)",
-                  c.section, s.rods[c.rod].decl.name.c_str(), c.stretch, c.time);
-  else
-    std::snprintf(b, sizeof b,
-                  "section %d of rod '%s' was compressed to %.3g of its length (t = %.6g s): the linear constitutive "
-                  "law does not resist a section's collapse, and the motion from there on is not physical (a stiffer "
-                  "or damped rod, or a smaller load)",
-                  c.section, s.rods[c.rod].decl.name.c_str(), c.stretch, c.time);
+  std::snprintf(b, sizeof b,
+                c.diverged_step ? "section %d of rod '%s' was compressed to %.3g of its length within the step from t = "
+                                  "%.6g s that diverged: the linear constitutive law does not resist a section's "
+                                  "collapse (if smaller steps crush it too, the load is more than the rod bears: %s)"
+                                : "section %d of rod '%s' was compressed to %.3g of its length (t = %.6g s): the linear "
+                                  "constitutive law does not resist a section's collapse, and the motion from there on "
+                                  "is not physical (%s)",
+                c.section, s.rods[c.rod].decl.name.c_str(), c.stretch, c.time, "a stiffer or damped rod, or a smaller load");
   return b;
 }
 
@@ -2193,10 +2192,9 @@ std::string divergence_hint(const Scene& s, const SceneData& sd, Integrator in, 
            " (gravity, Coriolis and geometric stiffness are explicit in the linearised step) or " + smaller_step;
   else
     hint = "try " + smaller_step + ", or more " + (cli ? "--newton corrections" : "Newton corrections (Scene::newton_iterations)");
-  if (!collapse.empty() && explicit_step)
-    hint += "; a rod section also collapsed on the way, as under any unstable explicit step: " + collapse;
-  else if (!collapse.empty())
-    hint += "; a rod section also collapsed on the way: " + collapse;
+  if (!collapse.empty())
+    hint += std::string("; a rod section also collapsed on the way") +
+            (explicit_step ? ", as under any unstable explicit step" : "") + ": " + collapse;
   // MuJoCo 2.2.2's sparse Newton solver stops at a pivot below 1e-15 (the loader moves scenes whose
   // rods' inertias lie there at qpos0 to dense Jacobians, with a warning; a blowing-up state gets
   // there too)
@@ -3311,13 +3309,7 @@ void newton_step_split(const Scene& s, SceneData& sd, Integrator method, int dep
   restore_start(sd);
   sd.newton.carry_valid = false;  // the half steps start from A0 = f(q, v)
   ++sd.newton_stats.splits;
-  const double h = s.m->opt.timestep;
-  struct KeepTimestep {  // h again however the half steps end
-    mjModel* m;
-    double h;
-    ~KeepTimestep() { m->opt.timestep = h; }
-  } keep{s.m, h};
-  s.m->opt.timestep = 0.5 * h;
+  const TimestepScope half(s.m, 0.5 * s.m->opt.timestep);  // h again however the half steps end
   newton_step_split(s, sd, method, depth + 1);
   newton_step_split(s, sd, method, depth + 1);
 }
@@ -3346,10 +3338,11 @@ void adaptive_step(const Scene& s, SceneData& sd, Integrator method) {
     while (done % (kUnits >> level) != 0) ++level;  // (not reached: levels coarsen only when aligned)
     const double h = H / (1 << level);
     save_state(a, m, d);
-    m->opt.timestep = h;
     const long events = sd.newton_stats.events;
-    const bool converged = single_step(s, sd, method);
-    m->opt.timestep = H;
+    const bool converged = [&] {
+      const TimestepScope substep(m, h);
+      return single_step(s, sd, method);
+    }();
     // a substep of at most H/2 taken as a contact event's step (event_step) is kept whatever its
     // acceleration did, and the next substep is not compared with it: across a switch of a
     // contact's state the acceleration jumps at any substep, and halving only places the switch

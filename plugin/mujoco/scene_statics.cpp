@@ -380,8 +380,8 @@ class StaticProblem {
   // held rigid, motions along J are none. Throws std::runtime_error when a held row is gone
   // at a perturbed configuration (a contact at the edge of its margin), the state restored.
   // Each column is also differenced at ten times the step, and Kc is the extrapolation that removes
-  // an error inversely proportional to the step, (10 Kc(10h) - Kc(h)) / 9, with `noise` (optional)
-  // an entrywise bound of what is left of it, a tenth of |Kc(h) - Kc(10h)|. MuJoCo 2.2's general
+  // an error inversely proportional to the step, (10 Kc(10h) - Kc(h)) / 9, with `noise` an entrywise
+  // bound of what is left of it, a tenth of |Kc(h) - Kc(10h)|. MuJoCo 2.2's general
   // convex collider (MPR: pairs with a cylinder, box, ellipsoid or mesh but the analytic ones)
   // places a contact with a jump at a symmetric configuration (a capsule crossing a cylinder: 3e-8 m
   // along the cylinder and 1.4e-6 rad in the normal between 0 and any offset), an error of J / h in
@@ -392,7 +392,7 @@ class StaticProblem {
   // a cylinder's flat top at omega^2 = -14, an ellipsoid on its tip on a box at -39; and it left the
   // state moved by 10h where a lightly loaded contact opened at that step.) Where a held row is gone
   // at 10h the column keeps Kc(h).
-  void held_loads(Held held, MatrixXd& J, MatrixXd& Kc, MatrixXd* noise = nullptr) {
+  void held_loads(Held held, MatrixXd& J, MatrixXd& Kc, MatrixXd& noise) {
     constexpr double kCheckStep = 10.0, kJumpVariation = 0.1;
     const int n = m_->nv;
     VectorXd F(n);
@@ -405,6 +405,7 @@ class StaticProblem {
     for (size_t r = 0; r < rows.size(); ++r) keys.push_back(all[rows[r]]), f(r) = d_->efc_force[rows[r]];
     J = constraint_jacobian(m_, d_, rows);
     Kc.setZero(n, n);
+    noise.setZero(n, n);  // (also without rows: the callers add it to their noise of n x n)
     if (rows.empty()) return;
     VectorXd e = VectorXd::Zero(n);
     const std::vector<mjtNum> q0 = qpos();
@@ -421,7 +422,6 @@ class StaticProblem {
       }
       return VectorXd(constraint_jacobian(m_, d_, found).transpose() * f);
     };
-    if (noise) noise->setZero(n, n);
     for (int j = 0; j < n; ++j) {
       const double h = step_size(q0, j);
       e(j) = 1.0;
@@ -435,7 +435,7 @@ class StaticProblem {
       const std::optional<VectorXd> gp = load_at(kCheckStep * h), gm = load_at(-kCheckStep * h);
       if (gp && gm) {
         const VectorXd wide = -(*gp - *gm) / (2.0 * kCheckStep * h);
-        if (noise) noise->col(j) = kJumpVariation * (Kc.col(j) - wide).cwiseAbs();
+        noise.col(j) = kJumpVariation * (Kc.col(j) - wide).cwiseAbs();
         Kc.col(j) = (kCheckStep * wide - Kc.col(j)) / (kCheckStep - 1.0);
       }
       e(j) = 0.0;
@@ -643,7 +643,7 @@ bool stable_equilibrium(StaticProblem& p, const Scene& s, SceneData& sd, double 
   MatrixXd N = MatrixXd::Identity(n, n);
   if (constraints) {
     try {
-      p.held_loads(Held::Loaded, J, Kc, &Kc_noise);  // leaves the stages (and qM) at the equilibrium
+      p.held_loads(Held::Loaded, J, Kc, Kc_noise);  // leaves the stages (and qM) at the equilibrium
     } catch (const std::runtime_error&) {
       return true;
     }
@@ -1490,7 +1490,7 @@ SceneLinearization linearize(const Scene& s, SceneData& sd, const SceneLinearize
     // J only, which N' removes
     MatrixXd J, Kc, Kc_noise;
     try {
-      p.held_loads(opt.rigid_contacts ? Held::Loaded : Held::Equalities, J, Kc, &Kc_noise);
+      p.held_loads(opt.rigid_contacts ? Held::Loaded : Held::Equalities, J, Kc, Kc_noise);
     } catch (const std::runtime_error&) {
       throw std::runtime_error(
           "linearize: a contact held rigid comes and goes under the finite differences' perturbations (1e-6): it "
