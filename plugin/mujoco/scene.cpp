@@ -3147,9 +3147,10 @@ bool midpoint_step(const Scene& s, SceneData& sd, int iterations) {
   for (int k = 0; k < iterations; ++k) {
     restore_start(sd);  // the midpoint state: half a step with A
     std::copy(w.A.begin(), w.A.end(), d->qacc);
-    m->opt.timestep = 0.5 * h;
-    advance(s, sd, w.A.data());
-    m->opt.timestep = h;
+    {
+      const TimestepScope half(m, 0.5 * h);
+      advance(s, sd, w.A.data());
+    }
     forward(s, sd, Need::Forces);
     // Scene::newton_refresh where no constraint row acts at the start or at the first midpoint:
     // the matrix at that midpoint state (with constraint rows, refreshed, it had needed more
