@@ -1661,13 +1661,14 @@ void fwd_velocity(const Scene& s, SceneData& sd) {
   fluid_forces(s, sd);  // fluid hook: qfrc_passive -= D qvel; no-op without the fluid
 }
 
-// The smallest axial stretch of the current step's forward evaluations (SceneData::step_compression).
-void track_compression(const Scene& s, SceneData& sd) {
+// Lowers `c` to the smallest axial stretch of the extensible rods' current evaluation (sd.rod),
+// recorded at `time`; `in_step` marks a record of a step's own evaluations (Compression::diverged_step).
+void lower_compression(const Scene& s, const SceneData& sd, SceneData::Compression& c, double time, bool in_step) {
   for (size_t r = 0; r < s.rods.size(); ++r) {
     if (!s.rods[r].extensible) continue;
     int section = -1;
     const double stretch = cosserat::min_axial_stretch(s.rods[r].model, sd.rod[r], &section);
-    if (stretch < sd.step_compression.stretch) sd.step_compression = {stretch, 0.0, static_cast<int>(r), section, true};
+    if (stretch < c.stretch) c = {stretch, time, static_cast<int>(r), section, in_step};
   }
 }
 
@@ -1678,7 +1679,7 @@ void forward(const Scene& s, SceneData& sd, Need need) {
   const TimestepScope constraint_step(s.m, sd.constraint_timestep > 0 ? sd.constraint_timestep : s.m->opt.timestep);
   const bool sensors = !sd.step_sensors_done;  // (SceneData::step_sensors_done)
   fwd_position(s, sd, need);
-  if (sd.in_step) track_compression(s, sd);
+  if (sd.in_step) lower_compression(s, sd, sd.step_compression, 0.0, true);  // SceneData::step_compression
   if (sensors) {
     mj_sensorPos(m, d);
     patch_sensors(s, sd, mjSTAGE_POS);
@@ -3588,14 +3589,9 @@ Status step(const Scene& s, SceneData& sd, Integrator method) {
     sd.warning = "the state became non-finite at t = " + std::to_string(t) + " s";
     return sd.status;
   }
-  // the smallest axial stretch of the step's forward evaluations (the rods' data hold the last
-  // one), kept from the first inverted section on (what follows an inversion is not physical)
-  for (size_t r = 0; r < s.rods.size() && sd.compression.stretch > 0; ++r) {
-    if (!s.rods[r].extensible) continue;
-    int section = -1;
-    const double stretch = cosserat::min_axial_stretch(s.rods[r].model, sd.rod[r], &section);
-    if (stretch < sd.compression.stretch) sd.compression = {stretch, t, static_cast<int>(r), section};
-  }
+  // the smallest axial stretch at the step's end (the rods' data hold its last evaluation), kept
+  // from the step with the first inverted section on (what follows an inversion is not physical)
+  if (sd.compression.stretch > 0) lower_compression(s, sd, sd.compression, t, false);
   sd.status = Status::Ok;
   sd.last_step_end = d->time;
   return sd.status;
