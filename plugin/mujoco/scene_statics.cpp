@@ -378,7 +378,8 @@ class StaticProblem {
   // a connect's end load with the geometry, a contact's point moving over its geoms: their
   // geometric stiffness). The rows' own soft response (solref, solimp) is left out: with the rows
   // held rigid, motions along J are none. Throws std::runtime_error when a held row is gone
-  // at a perturbed configuration (a contact at the edge of its margin), the state restored.
+  // at a perturbed configuration (a contact at the edge of its margin; one of the pair two parallel
+  // capsules make, which is one at any tilt), the state restored.
   // Each column is also differenced at ten times the step, and Kc is the extrapolation that removes
   // an error inversely proportional to the step, (10 Kc(10h) - Kc(h)) / 9, with `noise` an entrywise
   // bound of what is left of it, a tenth of |Kc(h) - Kc(10h)|. MuJoCo 2.2's general
@@ -611,6 +612,89 @@ double slowest_fall(const mjModel* m) {
   return gravity ? 1e-6 * mju_norm3(m->opt.gravity) / std::max(m->stat.extent, 1e-6) : 0.0;
 }
 
+// The dynamics' verdict on the equilibrium at the current qpos (at rest, the full loads), for
+// where the static one has none (stable_equilibrium: a held contact comes and goes under its
+// perturbations, as two parallel capsules' pair of contacts becomes one at any tilt). The scene is
+// released at rest from the state and, again, from the state moved by kTap along a fixed direction
+// that mixes every dof, each run with its own integrator for up to 30 sqrt(extent / g); it is
+// unstable where some body of the tapped run comes kFall times the scene's extent away from where
+// the untapped run has it: a fall, which an unstable equilibrium's does until something stops it,
+// not the bounded ringing a tap gives a stable one. Bodies' positions, not coordinates: a soft rod's
+// twist, of little inertia, rings at 1e3 times the tap in its strain on a hard floor (the repro
+// heavy tip). The difference, not the tapped motion alone: a state whose residual the contacts'
+// static friction takes up creeps as MuJoCo's soft friction does, by 1e-2 in 0.1 s on the repro
+// buckling leg, tapped or not. A fall of e-folding rate below about 0.3 sqrt(g / extent) is not seen,
+// and the state is then taken as stable, as without the check. `mode` is the direction in which the
+// runs part (tangent space of qpos), `omega2` -lambda^2 with lambda the rate at which they part over
+// the last decade. The state is restored. Without gravity there is no time scale to take: no
+// verdict (stable).
+bool falls_when_tapped(const Scene& s, SceneData& sd, VectorXd& mode, double& omega2) {
+  constexpr double kTap = 1e-6, kFall = 1e-2;
+  const mjModel* m = s.m;
+  mjData* d = sd.d;
+  const double g = (m->opt.disableflags & mjDSBL_GRAVITY) ? 0.0 : mju_norm3(m->opt.gravity);
+  const int nv = m->nv, nq = m->nq, nx = 3 * m->nbody;
+  if (!(g > 0) || nv == 0) return false;
+  const double extent = std::max(m->stat.extent, 1e-3), h = m->opt.timestep;
+  const long steps = static_cast<long>(std::ceil(30.0 * std::sqrt(extent / g) / h));
+  const std::vector<mjtNum> q0(d->qpos, d->qpos + nq);
+  const std::vector<mjtNum> act0(d->act, d->act + m->na);
+  const double t0 = d->time;
+  auto restart = [&] {
+    std::copy(q0.begin(), q0.end(), d->qpos);
+    std::copy(act0.begin(), act0.end(), d->act);
+    mju_zero(d->qvel, nv);
+    d->time = t0;
+    sd.status = Status::Ok;
+    sd.warning.clear();
+  };
+  auto advance = [&] {  // false where the step failed
+    Status status = Status::Ok;
+    try {
+      status = step(s, sd);
+    } catch (const std::exception& e) {
+      abandon_step(sd, e.what());
+      status = Status::Diverged;
+    }
+    return status == Status::Ok;
+  };
+  // the untapped motion, step by step: coordinates and the bodies' positions (those of the step's
+  // start, as a step leaves them)
+  std::vector<mjtNum> base_q, base_x;
+  base_q.reserve(static_cast<size_t>(steps) * nq);
+  base_x.reserve(static_cast<size_t>(steps) * nx);
+  for (long k = 0; k < steps && advance(); ++k) {
+    base_q.insert(base_q.end(), d->qpos, d->qpos + nq);
+    base_x.insert(base_x.end(), d->xpos, d->xpos + nx);
+  }
+  const long recorded = static_cast<long>(base_x.size()) / nx;
+  // the tapped one: every dof moved, by amounts of both signs and unequal sizes (no symmetry of
+  // the scene kept)
+  restart();
+  VectorXd tap(nv);
+  for (int i = 0; i < nv; ++i) tap(i) = kTap * (0.5 + 0.5 * std::abs(std::sin(1.0 + 2.0 * i))) * (i % 2 ? -1.0 : 1.0);
+  mj_integratePos(m, d->qpos, tap.data(), 1.0);
+  bool fell = false;
+  long decade = -1;  // the step where the runs first parted by a tenth of the fall
+  for (long k = 0; k < recorded && !fell && advance(); ++k) {
+    double apart = 0.0;
+    for (int i = 3; i < nx; i += 3)  // (body 0, the world, stays)
+      apart = std::max(apart, mju_dist3(d->xpos + i, &base_x[static_cast<size_t>(k) * nx + i]));
+    if (decade < 0 && apart >= 0.1 * kFall * extent) decade = k;
+    fell = apart >= kFall * extent;
+    if (fell) {
+      mode.resize(nv);
+      mj_differentiatePos(m, mode.data(), 1.0, &base_q[static_cast<size_t>(k) * nq], d->qpos);
+      mode.normalize();
+      const double rate = std::log(10.0) / (static_cast<double>(std::max<long>(k - decade, 1)) * h);
+      omega2 = -rate * rate;
+    }
+  }
+  restart();
+  forward(s, sd);
+  return fell;
+}
+
 // Stability of the equilibrium at the current qpos under load factor lambda: the smallest
 // eigenvalue omega^2 of Ks x = omega^2 M x, Ks the symmetric part of the tangent stiffness (a
 // negative one: the equilibrium is unstable, the rod would fall away from it). Returns true when
@@ -629,7 +713,10 @@ double slowest_fall(const mjModel* m) {
 // solimp, most often far stiffer than a rod) is left out: in K its entries would set the noise
 // scale of unstable_mode far above a buckling mode's quotient. A contact held as a pin cannot
 // lift off: an instability by lifting off is not seen. Where a held row is gone at a perturbed
-// configuration (a contact at the edge of its margin) there is no verdict (stable). (Until the
+// configuration (a contact at the edge of its margin; two parallel capsules' pair of contacts,
+// which is one at any tilt) the verdict is the dynamics' (falls_when_tapped; until the thirty-eighth
+// session there was none: outside probe AY's body of four capsules lying along the top of a capsule
+// log, unstable at omega^2 = -107, was reported converged there). (Until the
 // twenty-eighth session equilibria where constraint rows carried load were not checked: outside
 // probe AG's rod twisted 11 times past Greenhill's load by a weld came back straight and
 // "converged".)
@@ -645,7 +732,10 @@ bool stable_equilibrium(StaticProblem& p, const Scene& s, SceneData& sd, double 
     try {
       p.held_loads(Held::Loaded, J, Kc, Kc_noise);  // leaves the stages (and qM) at the equilibrium
     } catch (const std::runtime_error&) {
-      return true;
+      VectorXd fall;
+      if (!falls_when_tapped(s, sd, fall, omega2_min)) return true;
+      if (mode) *mode = fall;
+      return false;
     }
     Kt += Kc;
     noise += Kc_noise;
@@ -1494,7 +1584,8 @@ SceneLinearization linearize(const Scene& s, SceneData& sd, const SceneLinearize
     } catch (const std::runtime_error&) {
       throw std::runtime_error(
           "linearize: a contact held rigid comes and goes under the finite differences' perturbations (1e-6): it "
-          "is at the edge of its margin; leave the contacts out, or start from a state where it is closed");
+          "is at the edge of its margin, or one of the pair of contacts two parallel capsules make, which is one at "
+          "any tilt; leave the contacts out, or start from a state where it is closed");
     }
     if (J.rows() > 0) {
       const MatrixXd N = free_directions(J);
