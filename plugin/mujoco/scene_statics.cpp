@@ -639,14 +639,17 @@ bool falls_when_tapped(const Scene& s, SceneData& sd, VectorXd& mode, double& om
   const long steps = static_cast<long>(std::ceil(30.0 * std::sqrt(extent / g) / h));
   const std::vector<mjtNum> q0(d->qpos, d->qpos + nq);
   const std::vector<mjtNum> act0(d->act, d->act + m->na);
-  const double t0 = d->time;
-  auto restart = [&] {
+  const double t0 = d->time, last_step_end = sd.last_step_end;
+  const SceneData::Compression compression = sd.compression;
+  auto restart = [&] {  // (the runs' records too)
     std::copy(q0.begin(), q0.end(), d->qpos);
     std::copy(act0.begin(), act0.end(), d->act);
     mju_zero(d->qvel, nv);
     d->time = t0;
     sd.status = Status::Ok;
     sd.warning.clear();
+    sd.compression = compression;
+    sd.last_step_end = last_step_end;
   };
   auto advance = [&] {  // false where the step failed
     Status status = Status::Ok;
