@@ -612,6 +612,19 @@ double slowest_fall(const mjModel* m) {
   return gravity ? 1e-6 * mju_norm3(m->opt.gravity) / std::max(m->stat.extent, 1e-6) : 0.0;
 }
 
+// One step of the scene's own integrator, where a MuJoCo error raised in it (the application's
+// mju_user_error handler throws) ends it like a divergence, the step abandoned: outside probe AG's
+// twisted rod between two welds broke MuJoCo's constraint solver ("Rank-defficient Hessian"),
+// which had aborted the whole command.
+Status step_or_abandon(const Scene& s, SceneData& sd) {
+  try {
+    return step(s, sd);
+  } catch (const std::exception& e) {
+    abandon_step(sd, e.what());
+    return Status::Diverged;
+  }
+}
+
 // The dynamics' verdict on the equilibrium at the current qpos (at rest, the full loads), for
 // where the static one has none (stable_equilibrium: a held contact comes and goes under its
 // perturbations, as two parallel capsules' pair of contacts becomes one at any tilt). The scene is
@@ -651,16 +664,7 @@ bool falls_when_tapped(const Scene& s, SceneData& sd, VectorXd& mode, double& om
     sd.compression = compression;
     sd.last_step_end = last_step_end;
   };
-  auto advance = [&] {  // false where the step failed
-    Status status = Status::Ok;
-    try {
-      status = step(s, sd);
-    } catch (const std::exception& e) {
-      abandon_step(sd, e.what());
-      status = Status::Diverged;
-    }
-    return status == Status::Ok;
-  };
+  auto advance = [&] { return step_or_abandon(s, sd) == Status::Ok; };
   // the untapped motion, step by step: coordinates and the bodies' positions (those of the step's
   // start, as a step leaves them)
   std::vector<mjtNum> base_q, base_x;
@@ -1215,16 +1219,7 @@ bool relax_once(const Scene& s, SceneData& sd, const std::vector<mjtNum>& q_star
   };
   bool converged = false;
   for (long k = 0; k < max_steps && !converged; ++k) {
-    // a MuJoCo error raised in a step (where the application's mju_user_error handler throws) ends
-    // the relaxation like a divergence: outside probe AG's twisted rod between two welds broke
-    // MuJoCo's constraint solver ("Rank-defficient Hessian"), which aborted the whole command
-    Status status = Status::Ok;
-    try {
-      status = step(s, sd);
-    } catch (const std::exception& e) {
-      abandon_step(sd, e.what());
-      status = Status::Diverged;
-    }
+    const Status status = step_or_abandon(s, sd);
     if (status != Status::Ok) {
       diverged = true;
       res.message = "dynamic relaxation diverged: " + sd.warning;
