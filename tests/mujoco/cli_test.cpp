@@ -487,7 +487,8 @@ TEST_F(Cli, CompareSaysWhenImplicitIsTwoMethods) {
   EXPECT_NE(j["warnings"][0].get<std::string>().find("two methods"), std::string::npos) << j["warnings"];
   const Result trapezoidal = cosserat(models + " --integrator trapezoidal");
   ASSERT_EQ(trapezoidal.status, 0) << trapezoidal.err;
-  for (const auto& w : json::parse(trapezoidal.out)["warnings"]) EXPECT_EQ(w.get<std::string>().find("two methods"), std::string::npos) << w;
+  const json jt = json::parse(trapezoidal.out);  // (alive through the loop: a range over a temporary's member is not)
+  for (const auto& w : jt["warnings"]) EXPECT_EQ(w.get<std::string>().find("two methods"), std::string::npos) << w;
 }
 
 // A keyframe that starts the run at t = 1 s: compare samples from the start, not from t = 0 (found by

@@ -220,7 +220,8 @@ TEST(Contact, GeomsBelowASoftRodReferenceTheTipsAcceleration) {
   Vec3 x[5];
   Mat3 R[5];
   for (int k = 0; k < 5; ++k) frame_at((k - 2) * e, x[k], R[k]);
-  auto spin = [&](int k) { return unskew(R[k + 1] * R[k - 1].transpose()) / (2 * e); };
+  // (a Vec3, not Eigen's expression, which would refer to unskew's temporary after the return)
+  auto spin = [&](int k) -> Vec3 { return unskew(R[k + 1] * R[k - 1].transpose()) / (2 * e); };
   const Vec3 w = spin(2);
   const Vec3 offset = R[2].transpose() * (p - x[2]);  // the contact point in the body's frame
   const Vec3 tip = rod_pose(s->rods[0].model, sd.rod[0], 0, 0.2).u;
