@@ -412,16 +412,6 @@ int Model::keep_midpoint_pose(int r, double X) {
   return i;
 }
 
-namespace {
-// `f` made anew for n x n matrices, its buffers allocated here (steps then allocate nothing), in
-// place: assigning a sized LDLT copies Eigen 3.4's m_info, which its constructors leave
-// uninitialised (undefined behaviour; UBSan reports the load).
-void presize(Eigen::LDLT<MatX>& f, Eigen::Index n) {
-  f.~LDLT();
-  ::new (&f) Eigen::LDLT<MatX>(n);
-}
-}  // namespace
-
 Data::Data(const Model& m) {
   if (!m.finalized) throw std::invalid_argument("Data(model): model not finalized");
   int max_ndof = 0;
@@ -467,11 +457,11 @@ Data::Data(const Model& m) {
   DF_base = Mat6X::Zero(6, n);
   tmp = rhs = VecX::Zero(n);
   A = MatX::Zero(n, n);
-  presize(ldlt, n);
+  ldlt = Factor(n);  // buffers allocated here: steps then allocate nothing
   q0 = v0 = VecX::Zero(n);
   for (int k = 0; k < 4; ++k) kq[k] = kv[k] = VecX::Zero(n);
   M0 = MatX::Zero(n, n);
-  presize(ldlt_w, n);
+  ldlt_w = Factor(n);
 }
 
 }  // namespace cosserat

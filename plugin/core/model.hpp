@@ -261,6 +261,15 @@ inline bool inside_fixed_subtree(const Model& m, const Node& n) {
 
 enum class Status { Ok, Diverged };
 
+// Eigen::LDLT whose status is defined from construction. Eigen 3.4's constructors leave m_info
+// uninitialised, so copying or moving a Data before its first factorisation (a scene's vector of
+// rods growing, a state saved for a finite difference) read it: undefined behaviour, which UBSan
+// reports as "load of value 4, which is not a valid value for type 'ComputationInfo'".
+struct Factor : Eigen::LDLT<MatX> {
+  Factor() { m_info = Eigen::Success; }
+  explicit Factor(Eigen::Index n) : Eigen::LDLT<MatX>(n) { m_info = Eigen::Success; }
+};
+
 // State, outputs and all scratch memory, sized once by the constructor (no allocation when
 // stepping: see tests/core/step_alloc_test.cpp).
 struct Data {
@@ -329,10 +338,10 @@ struct Data {
   Mat6X Fs, Ts;            // 6 x max_ndof
   VecX tmp, rhs;
   MatX A;                  // system matrix of the implicit integrator
-  Eigen::LDLT<MatX> ldlt;
+  Factor ldlt;
   VecX q0, v0, kq[4], kv[4];  // RK4 and Rosenbrock stages
   MatX M0;                    // Rosenbrock: the mass matrix at the step's start
-  Eigen::LDLT<MatX> ldlt_w;   // Rosenbrock: the step's matrix (forward() factorises M in ldlt)
+  Factor ldlt_w;              // Rosenbrock: the step's matrix (forward() factorises M in ldlt)
 };
 
 }  // namespace cosserat
