@@ -471,6 +471,11 @@ std::string xml_error_message(const XMLDocument& doc) {
 
 // Parses `text` (named `file` in messages) into a new document; records element origins.
 XMLDocument& Preprocessor::parse(const std::string& text, const std::string& file) {
+  // XML holds no NUL character, and tinyxml2 stops reading at one: what follows it would be
+  // ignored without a word (outside fuzzing: a valid model, a NUL, then a bad rod loaded)
+  if (const size_t nul = text.find('\0'); nul != std::string::npos)
+    throw LoadError(file, 1 + static_cast<int>(std::count(text.begin(), text.begin() + nul, '\n')),
+                    "a NUL byte: XML holds none (binary data, or a file saved in UTF-16?)");
   auto doc = std::make_unique<XMLDocument>();
   if (doc->Parse(text.data(), text.size()) != tinyxml2::XML_SUCCESS)
     throw LoadError(file, doc->ErrorLineNum(), xml_error_message(*doc));

@@ -211,6 +211,10 @@ std::vector<BadCase> bad_cases() {
       {"negative viscosity", "<mujoco>\n<option viscosity=\"-5\"/>\n</mujoco>\n", 2, "'viscosity' must not be negative"},
       {"content after the root", "<mujoco>\n</mujoco>\n<cosserat name=\"x\" length=\"-1\"/>\n", 3,
        "<cosserat> after the root element <mujoco>"},
+      // (fuzzing, session 39: tinyxml2 stops at a NUL, and what followed it loaded unread)
+      {"NUL byte after the root", std::string("<mujoco>\n</mujoco>\n") + '\0' + "<cosserat name=\"x\" length=\"-1\"/>\n", 3,
+       "a NUL byte"},
+      {"NUL byte inside", std::string("<mujoco>\n<worldbody>\n") + '\0' + "</worldbody>\n</mujoco>\n", 3, "a NUL byte"},
       {"include of a device", "<mujoco>\n<include file=\"/dev/zero\"/>\n</mujoco>\n", 2, "'/dev/zero': it is not a regular file"},
       // (fuzzing, second round: sections allocated before the depth check exhausted memory; sizes
       // that overflow the inertia gave an internal error without a line)
