@@ -382,6 +382,13 @@ class EnergyTracker {
          gravity_max_ = 0;
 };
 
+// A body as messages name it: its name, "world", or "#id" where it has none.
+std::string body_name(const mjModel* m, int b) {
+  if (b == 0) return "world";
+  const char* n = mj_id2name(m, mjOBJ_BODY, b);
+  return n && *n ? std::string(n) : "#" + std::to_string(b);
+}
+
 // The fastest motion `run` saw, against what one step can resolve: a body turning more than half
 // a turn in a step (whose direction of turning a sampled motion cannot tell) or moving more than
 // the scene's extent (past anything it could touch). A run that blows up shows it before its state
@@ -409,13 +416,12 @@ class MotionTracker {
   // the warning, where a step's motion exceeded what it resolves
   std::string warning(const mjModel* m, const EnergyTracker& energy) const {
     if (!(worst_ > 1.0)) return {};
-    const char* name = mj_id2name(m, mjOBJ_BODY, body_);
     char b[640];
     std::snprintf(b, sizeof b,
                   "body '%s' turned %.3g rad and moved %.3g m (%.3g times the scene's extent) within one step of %g s "
                   "at t = %.6g s: steps this large do not resolve the motion, and a run blowing up looks like this (its "
                   "energy went from %.4g J to %.4g J); try a smaller --timestep or --integrator implicit",
-                  name ? name : ("#" + std::to_string(body_)).c_str(), turn_, move_, move_ / m->stat.extent,
+                  body_name(m, body_).c_str(), turn_, move_, move_ / m->stat.extent,
                   m->opt.timestep, time_, energy.initial(), energy.final());
     return b;
   }
@@ -685,16 +691,12 @@ int cmd_run(int argc, char** argv) {
   // bodies that start deep in each other (outside fuzzing: a 100 m leg through a floor went from
   // -1.8e4 J to 2.2e7 J in 0.02 s without a word)
   if (const mjModel* m = s.scene().m; deepest >= 0 && start_depth > 1e-2 * m->stat.extent) {
-    auto body_of = [&](int geom) {
-      const char* n = mj_id2name(m, mjOBJ_BODY, m->geom_bodyid[geom]);
-      return std::string(n && *n ? n : "world");
-    };
     const mjContact& c = s.data().d->contact[deepest];
     char b[512];
     std::snprintf(b, sizeof b,
                   "the run started with bodies '%s' and '%s' %.3g m into each other (%.3g of the scene's extent): "
                   "MuJoCo's soft contacts push them apart with energy the run's figures do not count",
-                  body_of(c.geom1).c_str(), body_of(c.geom2).c_str(), start_depth, start_depth / m->stat.extent);
+                  body_name(m, m->geom_bodyid[c.geom1]).c_str(), body_name(m, m->geom_bodyid[c.geom2]).c_str(), start_depth, start_depth / m->stat.extent);
     warnings.push_back(b);
   }
   const std::vector<std::string> exchanges = energy_exchanges(s.scene(), touched);
