@@ -186,8 +186,13 @@ struct Scene {
   // skips MuJoCo's collision detection, whose broad phase otherwise costs a tenth of a step on a
   // rod in free space. The collision filters (geom contype/conaffinity, <pair>, <exclude>; the
   // disabling flags stay live) are read at load: a program that edits them afterwards must set
-  // this again (mj::scene_may_collide).
+  // this again (mj::scene_may_collide), and may_have_events.
   bool may_collide = true;
+  // false when the model can have no constraint rows but equalities (scene_may_have_events, at
+  // load; a program that edits limits, friction loss or the collision filters sets it again with
+  // may_collide): the midpoint rule then skips the forward at each step's end state that looks
+  // for a contact or limit arising or parting in the step's second half (midpoint_step).
+  bool may_have_events = true;
   // step()'s integrator: the model's <custom><text name="cosserat:integrator" data="NAME"/> if it
   // has one, else RK4 for <option integrator="RK4">, Implicit for <option integrator="implicit">,
   // Implicit with rods, Euler without
@@ -374,8 +379,9 @@ struct SceneData {
     // Anderson acceleration: the previous iterate and correction, and the last differences of
     // iterates and corrections (columns of nv, ring buffers of Scene::newton_memory columns)
     std::vector<mjtNum> x_prev, F_prev, dX, dF;
-    // the start state's non-smooth constraint pattern, and an iterate's (constraint_pattern)
-    std::vector<int> pattern0, pattern;
+    // the start state's non-smooth constraint pattern, and an iterate's (constraint_pattern);
+    // rows0: the start's without the rows' states (midpoint_step's check at the end state)
+    std::vector<int> pattern0, pattern, rows0;
   } newton;
   // Scene::step_tol > 0: the adaptive substeps' state. The substep's start (restored when it is
   // rejected), the last accepted substep's mean acceleration and the state it ended in (the
@@ -426,6 +432,10 @@ std::string divergence_hint(const Scene& s, const SceneData& sd, Integrator meth
 // Loads an MJCF file with <cosserat> elements. Throws LoadError on bad input.
 // Whether any two geoms of m can ever touch (Scene::may_collide).
 bool scene_may_collide(const mjModel* m);
+// Whether m can ever have constraint rows other than equalities (contacts where may_collide, joint
+// or tendon limits, friction loss): the rows whose changes within a step are events for the
+// Newton schemes (Scene::may_have_events).
+bool scene_may_have_events(const mjModel* m, bool may_collide);
 
 std::unique_ptr<Scene> load_scene(const std::string& path);
 std::unique_ptr<Scene> load_scene_string(const std::string& xml, const std::string& path);
