@@ -47,9 +47,8 @@ struct NewtonOptions {
     c.options.push_back(flag_option("--newton-refresh",
                                     "trapezoidal, genalpha, implicit with --newton: factorise the Newton matrix again at "
                                     "the first iterate (fewer corrections on smooth motion; at steps where the default "
-                                    "iteration fails and splits, the scheme's full step is taken instead; always on "
-                                    "with --step-tol); midpoint: at its first midpoint state, where no constraint row "
-                                    "acts",
+                                    "iteration fails and splits, the scheme's full step is taken instead); midpoint: at "
+                                    "its first midpoint state, where no constraint row acts. Always on with --step-tol",
                                     newton_refresh));
   }
 
