@@ -31,6 +31,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <limits>
 #include <map>
 #include <memory>
@@ -416,6 +417,7 @@ class Preprocessor {
   void check_helper_references(const XMLElement* e) const;
   void check_custom_fields(const XMLElement* root) const;
   void check_options(const XMLElement* root) const;
+  void check_size(const XMLElement* root) const;
   void check_finite(const XMLElement* e) const;
   void check_compiler(const XMLElement* root) const;
 
@@ -1144,6 +1146,7 @@ Preprocessed Preprocessor::run(const std::string& text, const std::string& path)
   check_custom_fields(root);
   check_options(root);
   rewrite(root);
+  check_size(root);  // after rewrite: the rods' generated bodies, joints, geoms and sites count
   check_helper_references(root);
   check_finite(root);  // after the checks with messages of their own (options, rods)
   check_compiler(root);
@@ -1241,6 +1244,64 @@ void Preprocessor::check_options(const XMLElement* root) const {
     for (const char* a : {"gravity", "wind", "magnetic"}) r.numbers(a, 3, 3);
     for (const char* a : {"density", "viscosity"})
       if (const auto v = r.numbers(a, 1, 1)) r.check((*v)[0] >= 0, a, "must not be negative, got '" + r.text(a) + "'");
+  }
+}
+
+// <size> values that make MuJoCo 2.2.2 allocate (and copy, element by element) more than
+// kSizeBudget for user data and keyframes: it accepts any, and nuser_site="100000000" took minutes
+// and 2.4 GB to load, nkey="10000000" more than 2 minutes and 2.6 GB before it was stopped
+// (fuzzing, session 39). The estimate is a lower bound (each joint counted as one position and one
+// velocity), so no model that fits is refused. nconmax, njmax and nstack are left to MuJoCo, which
+// allocates them when it makes mjData and says so when it cannot.
+void Preprocessor::check_size(const XMLElement* root) const {
+  constexpr double kSizeBudget = 1 << 30;  // bytes
+  std::map<std::string, double> count{{"body", 1}};  // the world body
+  std::function<void(const XMLElement*)> walk = [&](const XMLElement* e) {
+    for (const XMLElement* c = e->FirstChildElement(); c; c = c->NextSiblingElement()) {
+      const std::string tag = c->Name();
+      if (tag == "freejoint") ++count["joint"];
+      else if (tag == "body" || tag == "joint" || tag == "geom" || tag == "site" || tag == "camera") ++count[tag];
+      walk(c);
+    }
+  };
+  for (const XMLElement* w = root->FirstChildElement("worldbody"); w; w = w->NextSiblingElement("worldbody")) walk(w);
+  auto children = [&](const char* section) {
+    double n = 0;
+    for (const XMLElement* x = root->FirstChildElement(section); x; x = x->NextSiblingElement(section))
+      for (const XMLElement* c = x->FirstChildElement(); c; c = c->NextSiblingElement()) ++n;
+    return n;
+  };
+  count["tendon"] = children("tendon");
+  count["actuator"] = children("actuator");
+  count["sensor"] = children("sensor");
+  const struct {
+    const char* attr;
+    const char* kind;   // count's key
+    const char* what;   // for the message
+  } users[] = {{"nuser_body", "body", "bodies"},        {"nuser_jnt", "joint", "joints"},
+               {"nuser_geom", "geom", "geoms"},         {"nuser_site", "site", "sites"},
+               {"nuser_cam", "camera", "cameras"},      {"nuser_tendon", "tendon", "tendons"},
+               {"nuser_actuator", "actuator", "actuators"}, {"nuser_sensor", "sensor", "sensors"}};
+  auto gigabytes = [](double bytes) {
+    char b[32];
+    std::snprintf(b, sizeof b, "%.3g GB", bytes / 1e9);
+    return std::string(b);
+  };
+  for (const XMLElement* z = root->FirstChildElement("size"); z; z = z->NextSiblingElement("size")) {
+    const Reader r = reader(z);
+    for (const auto& u : users) {
+      const double n = r.integer(u.attr, -1, -1);
+      const double bytes = 8.0 * std::max(0.0, n) * count[u.kind];
+      r.check(bytes <= kSizeBudget, u.attr,
+              "is " + r.text(u.attr) + ": MuJoCo would allocate " + gigabytes(bytes) + " of user data for the model's " +
+                  fmt(count[u.kind]) + " " + u.what + " (" + r.text(u.attr) + " numbers each; more than the " +
+                  gigabytes(kSizeBudget) + " this loader allows)");
+    }
+    const double nkey = r.integer("nkey", 0, 0);
+    const double per_key = 8.0 * (1 + 2 * count["joint"] + count["actuator"]);
+    r.check(nkey * per_key <= kSizeBudget, "nkey",
+            "is " + r.text("nkey") + ": MuJoCo would allocate at least " + gigabytes(nkey * per_key) +
+                " for that many keyframes (more than the " + gigabytes(kSizeBudget) + " this loader allows)");
   }
 }
 

@@ -216,6 +216,12 @@ std::vector<BadCase> bad_cases() {
        "a NUL byte"},
       {"NUL byte inside", std::string("<mujoco>\n<worldbody>\n") + '\0' + "</worldbody>\n</mujoco>\n", 3, "a NUL byte"},
       {"include of a device", "<mujoco>\n<include file=\"/dev/zero\"/>\n</mujoco>\n", 2, "'/dev/zero': it is not a regular file"},
+      // (fuzzing, session 39: MuJoCo took minutes and 2.4 GB to load nuser_site="100000000", and
+      // more than 2 minutes and 2.6 GB for nkey="10000000"; the rod's base and tip sites count)
+      {"user data beyond a gigabyte", "<mujoco>\n<size nuser_site=\"100000000\"/>\n<worldbody>\n" + rod + "/>\n</worldbody>\n</mujoco>\n", 2,
+       "'nuser_site' is 100000000: MuJoCo would allocate 1.6 GB of user data for the model's 2 sites"},
+      {"keyframes beyond a gigabyte", "<mujoco>\n<size nkey=\"999999999\"/>\n</mujoco>\n", 2,
+       "'nkey' is 999999999: MuJoCo would allocate at least 8 GB for that many keyframes"},
       // (fuzzing, second round: sections allocated before the depth check exhausted memory; sizes
       // that overflow the inertia gave an internal error without a line)
       {"a billion sections", in_world(rod + R"( sections="999999999"/>)"), 3, "'sections' is 999999999, but each section nests one body"},
@@ -840,4 +846,18 @@ TEST(MjcfErrors, KeyframeArraysWithSurroundingSpacesLoad) {
   ASSERT_EQ(s->m->nkey, 1);
   EXPECT_EQ(s->m->nq, 11);
   EXPECT_EQ(s->m->key_qpos[2], 2.0);
+}
+
+// <size> user data and keyframes below the loader's gigabyte load and reach MuJoCo (the refused
+// sizes: TableOfBadInput); the bound counts the model's elements, rods' generated ones included:
+// 2 million numbers on each of 3 sites (48 MB) load, where nuser_site="100000000" on
+// the rod's two sites (1.6 GB) is refused.
+TEST(MjcfErrors, SizesWithinTheLoadersBudgetLoad) {
+  const auto s = load_scene_string(R"(<mujoco><size nuser_site="2000000" nkey="1000" nuser_body="3"/><worldbody>
+      <site name="a"/><cosserat name="r" length="0.1" sections="2" contype="0" conaffinity="0"/></worldbody></mujoco>)",
+                                   kInline);
+  EXPECT_EQ(s->m->nuser_site, 2000000);
+  EXPECT_EQ(s->m->nsite, 3);
+  EXPECT_EQ(s->m->nkey, 1000);
+  EXPECT_EQ(s->m->nuser_body, 3);
 }
