@@ -496,9 +496,14 @@ int cmd_check(int argc, char** argv) {
   }
   std::printf("model: %s (%s)\n", m->names, (*pos)[0].c_str());
   std::printf("rods: %zu\n", s->rods.size());
-  for (const auto& r : s->rods)
-    std::printf("  %s: %zu sections, %d strain dofs, length %g m\n", r.decl.name.c_str(), r.proxy_body.size(),
-                r.model.nv, r.model.rods[0].length);
+  for (const auto& r : s->rods) {
+    int limited = 0;  // strainrange
+    for (int k = 0; k < r.model.nv; ++k) limited += m->jnt_limited[m->dof_jntid[r.dof0 + k]] ? 1 : 0;
+    std::printf("  %s: %zu sections, %d strain dofs, length %g m", r.decl.name.c_str(), r.proxy_body.size(), r.model.nv,
+                r.model.rods[0].length);
+    if (limited) std::printf(", %d strain dofs limited (strainrange)", limited);
+    std::printf("\n");
+  }
   std::printf("nq: %d  nv: %d  nbody: %d  ngeom: %d  nsite: %d  nu: %d\n", m->nq, m->nv, m->nbody, m->ngeom, m->nsite,
               m->nu);
   std::printf("timestep: %g s  integrator: %s", m->opt.timestep, integrator_name(s->integrator));

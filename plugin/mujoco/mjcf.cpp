@@ -253,6 +253,10 @@ struct RodInput {
   std::vector<RodSite> sites;       // user sites
   std::vector<XMLElement*> bodies;  // <body> children, moved under the last proxy
   std::vector<std::string> helpers; // generated helper bodies (sections with more than 6 dofs)
+  // strainrange: per section, the limits of its strain coordinates (lo, hi for kx ky kz px py pz;
+  // 0 0: not limited), and the rod's solreflimit / solimplimit for them, verbatim
+  std::vector<std::array<double, 12>> strain_range;
+  Attributes limit;
 };
 
 // strain="name" or dofs="m m m m m m" (exclusive); `fallback` when neither is given.
@@ -274,6 +278,34 @@ StrainMask read_strain_mask(const Reader& r, const StrainMask& fallback) {
     return m;
   }
   return fallback;
+}
+
+// strainrange="lo hi" x 6 (kx ky kz px py pz) on <cosserat> or <section>: limits of the strain
+// coordinates (deviations from the rest strain, as qpos: 1/m and dimensionless), each pair 0 0
+// for none, lo <= 0 <= hi otherwise (the rest shape within them); MuJoCo joint limits on the
+// section's strain joints. `sec` is the element's resolved section: a pair on a component that is
+// not among its dofs, or on a GVS section (whose coordinates are Legendre coefficients, not
+// strains), is refused here; `fallback` when the attribute is absent.
+std::array<double, 12> read_strain_range(const Reader& r, const SectionSpec& sec, const std::array<double, 12>& fallback) {
+  const auto v = r.numbers("strainrange", 12, 12);
+  if (!v) return fallback;
+  std::array<double, 12> range{};
+  for (int c = 0; c < 6; ++c) {
+    const double lo = (*v)[2 * c], hi = (*v)[2 * c + 1];
+    range[2 * c] = lo, range[2 * c + 1] = hi;
+    if (lo == 0.0 && hi == 0.0) continue;
+    const std::string name = kComponents[c];
+    r.check(lo < hi && lo <= 0.0 && hi >= 0.0, "strainrange",
+            "pair " + std::to_string(c + 1) + " (" + name + ") is " + fmt(lo) + " " + fmt(hi) +
+                ": it needs lo < hi with the rest strain within, lo <= 0 <= hi (the values are deviations from "
+                "'reststrain'), or 0 0 for no limit");
+    r.check(sec.dofs[c], "strainrange",
+            "limits " + name + " (pair " + std::to_string(c + 1) + "), which is not among this section's strain dofs");
+    r.check(sec.order == 0, "strainrange",
+            "is for PCS sections (order 0): a GVS section's coordinates are Legendre coefficients, whose limits "
+            "would not bound the strain along it");
+  }
+  return range;
 }
 
 // Upper bounds of counts that would otherwise only exhaust memory: Gauss points per section (the
@@ -591,6 +623,7 @@ RodInput Preprocessor::read_rod(XMLElement* cosserat, const std::string& parent_
   r.allow_attributes({"name", "pos", "quat", "euler", "axisangle", "xyaxes", "zaxis", "length",
                       "sections", "strain", "dofs", "order", "reststrain", "radius", "density",
                       "young", "poisson", "shear", "viscosity", "quadrature", "capsules", "selfcollide", "drag", "wavelength",
+                      "strainrange", "solreflimit", "solimplimit",
                       "contype", "conaffinity", "condim", "friction", "solref", "solimp", "margin",
                       "gap", "rgba", "group", "material", "class"});
   r.allow_children({"site", "body", "section"});
@@ -679,6 +712,14 @@ RodInput Preprocessor::read_rod(XMLElement* cosserat, const std::string& parent_
                           "sinks through it; use capsules=\"2\", quadrature=\"3\" or \"lobatto\", or more sections");
   }
   rod.selfcollide = r.boolean("selfcollide", false);
+  // the strain limits' softness, for every limited strain joint (MuJoCo's joint solreflimit and
+  // solimplimit; its defaults otherwise)
+  for (auto [attr, lo, hi] : {std::tuple{"solreflimit", 2, 2}, {"solimplimit", 3, 5}}) {
+    r.check(!r.has(attr) || r.has("strainrange") || std::any_of(rod.strain_range.begin(), rod.strain_range.end(),
+                                                                 [](const auto& a) { return a != std::array<double, 12>{}; }),
+            attr, "is given, but no strain is limited (strainrange)");
+    r.pass_through(attr, lo, hi, rod.limit);
+  }
   for (auto [attr, lo, hi] : {std::tuple{"contype", 1, 1}, {"conaffinity", 1, 1}, {"condim", 1, 1},
                               {"friction", 1, 3}, {"solref", 2, 2}, {"solimp", 3, 5}, {"margin", 1, 1},
                               {"gap", 1, 1}, {"rgba", 4, 4}, {"group", 1, 1}, {"material", 0, 0},
@@ -706,14 +747,24 @@ void Preprocessor::read_sections(const Reader& r, RodInput& rod) {
   std::vector<SectionSpec>& secs = spec.overrides;
   std::vector<bool> sized;
   std::vector<const XMLElement*> elements;  // each section's <section> (none: the rod's attributes)
+  const std::array<double, 12> rod_range = read_strain_range(r, spec.section, {});
   for (const XMLElement* c = r.element()->FirstChildElement("section"); c;
        c = c->NextSiblingElement("section")) {
     elements.push_back(c);
     const Reader s = reader(c);
     s.allow_attributes({"length", "strain", "dofs", "order", "reststrain", "density", "young", "poisson", "shear",
-                        "viscosity", "quadrature"});
+                        "viscosity", "quadrature", "strainrange"});
     s.allow_children({});
     SectionSpec ss = read_section_spec(s, spec.section);
+    // the rod's strain range reaches the components this section has; its own is checked against it
+    std::array<double, 12> inherited = rod_range;
+    for (int k = 0; k < 6; ++k)
+      if (!ss.dofs[k]) inherited[2 * k] = inherited[2 * k + 1] = 0.0;
+    const std::array<double, 12> range = read_strain_range(s, ss, inherited);
+    s.check(s.has("strainrange") || ss.order == 0 || range == std::array<double, 12>{}, "order",
+            "makes this a GVS section, which the rod's strainrange cannot limit (its coordinates are Legendre "
+            "coefficients): give the section strainrange=\"0 0 0 0 0 0 0 0 0 0 0 0\" or order 0");
+    rod.strain_range.push_back(range);
     check_section_scales(s, ss, std::min(spec.radius_base, spec.radius_tip), warnings_);
     ss.length = s.number("length", 0.0);
     s.check(!s.has("length") || ss.length > 0, "length", "must be positive, got " + s.text("length"));
@@ -727,7 +778,10 @@ void Preprocessor::read_sections(const Reader& r, RodInput& rod) {
   constexpr int kDepthLimit = TINYXML2_MAX_ELEMENT_DEPTH - 1;
   const int requested = secs.empty() ? std::max(n_attr, 1) : static_cast<int>(secs.size());
   if (secs.empty()) {
-    if (requested < 2 * kDepthLimit) secs.assign(requested, spec.section);
+    if (requested < 2 * kDepthLimit) {
+      secs.assign(requested, spec.section);
+      rod.strain_range.assign(requested, rod_range);
+    }
     sized.assign(secs.size(), false);
   } else if (n_attr > 0 && n_attr != static_cast<int>(secs.size())) {
     r.fail_attr("sections", "is " + std::to_string(n_attr) + " but there are " + std::to_string(secs.size()) +
@@ -839,7 +893,7 @@ Attributes pose_attributes(const SE3& g) {
   return {{"pos", fmt3(g.u.x(), g.u.y(), g.u.z())}, {"quat", fmt(q.w()) + " " + fmt3(q.x(), q.y(), q.z())}};
 }
 
-XMLElement* new_slide_joint(XMLDocument& doc, const std::string& name) {
+XMLElement* new_slide_joint(XMLDocument& doc, const std::string& name, const Attributes& limit) {
   return new_element(doc, "joint",
                      {{"name", name}, {"type", "slide"}, {"pos", "0 0 0"}, {"axis", "1 0 0"},
                       {"limited", "false"}, {"stiffness", "0"}, {"damping", "0"}, {"armature", "1"},
@@ -849,7 +903,8 @@ XMLElement* new_slide_joint(XMLDocument& doc, const std::string& name) {
                       {"range", "0 0"}, {"margin", "0"},
                       // MuJoCo's compiler sets stiffness and damping from a positive springdamper
                       // (a user <default>'s), overriding the two above
-                      {"springdamper", "0 0"}});
+                      {"springdamper", "0 0"}},
+                     limit);  // strainrange: limited, range, and the rod's solreflimit / solimplimit
 }
 
 // The bodies of one section under `parent`: normally just the proxy `prefix`, at pose `offset` in it,
@@ -861,7 +916,8 @@ XMLElement* new_slide_joint(XMLDocument& doc, const std::string& name) {
 // zeroes both: all rod inertia comes from the solver); helper names are appended to `helpers`.
 // Returns the proxy.
 XMLElement* add_section_bodies(XMLDocument& doc, XMLElement* parent, const std::string& prefix, const SE3& offset,
-                               const std::vector<std::string>& joints, std::vector<std::string>& helpers) {
+                               const std::vector<std::string>& joints, const std::vector<Attributes>& limits,
+                               std::vector<std::string>& helpers) {
   constexpr std::size_t kMaxDofs = 6;
   const std::size_t nbodies = joints.empty() ? 1 : (joints.size() + kMaxDofs - 1) / kMaxDofs;
   XMLElement* body = nullptr;
@@ -874,7 +930,7 @@ XMLElement* add_section_bodies(XMLDocument& doc, XMLElement* parent, const std::
                                       {"mass", "1"},
                                       {"diaginertia", "1 1 1"}}));
     for (std::size_t j = b * kMaxDofs; j < std::min(joints.size(), (b + 1) * kMaxDofs); ++j)
-      body->InsertEndChild(new_slide_joint(doc, joints[j]));
+      body->InsertEndChild(new_slide_joint(doc, joints[j], limits[j]));
     if (!proxy) helpers.push_back(name);
     parent->InsertEndChild(body);
     parent = body;
@@ -913,16 +969,24 @@ XMLElement* Preprocessor::build_rod(XMLDocument& doc, RodInput& rod) {
     const double Xe = rod.section_end[i];
     const std::string prefix = n + "/s" + std::to_string(i);
 
-    // slide joint names in core dof order (component-major, then Legendre degree)
+    // slide joint names in core dof order (component-major, then Legendre degree), and the limits
+    // of a PCS section's (strainrange)
     std::vector<std::string> joints;
+    std::vector<Attributes> limits;
     for (int c = 0; c < 6; ++c)
-      for (int k = 0; sec.dofs[c] && k <= sec.order; ++k)
+      for (int k = 0; sec.dofs[c] && k <= sec.order; ++k) {
         joints.push_back(prefix + "/" + kComponents[c] + (sec.order == 0 ? "" : std::to_string(k)));
+        const double lo = rod.strain_range[i][2 * c], hi = rod.strain_range[i][2 * c + 1];
+        limits.emplace_back();
+        if (lo == 0.0 && hi == 0.0) continue;
+        limits.back() = {{"limited", "true"}, {"range", fmt(lo) + " " + fmt(hi)}};
+        limits.back().insert(limits.back().end(), rod.limit.begin(), rod.limit.end());
+      }
     d.joints.insert(d.joints.end(), joints.begin(), joints.end());
 
     // the proxy at the section end (after helpers if the section has more than 6 dofs)
     const SE3 end = rest_pose(Xe), to_end = end.inverse();
-    XMLElement* proxy = add_section_bodies(doc, parent, prefix, start.inverse() * end, joints, rod.helpers);
+    XMLElement* proxy = add_section_bodies(doc, parent, prefix, start.inverse() * end, joints, limits, rod.helpers);
     d.proxies.push_back(prefix);
 
     // capsules along the chords of the rest shape, radius of the taper at their middle

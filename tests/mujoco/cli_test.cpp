@@ -83,6 +83,18 @@ TEST_F(Cli, CheckPrintsSummary) {
   EXPECT_NE(free.out.find("contacts: none possible"), std::string::npos) << free.out;
 }
 
+// check counts a rod's limited strain dofs (strainrange), and says nothing of limits where none are
+TEST_F(Cli, CheckCountsLimitedStrainDofs) {
+  const fs::path model = scratch() / "limited.xml";
+  std::ofstream(model) << R"(<mujoco><worldbody><cosserat name="rod" length="0.5" sections="3" strain="kl"
+    strainrange="0 0 -4 4 -4 4 0 0 0 0 0 0"/></worldbody></mujoco>)";
+  const Result r = cosserat("check '" + model.string() + "'");
+  EXPECT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.out.find("rod: 3 sections, 12 strain dofs, length 0.5 m, 6 strain dofs limited (strainrange)"),
+            std::string::npos) << r.out;
+  EXPECT_EQ(cosserat("check '" + kCantilever + "'").out.find("limited"), std::string::npos);
+}
+
 TEST_F(Cli, CheckBadModelReportsFileAndLine) {
   const fs::path bad = scratch() / "bad.xml";
   std::ofstream(bad) << "<mujoco>\n  <worldbody>\n    <cosserat name=\"r\" length=\"-0.3\"/>\n  </worldbody>\n</mujoco>\n";

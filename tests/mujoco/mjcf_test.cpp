@@ -2,6 +2,7 @@
 // scenes compile in MuJoCo 2.2.2 with the contract's names, dof counts and frames.
 #include "mjcf.hpp"
 #include "scene.hpp"
+#include "support/text_file.hpp"
 
 #include <gtest/gtest.h>
 #include <mujoco/mujoco.h>
@@ -218,6 +219,20 @@ std::vector<BadCase> bad_cases() {
       {"include of a device", "<mujoco>\n<include file=\"/dev/zero\"/>\n</mujoco>\n", 2, "'/dev/zero': it is not a regular file"},
       // (fuzzing, session 39: MuJoCo took minutes and 2.4 GB to load nuser_site="100000000", and
       // more than 2 minutes and 2.6 GB for nkey="10000000"; the rod's base and tip sites count)
+      // strainrange (fortieth session): pairs lo <= 0 <= hi of the six strain components, on PCS dofs
+      {"strainrange of the wrong count", in_world(rod + R"( strainrange="-5 5"/>)"), 3, "'strainrange'"},
+      {"strainrange with lo above hi", in_world(rod + R"( strainrange="0 0 0 0 5 -5 0 0 0 0 0 0"/>)"), 3,
+       "pair 3 (kz) is 5 -5: it needs lo < hi"},
+      {"strainrange excluding the rest shape", in_world(rod + R"( strainrange="0 0 0 0 1 5 0 0 0 0 0 0"/>)"), 3,
+       "the values are deviations from 'reststrain'"},
+      {"strainrange on a strain the section lacks", in_world(rod + R"( strain="kl" strainrange="0 0 0 0 0 0 0 0 -0.1 0.1 0 0"/>)"), 3,
+       "limits py (pair 5), which is not among this section's strain dofs"},
+      {"strainrange on a GVS rod", in_world(rod + R"( order="2" strainrange="0 0 0 0 -5 5 0 0 0 0 0 0"/>)"), 3,
+       "is for PCS sections (order 0)"},
+      {"a GVS section inheriting a strainrange", in_world(rod + " strainrange=\"0 0 0 0 -5 5 0 0 0 0 0 0\">\n<section order=\"2\"/>\n</cosserat>"), 4,
+       "makes this a GVS section, which the rod's strainrange cannot limit"},
+      {"solreflimit without a strainrange", in_world(rod + R"( solreflimit="0.01 1"/>)"), 3,
+       "'solreflimit' is given, but no strain is limited"},
       {"user data beyond a gigabyte", "<mujoco>\n<size nuser_site=\"100000000\"/>\n<worldbody>\n" + rod + "/>\n</worldbody>\n</mujoco>\n", 2,
        "'nuser_site' is 100000000: MuJoCo would allocate 1.6 GB of user data for the model's 2 sites"},
       {"keyframes beyond a gigabyte", "<mujoco>\n<size nkey=\"999999999\"/>\n</mujoco>\n", 2,
@@ -860,4 +875,64 @@ TEST(MjcfErrors, SizesWithinTheLoadersBudgetLoad) {
   EXPECT_EQ(s->m->nsite, 3);
   EXPECT_EQ(s->m->nkey, 1000);
   EXPECT_EQ(s->m->nuser_body, 3);
+}
+
+// strainrange puts MuJoCo joint limits on a PCS section's strain joints (the rod's range on each
+// section, a <section>'s own over it; solreflimit and solimplimit with them), and a strain pushed
+// past its limit stops there: a clamped rod of two kl sections (E = 1e7 Pa, r = 1 cm, heavily damped
+// to rest), its first section bent by a motor on its kz that alone bends it to 5.09 1/m, limited
+// to 5 1/m, rests as an arc of curvature 5 over 0.25 m with the unloaded second section straight
+// along its end tangent: the tip at (sin t / k + 0.25 cos t, (1 - cos t) / k + 0.25 sin t), t = 0.25 k,
+// to MuJoCo's soft-limit penetration (5.0006 1/m measured), and a jointlimitfrc sensor reads the
+// generalized force the limit carries, what the section's linear stiffness leaves of the motor's
+// u: u (1 - k / k_free); a one-sided range "0 20" stops a negative moment at the rest shape.
+TEST(MjcfScenes, StrainRangeLimitsTheStrain) {
+  const std::string xml = R"(<mujoco><option timestep="0.001" gravity="0 0 0"/><worldbody>
+    <cosserat name="rod" length="0.5" strain="kl" radius="0.01" density="1000" young="1e7" poisson="0.5" viscosity="1e6"
+              strainrange="0 0 0 0 -5 5 0 0 0 0 0 0" solreflimit="0.01 1">
+      <section/><section strainrange="-2 2 0 0 0 0 0 0 0 0 0 0"/>
+    </cosserat></worldbody><actuator><motor name="m" joint="rod/s0/kz"/></actuator>
+    <sensor><jointlimitfrc joint="rod/s0/kz"/></sensor></mujoco>)";
+  auto s = load_scene_string(xml, kInline);
+  const mjModel* m = s->m;
+  for (const char* name : {"rod/s0/kx", "rod/s0/ky", "rod/s0/kz", "rod/s1/kx", "rod/s1/ky", "rod/s1/kz"}) {
+    SCOPED_TRACE(name);
+    const int j = mj_name2id(m, mjOBJ_JOINT, name);
+    ASSERT_GE(j, 0);
+    const bool limited = std::string(name) == "rod/s0/kz" || std::string(name) == "rod/s1/kx";
+    EXPECT_EQ(m->jnt_limited[j], limited ? 1 : 0);
+    if (!limited) continue;
+    EXPECT_EQ(m->jnt_range[2 * j + 1], std::string(name) == "rod/s0/kz" ? 5.0 : 2.0);
+    EXPECT_EQ(m->jnt_range[2 * j], -m->jnt_range[2 * j + 1]);
+    EXPECT_EQ(m->jnt_solref[mjNREF * j], 0.01);
+  }
+  EXPECT_TRUE(s->may_have_events);  // (the midpoint rule's end-state check: limits can arise)
+  double limit_force = 0.0;  // the jointlimitfrc sensor at the last rest
+  auto rest = [&](const std::string& model, double u, int kz) {
+    auto sc = load_scene_string(model, kInline);
+    SceneData sd(*sc);
+    sd.d->ctrl[0] = u;
+    for (int k = 0; k < 3000; ++k) EXPECT_EQ(step(*sc, sd), Status::Ok);
+    forward(*sc, sd);
+    limit_force = sd.d->sensordata[0];
+    return std::make_pair(sd.d->qpos[kz], Vec3(sd.d->site_xpos[3], sd.d->site_xpos[4], sd.d->site_xpos[5]));
+  };
+  const int kz = m->jnt_qposadr[mj_name2id(m, mjOBJ_JOINT, "rod/s0/kz")];
+  using cosserat::testing::replace_all;
+  const std::string unlimited = replace_all(replace_all(xml, R"(strainrange="0 0 0 0 -5 5 0 0 0 0 0 0")", ""),
+                                            R"(<jointlimitfrc joint="rod/s0/kz"/>)", R"(<jointpos joint="rod/s0/kz"/>)");
+  const auto [free_kz, free_tip] = rest(unlimited, 0.1, kz);
+  EXPECT_GT(free_kz, 5.05);  // past the limit without it
+  const auto [k, tip] = rest(xml, 0.1, kz);
+  EXPECT_NEAR(k, 5.0, 1e-3);
+  // the limit carries what the section's linear stiffness does not: u (1 - k / free_kz)
+  EXPECT_NEAR(limit_force, 0.1 * (1 - k / free_kz), 1e-6) << limit_force;
+  const double t = 0.25 * 5.0;
+  EXPECT_NEAR(tip.x(), std::sin(t) / 5.0 + 0.25 * std::cos(t), 1e-4);
+  EXPECT_NEAR(tip.y(), (1 - std::cos(t)) / 5.0 + 0.25 * std::sin(t), 1e-4);
+  // one-sided: kz >= 0 (the rest shape at the limit); a negative moment leaves it straight
+  const auto [k1, tip1] = rest(replace_all(xml, "0 0 0 0 -5 5 0 0 0 0 0 0", "0 0 0 0 0 20 0 0 0 0 0 0"), -0.1, kz);
+  // (the soft limit carries the whole moment here, which alone bends it to about -5 1/m: 6.1e-3 1/m deep)
+  EXPECT_NEAR(k1, 0.0, 1e-2);
+  EXPECT_NEAR(tip1.y(), 0.0, 1e-3);
 }
