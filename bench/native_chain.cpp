@@ -10,6 +10,7 @@
 #include <cmath>
 #include <map>
 #include <regex>
+#include <sstream>
 #include <vector>
 
 #include "lie.hpp"
@@ -112,6 +113,7 @@ struct Converter {
   std::string path;
   std::vector<std::pair<std::string, std::string>> excludes;
   std::vector<std::pair<std::string, std::string>> numerics;  // cosserat:drag:<body> -> data
+  bool radian = false;  // <compiler angle="radian"> (MuJoCo reads hinge ranges in degrees otherwise)
 
   void replace(XMLElement* parent, XMLElement* cos) {
     const char* nm = cos->Attribute("name");
@@ -144,6 +146,24 @@ struct Converter {
     const RodDrag* rd = drag.count(n) ? &drag.at(n) : nullptr;
 
     static const char* comp[6] = {"kx", "ky", "kz", "px", "py", "pz"};
+    // strainrange (the loader checked it): the rod's limits become the chain's joint limits, a
+    // strain range times ds (a hinge's angle, a slide's displacement), with the rod's solreflimit
+    // and solimplimit; a <section>'s own range, and rotational limits on ball joints (a cone, not a
+    // box), have no such equivalent and are refused
+    double range[12] = {};
+    if (const char* v = cos->Attribute("strainrange")) {
+      std::istringstream in(v);
+      for (double& x : range) in >> x;
+    }
+    for (const XMLElement* c = cos->FirstChildElement("section"); c; c = c->NextSiblingElement("section"))
+      if (c->Attribute("strainrange"))
+        fail(path, "rod '" + n + "': a <section>'s own strainrange has no native equivalent here (give the rod's)");
+    if (opt.ball && (range[0] || range[1] || range[2] || range[3] || range[4] || range[5]))
+      fail(path, "rod '" + n + "': strainrange on rotations cannot be carried by ball joints (a cone, not a box): "
+                 "use hinges");
+    std::vector<std::pair<std::string, std::string>> limit_attrs;
+    for (const char* a : {"solreflimit", "solimplimit"})
+      if (const char* v = cos->Attribute(a)) limit_attrs.emplace_back(a, v);
     XMLElement* body = base;
     std::vector<XMLElement*> bodies;
     for (int k = 0; k < N; ++k) {
@@ -180,11 +200,18 @@ struct Converter {
           if (!sj.dofs[c] || (opt.ball && c < 3)) continue;
           Vec3 axis = Vec3::Zero();
           axis(c % 3) = 1;
-          add(doc, b, "joint",
+          XMLElement* joint = add(doc, b, "joint",
               {{"name", jp + comp[c]}, {"type", c < 3 ? "hinge" : "slide"}, {"pos", "0 0 0"}, {"axis", fmt3(axis)},
                {"stiffness", fmt(fb[c] * kstiff[c])}, {"damping", fmt(fb[c] * kdamp[c])},
                {"armature", fmt(c < 3 ? armature : 0.0)},
                {"limited", "false"}, {"springref", "0"}});
+          if (range[2 * c] != 0.0 || range[2 * c + 1] != 0.0) {
+            joint->SetAttribute("limited", "true");
+            const double unit = c < 3 && !radian ? 180.0 / kPi : 1.0;  // a hinge's angle in the model's unit
+            joint->SetAttribute("range",
+                                (fmt(range[2 * c] * ds * unit) + " " + fmt(range[2 * c + 1] * ds * unit)).c_str());
+            for (const auto& [a, v] : limit_attrs) joint->SetAttribute(a.c_str(), v.c_str());
+          }
         }
       }
       // inertia of the segment [X_k, X_k + ds] (taper radius at its middle), capsule along its chord
@@ -296,6 +323,8 @@ std::string native_chain_xml(const std::string& xml, const std::string& path, co
   check_no_proxy_refs(root, names, path);
 
   Converter conv{doc, decls, drag, opt, path, {}, {}};
+  for (const XMLElement* c = root->FirstChildElement("compiler"); c; c = c->NextSiblingElement("compiler"))
+    if (const char* a = c->Attribute("angle")) conv.radian = std::string(a) == "radian";
   conv.walk(root);
 
   if (!conv.excludes.empty()) {

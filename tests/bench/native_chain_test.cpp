@@ -83,4 +83,44 @@ TEST(NativeChain, SpringsAndArmature) {
   }
 }
 
+// A rod's strainrange becomes the chain's joint limits: a strain range times ds, a hinge's angle in
+// the model's angle unit (MuJoCo reads degrees unless <compiler angle="radian">), a slide's
+// displacement, with the rod's solreflimit; a <section>'s own range and rotational limits on ball
+// joints have no equivalent and are refused.
+TEST(NativeChain, StrainRangeBecomesJointLimits) {
+  const std::string rod = R"(<cosserat name="rod" length="0.5" sections="2" strain="kl" radius="0.005"
+      strainrange="0 0 -1 2 0 0 -0.1 0.2 0 0 0 0" solreflimit="0.004 1")";
+  const int N = 10;
+  const double ds = 0.5 / N;
+  NativeChainOptions o;
+  o.segments = N;
+  for (const bool radian : {false, true}) {
+    SCOPED_TRACE(radian ? "radian" : "degree");
+    const std::string xml = std::string("<mujoco>") + (radian ? R"(<compiler angle="radian"/>)" : "") +
+                            "<worldbody>" + rod + "/></worldbody></mujoco>";
+    std::unique_ptr<mjModel, ModelDeleter> m(load_mujoco_string(native_chain_xml(xml, "/tmp/chain.xml", o), "/tmp/chain.xml"));
+    for (int k = 0; k < N; ++k) {
+      const std::string j = "rod/b" + std::to_string(k) + "/";
+      const int kx = mj_name2id(m.get(), mjOBJ_JOINT, (j + "kx").c_str()), ky = mj_name2id(m.get(), mjOBJ_JOINT, (j + "ky").c_str()),
+                px = mj_name2id(m.get(), mjOBJ_JOINT, (j + "px").c_str());
+      ASSERT_GE(kx, 0);
+      ASSERT_GE(ky, 0);
+      ASSERT_GE(px, 0);
+      EXPECT_EQ(m->jnt_limited[kx], 0);
+      ASSERT_EQ(m->jnt_limited[ky], 1);
+      EXPECT_NEAR(m->jnt_range[2 * ky], -1.0 * ds, 1e-12);  // radians in the compiled model either way
+      EXPECT_NEAR(m->jnt_range[2 * ky + 1], 2.0 * ds, 1e-12);
+      ASSERT_EQ(m->jnt_limited[px], 1);
+      EXPECT_NEAR(m->jnt_range[2 * px], -0.1 * ds, 1e-15);
+      EXPECT_NEAR(m->jnt_range[2 * px + 1], 0.2 * ds, 1e-15);
+      EXPECT_EQ(m->jnt_solref[mjNREF * ky], 0.004);
+    }
+  }
+  const std::string own = "<mujoco><worldbody>" + rod + ">\n<section strainrange=\"0 0 0 0 -1 1 0 0 0 0 0 0\"/><section/></cosserat></worldbody></mujoco>";
+  EXPECT_THROW(native_chain_xml(own, "/tmp/chain.xml", o), std::runtime_error);
+  o.ball = true;
+  EXPECT_THROW(native_chain_xml("<mujoco><worldbody>" + rod + "/></worldbody></mujoco>", "/tmp/chain.xml", o),
+               std::runtime_error);
+}
+
 }  // namespace
