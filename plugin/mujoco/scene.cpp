@@ -1452,7 +1452,7 @@ SceneData::SceneData(const Scene& s) {
     v->assign(nv, 0);
   newton.q_end.assign(nq, 0);
   // constraint_pattern's largest: the contacts' geom pairs and two entries per constraint row
-  for (auto* p : {&newton.pattern0, &newton.pattern, &newton.rows0}) p->reserve(1 + 2 * static_cast<size_t>(s.m->nconmax + s.m->njmax));
+  for (auto* p : {&newton.pattern0, &newton.pattern}) p->reserve(1 + 2 * static_cast<size_t>(s.m->nconmax + s.m->njmax));
   newton.x_prev.assign(nv, 0);
   newton.F_prev.assign(nv, 0);
   newton.dX.assign(static_cast<size_t>(nv) * kMaxNewtonMemory, 0);
@@ -2877,7 +2877,7 @@ Iterate apply_correction(const Scene& s, SceneData& sd, const Scheme& sc, int k,
 // at 0.25 ms the pieces grew too short to damp the chatter, and it pumped again; h/2 halved the
 // impact's gain; neither was kept. Nor was backward Euler with one Newton correction (it blew up at
 // the impact).
-void constraint_pattern(const mjModel* m, const mjData* d, std::vector<int>& p, bool with_states = true) {
+void constraint_pattern(const mjModel* m, const mjData* d, std::vector<int>& p) {
   p.clear();
   p.push_back(d->ncon);
   for (int c = 0; c < d->ncon; ++c) {
@@ -2888,9 +2888,25 @@ void constraint_pattern(const mjModel* m, const mjData* d, std::vector<int>& p, 
   for (int r = 0; r < d->nefc; ++r)
     if (d->efc_type[r] != mjCNSTR_EQUALITY) {
       p.push_back(d->efc_type[r]);
-      if (with_states) p.push_back(states ? d->efc_state[r] : d->efc_force[r] != 0.0);
+      p.push_back(states ? d->efc_state[r] : d->efc_force[r] != 0.0);
     }
 }
+
+// Whether two constraint patterns hold the same contacts and rows, whatever the rows' states
+// (midpoint_step's check at the end state).
+bool same_rows(const std::vector<int>& a, const std::vector<int>& b) {
+  if (a.size() != b.size() || a[0] != b[0]) return false;
+  const size_t rows = 1 + 2 * static_cast<size_t>(a[0]);  // after the count and the geom pairs
+  if (!std::equal(a.begin(), a.begin() + rows, b.begin())) return false;
+  for (size_t i = rows; i < a.size(); i += 2)  // (type, state) per row
+    if (a[i] != b[i]) return false;
+  return true;
+}
+
+// Whether the Newton schemes factorise their matrix again at the first iterate (midpoint: at its
+// first midpoint state): Scene::newton_refresh, and always under adaptive substeps, which control
+// what the refreshed matrix's full steps would risk (Scene::step_tol).
+bool refreshes_newton_matrix(const Scene& s) { return s.newton_refresh || s.step_tol > 0; }
 
 // Whether the state's pattern differs from the step's start's (after a forward at an iterate).
 bool constraint_event(const Scene& s, SceneData& sd) {
@@ -2939,8 +2955,7 @@ bool newton_step(const Scene& s, SceneData& sd, const Scheme& sc, int iterations
   implicit_step(s, sd, true, be ? 1.0 : 0.5);
   for (int i = 0; i < nv; ++i) w.A[i] = be ? d->qacc[i] : 2.0 * d->qacc[i] - w.f0[i];
   const double c = (1.0 - sc.af) / (1.0 - sc.am);
-  // adaptive substeps control what the refreshed matrix's full steps would risk (Scene::step_tol)
-  const bool refresh = s.newton_refresh || s.step_tol > 0;
+  const bool refresh = refreshes_newton_matrix(s);
   // the start state's constraint rows (d->efc_*: the first iterate ran no forward) enter the
   // iteration matrix (add_constraint_terms), of which the linearised step's holds the equalities only
   const bool constrained = !smooth_only(sd) && d->nefc > 0;
@@ -3136,7 +3151,6 @@ bool midpoint_step(const Scene& s, SceneData& sd, int iterations) {
   const double V0_all = springs ? nonlinear_springs(m, d, V0, nullptr, W0) : 0.0;
   save_start(sd, m);
   constraint_pattern(m, d, w.pattern0);
-  if (s.may_have_events) constraint_pattern(m, d, w.rows0, false);
   // first iterate: the linearised trapezoidal step, whose average acceleration (d->qacc) is A
   implicit_step(s, sd, true, 0.5);
   std::copy(d->qacc, d->qacc + nv, w.A.begin());
@@ -3162,8 +3176,7 @@ bool midpoint_step(const Scene& s, SceneData& sd, int iterations) {
     // contacts). (Adaptive substeps had not refreshed it here, as they do for the other schemes:
     // the rod-cross impact repro at 2 ms with --step-tol 1e-2 took 45607 corrections and 4481
     // substeps, 2128 rejected; refreshed, 10367, 1527 and 304.)
-    const bool refresh = s.newton_refresh || s.step_tol > 0;
-    if (k == 0 && refresh && !constrained && smooth_only(sd)) factor_implicit(s, sd, true, 0.5, 0.25);
+    if (k == 0 && refreshes_newton_matrix(s) && !constrained && smooth_only(sd)) factor_implicit(s, sd, true, 0.5, 0.25);
     ++sd.newton_stats.iterations;
     std::copy(d->qvel, d->qvel + nv, vm);
     mj_mulM(m, d, Mv, vm);
@@ -3250,8 +3263,8 @@ bool midpoint_step(const Scene& s, SceneData& sd, int iterations) {
     std::copy(d->warning, d->warning + mjNWARNING, saved);
     for (mjWarningStat& x : d->warning) x.number = std::max(x.number, 1);
     forward(s, sd, Need::Forces);
-    constraint_pattern(m, d, w.pattern, false);
-    event = w.pattern != w.rows0;
+    constraint_pattern(m, d, w.pattern);
+    event = !same_rows(w.pattern0, w.pattern);
     std::copy(saved, saved + mjNWARNING, d->warning);
   }
   if (event) {

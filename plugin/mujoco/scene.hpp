@@ -379,9 +379,8 @@ struct SceneData {
     // Anderson acceleration: the previous iterate and correction, and the last differences of
     // iterates and corrections (columns of nv, ring buffers of Scene::newton_memory columns)
     std::vector<mjtNum> x_prev, F_prev, dX, dF;
-    // the start state's non-smooth constraint pattern, and an iterate's (constraint_pattern);
-    // rows0: the start's without the rows' states (midpoint_step's check at the end state)
-    std::vector<int> pattern0, pattern, rows0;
+    // the start state's non-smooth constraint pattern, and an iterate's (constraint_pattern)
+    std::vector<int> pattern0, pattern;
   } newton;
   // Scene::step_tol > 0: the adaptive substeps' state. The substep's start (restored when it is
   // rejected), the last accepted substep's mean acceleration and the state it ended in (the
