@@ -35,12 +35,25 @@ Vec6 step_twist(const Node& n, const Eigen::Ref<const VecX>& qi, Mat6X* G) {
     return n.h * xi;
   }
   Vec6 xa = n.xibar_a, xb = n.xibar_b;
+  const double c = kZanna * n.h * n.h;
+  if (n.sparse_basis) {  // (GVS with a selecting basis: the products below without their zeros)
+    for (int k = 0; k < n.ndof; ++k) xa(n.basis_row[k]) += n.basis_a(k) * qi(k), xb(n.basis_row[k]) += n.basis_b(k) * qi(k);
+    if (G) {
+      // G = h/2 (Phi_a + Phi_b) + c (ad_{xa} Phi_b - ad_{xb} Phi_a), a column of ad per dof
+      const Mat6 Aa = ad(xa), Ab = ad(xb);
+      for (int k = 0; k < n.ndof; ++k) {
+        const int r = n.basis_row[k];
+        G->col(k) = (c * n.basis_b(k)) * Aa.col(r) - (c * n.basis_a(k)) * Ab.col(r);
+        (*G)(r, k) += 0.5 * n.h * (n.basis_a(k) + n.basis_b(k));
+      }
+    }
+    return 0.5 * n.h * (xa + xb) + c * ad_apply(xa, xb);
+  }
   if (n.ndof > 0) {
     xa.noalias() += n.Phi_a * qi;
     xb.noalias() += n.Phi_b * qi;
   }
   Vec6 Om = 0.5 * n.h * (xa + xb);
-  const double c = kZanna * n.h * n.h;
   if (n.commutator) Om += c * ad_apply(xa, xb);
   if (G && n.ndof > 0) {
     G->noalias() = (0.5 * n.h) * (n.Phi_a + n.Phi_b);
@@ -84,8 +97,15 @@ void fwd_position(const Model& m, Data& d) {
     }
     d.g[i] = (n.parent < 0 ? d.base_pose : d.g[n.parent]) * d.g_rel[i];
     if (n.group_first != i) {  // continues its parent's group
+      // Jg_i = Ad^-1_{g_rel} Jg_p + S_i, as two 3 x 3 block products over the columns:
+      // Ad^-1 (w, v) = (R^T w, R^T (v - u x w))
       const Mat6X& Jp = d.Jg[n.parent];
-      for (int k = 0; k < n.ndof; ++k) d.Jg[i].col(k) = Ad_inv_apply(d.g_rel[i], Jp.col(k)) + d.S[i].col(k);
+      Mat6X& J = d.Jg[i];
+      const Mat3 Rt = d.g_rel[i].R.transpose();
+      J.topRows<3>().noalias() = Rt * Jp.topRows<3>();
+      J.bottomRows<3>().noalias() = Rt * Jp.bottomRows<3>();
+      J.bottomRows<3>().noalias() -= (Rt * skew(d.g_rel[i].u)) * Jp.topRows<3>();
+      J += d.S[i];
       d.g_grp[i] = d.g_grp[n.parent] * d.g_rel[i];
     } else {
       d.Jg[i] = d.S[i];
@@ -134,8 +154,14 @@ void fwd_velocity(const Model& m, Data& d, bool with_Sdot) {
       } else {
         d.Omega_dot[i] = mul_cols(d.G[i], vi.data());
         const Vec6 mOm = -d.Omega[i];
-        const Vec6 xad = n.commutator ? Vec6(n.Phi_a * vi) : Vec6::Zero(),
-                   xbd = n.commutator ? Vec6(n.Phi_b * vi) : Vec6::Zero();
+        Vec6 xad = Vec6::Zero(), xbd = Vec6::Zero();
+        if (n.sparse_basis) {
+          for (int k = 0; k < n.ndof; ++k)
+            xad(n.basis_row[k]) += n.basis_a(k) * vi(k), xbd(n.basis_row[k]) += n.basis_b(k) * vi(k);
+        } else if (n.commutator) {
+          xad.noalias() = n.Phi_a * vi;
+          xbd.noalias() = n.Phi_b * vi;
+        }
         const double c = n.commutator ? kZanna * n.h * n.h : 0.0;
         d.Sdot_v[i] = step_Sdot_v(d.Omega[i], d.Omega_dot[i], c, xad, xbd);
         if (with_Sdot) {

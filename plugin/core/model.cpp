@@ -325,6 +325,23 @@ void Model::finalize() {
       if (n.selects)
         for (int c = 0; c < n.ndof; ++c) n.select_row[c] = static_cast<signed char>(sec.B_row[c]);
     }
+    n.sparse_basis = false;
+    if (n.ndof > 0 && n.commutator && n.section >= 0 && n.Phi_a.cols() == n.ndof && n.Phi_b.cols() == n.ndof) {
+      const Section& sec = sections[n.section];
+      const int nb = sec.order + 1;
+      n.basis_row.assign(n.ndof, -1);
+      n.basis_a = VecX::Zero(n.ndof), n.basis_b = VecX::Zero(n.ndof);
+      n.sparse_basis = n.ndof == sec.ndof;
+      for (int k = 0; k < n.ndof && n.sparse_basis; ++k) {
+        const int r = sec.B_row[k / nb];
+        n.sparse_basis = r >= 0;
+        if (!n.sparse_basis) break;
+        Vec6 ea = Vec6::Zero(), eb = Vec6::Zero();
+        ea(r) = n.Phi_a(r, k), eb(r) = n.Phi_b(r, k);
+        n.sparse_basis = n.Phi_a.col(k) == ea && n.Phi_b.col(k) == eb;
+        n.basis_row[k] = static_cast<signed char>(r), n.basis_a(k) = ea(r), n.basis_b(k) = eb(r);
+      }
+    }
     n.same_step = -1;
     if (n.ndof > 0 && !n.commutator && n.section >= 0)  // PCS: the step is a function of h alone
       for (int j = sections[n.section].first_node; j < i && n.same_step < 0; ++j) {

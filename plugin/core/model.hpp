@@ -127,6 +127,13 @@ struct Node {
   // is h times the selected columns of dexp(-Omega) (fwd_position takes them). Set by finalize().
   bool selects = false;
   signed char select_row[6] = {-1, -1, -1, -1, -1, -1};  // per dof, the strain component it is
+  // A GVS step whose basis columns have one nonzero each, in the same row at both Gauss points (a
+  // Legendre polynomial times a selected strain component: Section::B_row): per dof, that row and
+  // the column's value at each point. step_twist and fwd_velocity take them instead of the dense
+  // 6 x ndof products with Phi_a and Phi_b (the same sums without the zeros). Set by finalize().
+  bool sparse_basis = false;
+  std::vector<signed char> basis_row;
+  VecX basis_a, basis_b;
   double dX = 0.0;        // rod length this node stands for in quadratures (0 for non-rod nodes)
   bool free_joint = false;  // a 6-dof free joint (floating base): no static equilibrium
   int rod = -1, section = -1;
