@@ -14,10 +14,16 @@ namespace {
 // dS/dt v of a Magnus step (S = dexp(-Om) G): ddexp(-Om, -Om_dot) Om_dot, and for a step with the
 // commutator (c = kZanna h^2, c = 0 without) dexp(-Om) 2c ad_{xa_dot} xb_dot, xa_dot and xb_dot
 // the strain rates at its Gauss points (vectors: the matrix dS/dt is not needed for this).
-Vec6 step_Sdot_v(const Vec6& Om, const Vec6& Om_dot, double c, const Vec6& xa_dot, const Vec6& xb_dot) {
-  const Vec6 mOm = -Om;
-  Vec6 sv = ddexp_apply_self(mOm, Om_dot);
-  if (c != 0.0) sv += dexp_apply(mOm, 2.0 * c * ad_apply(xa_dot, xb_dot));
+// Dm: dexp(-Om) where the caller has it (fwd_position keeps it for the steps with the
+// commutator: Data::Dm), else null.
+Vec6 step_Sdot_v(const Vec6& Om, const Vec6& Om_dot, double c, const Vec6& xa_dot, const Vec6& xb_dot,
+                 const Mat6* Dm = nullptr) {
+  Vec6 sv = ddexp_apply_self(-Om, Om_dot);
+  if (c != 0.0) {
+    const Vec6 y = 2.0 * c * ad_apply(xa_dot, xb_dot);
+    if (Dm) sv.noalias() += *Dm * y;
+    else sv += dexp_apply(-Om, y);
+  }
   return sv;
 }
 
@@ -91,6 +97,9 @@ void fwd_position(const Model& m, Data& d) {
       if (n.selects) {  // (bit for bit the product below: one nonzero h per column of G)
         const Mat6 D = dexp(-d.Omega[i]);
         for (int k = 0; k < n.ndof; ++k) d.S[i].col(k) = n.h * D.col(n.select_row[k]);
+      } else if (n.commutator) {
+        d.Dm[i] = dexp(-d.Omega[i]);
+        d.S[i].noalias() = d.Dm[i] * d.G[i];
       } else {
         d.S[i].noalias() = dexp(-d.Omega[i]) * d.G[i];
       }
@@ -163,11 +172,11 @@ void fwd_velocity(const Model& m, Data& d, bool with_Sdot) {
           xbd.noalias() = n.Phi_b * vi;
         }
         const double c = n.commutator ? kZanna * n.h * n.h : 0.0;
-        d.Sdot_v[i] = step_Sdot_v(d.Omega[i], d.Omega_dot[i], c, xad, xbd);
+        d.Sdot_v[i] = step_Sdot_v(d.Omega[i], d.Omega_dot[i], c, xad, xbd, &d.Dm[i]);
         if (with_Sdot) {
           d.Sdot[i].noalias() = ddexp(mOm, -d.Omega_dot[i]) * d.G[i];
           if (n.commutator) {
-            const Mat6 Dm = dexp(mOm);
+            const Mat6& Dm = d.Dm[i];
             for (int k = 0; k < n.ndof; ++k)
               d.Sdot[i].col(k).noalias() += Dm * (c * (ad_apply(xad, n.Phi_b.col(k)) - ad_apply(xbd, n.Phi_a.col(k))));
           }

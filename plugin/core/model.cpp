@@ -449,6 +449,7 @@ Data::Data(const Model& m) {
   Sdot_v.assign(nn, Vec6::Zero());
   G.resize(nn);
   S.resize(nn);
+  Dm.assign(nn, Mat6::Identity());
   Sdot.resize(nn);
   Jg.resize(nn);
   Jgdot.resize(nn);

@@ -313,6 +313,7 @@ struct Data {
   std::vector<Vec6> Omega, Omega_dot;
   std::vector<Mat6X> G;    // dOmega/dq_i (6 x ndof)
   std::vector<Mat6X> S;    // motion subspace dexp(-Omega) G (6 x ndof)
+  std::vector<Mat6> Dm;    // dexp(-Omega) of the steps with a commutator (GVS; fwd_position, for fwd_velocity)
   std::vector<Mat6X> Sdot; // its time derivative (6 x ndof; fwd_velocity): cbias = ad_eta S v + Sdot v
   std::vector<Vec6> Sdot_v; // Sdot v (fwd_velocity, also when the matrix Sdot is not computed)
   // Group Jacobians (Node::group_first): Jg_i = twist of node i per unit velocity of its own dof
