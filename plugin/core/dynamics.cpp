@@ -160,8 +160,10 @@ void composite(const Model& m, Data& d, NodeMatrix which, MatX& out_M, Mat6& out
     if (next >= 0) congruence(d.g_rel[next], d.Ic[next], I);
     d.Ic[i] = I;
   }
+  const bool with_base = !inertia || d.crba_base;  // (Data::crba_base)
   out_base.setZero();
-  for (int c : children_of(m, -1)) congruence(d.g_rel[c], d.Ic[c], out_base);
+  if (with_base)
+    for (int c : children_of(m, -1)) congruence(d.g_rel[c], d.Ic[c], out_base);
   out_M.setZero();
   out_F_base.setZero();
   // M = sum_i J_i^T A_i J_i over the nodes, a group of nodes a0..ak at a time (a node that does
@@ -182,6 +184,9 @@ void composite(const Model& m, Data& d, NodeMatrix which, MatX& out_M, Mat6& out
     double* F = d.Fs.data();  // 6 x nd, column-major
     double* T = d.Ts.data();
     std::fill(F, F + 6 * nd, 0.0);
+    // F is for the cross terms with the ancestor groups and for out_F_base: without either, skipped
+    bool need_F = with_base;
+    for (int b = na.parent; b >= 0 && !need_F; b = m.nodes[m.nodes[b].group_first].parent) need_F = m.nodes[b].ndof > 0;
     int a = a0;
     for (;; ++a) {
       const signed char kind = d.Ic_off_kind[a];
@@ -205,10 +210,16 @@ void composite(const Model& m, Data& d, NodeMatrix which, MatX& out_M, Mat6& out
           }
           out_M(q0 + c, q0 + c) += Eigen::Map<const Vec6>(J + 6 * c).dot(t);
         }
-        coAd_cols(d.g_grp[a], T, nd);
-        for (int k = 0; k < 6 * nd; ++k) F[k] += T[k];
+        if (need_F) {
+          coAd_cols(d.g_grp[a], T, nd);
+          for (int k = 0; k < 6 * nd; ++k) F[k] += T[k];
+        }
       }
       if (next < 0) break;
+    }
+    if (!need_F) {
+      a0 = a + 1;
+      continue;
     }
     // the walk above the group, one ancestor group at a time: for an ancestor b, the cross terms
     // of b's group up to b are Jg_b^T F (F in b's frame), and F moves on by g_grp_b to the frame
@@ -219,7 +230,7 @@ void composite(const Model& m, Data& d, NodeMatrix which, MatX& out_M, Mat6& out
       coAd_cols(d.g_grp[b], F, nd);
       b = m.nodes[nb.group_first].parent;
     }
-    out_F_base.middleCols(q0, nd) += d.Fs.leftCols(nd);
+    if (with_base) out_F_base.middleCols(q0, nd) += d.Fs.leftCols(nd);
     a0 = a + 1;
   }
 }

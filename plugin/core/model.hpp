@@ -297,6 +297,11 @@ struct Data {
   // the model's own statics leave it out. -1: none.
   int attached_node = -1;
   Mat6 attached_inertia = Mat6::Zero();
+  // Whether crba fills the base coupling Ic_base and F_base. The MuJoCo coupling sets it false
+  // for a rod whose base body cannot move (no dofs above it), where nothing reads them: they are
+  // then left zero, and crba skips the base-frame force subspace of the dof groups that have no
+  // ancestor with dofs (a one-section rod's whole walk of its mass points to its base).
+  bool crba_base = true;
 
   // outputs
   VecX qacc;          // generalised accelerations (nv)

@@ -1468,6 +1468,7 @@ SceneData::SceneData(const Scene& s) {
     RodScratch& sc = scratch[r];
     for (int j = first_ancestor_dof(s.m, s.rods[r].base_body); j >= 0; j = s.m->dof_parentid[j]) sc.anc.push_back(j);
     sc.C.resize(6, static_cast<int>(sc.anc.size()));
+    rod[r].crba_base = !sc.anc.empty();  // patch_qM's coupling to the dofs above the base, if any
     sc.Kv.resize(s.rods[r].model.nv);
     sc.tau.resize(s.rods[r].model.nv);
     const RodBinding& rb = s.rods[r];

@@ -582,4 +582,34 @@ TEST(KernelsFast, SparseGvsBasesEqualDenseProducts) {
   }
 }
 
+// Without the base coupling (Data::crba_base false: a base that cannot move), crba gives the same
+// mass matrix bit for bit and leaves Ic_base and F_base zero; with it, they are as before.
+TEST(KernelsFast, CrbaWithoutTheBaseCouplingKeepsTheMassMatrix) {
+  std::vector<Model> models;
+  models.push_back(mixed_tree());
+  models.push_back(hybrid_tree());
+  for (int sections : {1, 3}) {
+    Model m;
+    m.add_rod(-1, SE3::Identity(), rod_spec("ikl", sections, 2));
+    m.finalize();
+    models.push_back(m);
+  }
+  for (size_t k = 0; k < models.size(); ++k) {
+    const Model& m = models[k];
+    Data with(m), without(m);
+    randomize(with, 21 + static_cast<unsigned>(k));
+    without.q = with.q;
+    without.crba_base = false;
+    fwd_position(m, with);
+    fwd_position(m, without);
+    crba(m, with);
+    crba(m, without);
+    EXPECT_TRUE(with.M == without.M) << k;
+    EXPECT_GT(with.F_base.norm(), 0.0) << k;
+    EXPECT_GT(with.Ic_base.norm(), 0.0) << k;
+    EXPECT_EQ(without.F_base.norm(), 0.0) << k;
+    EXPECT_EQ(without.Ic_base.norm(), 0.0) << k;
+  }
+}
+
 }  // namespace
