@@ -6,11 +6,11 @@
 #include <tinyxml2.h>
 
 #include <algorithm>
+#include <array>
 #include <charconv>
 #include <cmath>
 #include <map>
 #include <regex>
-#include <sstream>
 #include <vector>
 
 #include "lie.hpp"
@@ -41,14 +41,19 @@ XMLElement* add(XMLDocument& doc, XMLElement* parent, const char* tag,
   return e;
 }
 
-// Section data at abscissa X (the section containing it; on a boundary, the later one).
-const SectionSpec& section_at(const RodSpec& spec, double X) {
+// The section containing abscissa X (on a boundary, the later one): its index, and its data.
+int section_index_at(const RodSpec& spec, double X) {
+  if (spec.overrides.empty())  // equal sections
+    return std::min(static_cast<int>((X + 1e-12 * spec.length) / spec.length * spec.sections), spec.sections - 1);
   double X0 = 0.0;
   for (std::size_t i = 0; i < spec.overrides.size(); ++i) {
     X0 += spec.overrides[i].length;
-    if (X < X0 - 1e-12 * spec.length || i + 1 == spec.overrides.size()) return spec.overrides[i];
+    if (X < X0 - 1e-12 * spec.length || i + 1 == spec.overrides.size()) return static_cast<int>(i);
   }
-  return spec.section;
+  return 0;
+}
+const SectionSpec& section_at(const RodSpec& spec, double X) {
+  return spec.overrides.empty() ? spec.section : spec.overrides[section_index_at(spec, X)];
 }
 
 // The rest pose of abscissa b in the frame of abscissa a <= b: the sections' rest strains composed
@@ -146,21 +151,14 @@ struct Converter {
     const RodDrag* rd = drag.count(n) ? &drag.at(n) : nullptr;
 
     static const char* comp[6] = {"kx", "ky", "kz", "px", "py", "pz"};
-    // strainrange (the loader checked it): the rod's limits become the chain's joint limits, a
-    // strain range times ds (a hinge's angle, a slide's displacement), with the rod's solreflimit
-    // and solimplimit; a <section>'s own range, and rotational limits on ball joints (a cone, not a
-    // box), have no such equivalent and are refused
-    double range[12] = {};
-    if (const char* v = cos->Attribute("strainrange")) {
-      std::istringstream in(v);
-      for (double& x : range) in >> x;
-    }
-    for (const XMLElement* c = cos->FirstChildElement("section"); c; c = c->NextSiblingElement("section"))
-      if (c->Attribute("strainrange"))
-        fail(path, "rod '" + n + "': a <section>'s own strainrange has no native equivalent here (give the rod's)");
-    if (opt.ball && (range[0] || range[1] || range[2] || range[3] || range[4] || range[5]))
-      fail(path, "rod '" + n + "': strainrange on rotations cannot be carried by ball joints (a cone, not a box): "
-                 "use hinges");
+    // strainrange (the loader resolved and checked it per section: RodDecl::strain_range): the
+    // limits of the section a joint sits in become that joint's limits, a strain range times ds (a
+    // hinge's angle, a slide's displacement), with the rod's solreflimit and solimplimit; rotational
+    // limits on ball joints (a cone, not a box) have no such equivalent and are refused
+    for (const auto& range : d.strain_range)
+      if (opt.ball && (range[0] || range[1] || range[2] || range[3] || range[4] || range[5]))
+        fail(path, "rod '" + n + "': strainrange on rotations cannot be carried by ball joints (a cone, not a box): "
+                   "use hinges");
     std::vector<std::pair<std::string, std::string>> limit_attrs;
     for (const char* a : {"solreflimit", "solimplimit"})
       if (const char* v = cos->Attribute(a)) limit_attrs.emplace_back(a, v);
@@ -168,7 +166,10 @@ struct Converter {
     std::vector<XMLElement*> bodies;
     for (int k = 0; k < N; ++k) {
       const double Xk = k * ds, Xm = (k + 0.5) * ds;
+      const int ij = section_index_at(spec, Xk);
       const SectionSpec& sj = section_at(spec, Xk);  // joint: at X_k
+      static const std::array<double, 12> kUnlimited{};
+      const std::array<double, 12>& range = ij < static_cast<int>(d.strain_range.size()) ? d.strain_range[ij] : kUnlimited;
       const SectionSpec& sm = section_at(spec, Xm);  // body: its middle
       SE3 place;                                     // body k in body k-1 (rest shape)
       if (k > 0) place = rest_between(spec, Xk - ds, Xk);

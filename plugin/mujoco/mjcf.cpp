@@ -253,9 +253,7 @@ struct RodInput {
   std::vector<RodSite> sites;       // user sites
   std::vector<XMLElement*> bodies;  // <body> children, moved under the last proxy
   std::vector<std::string> helpers; // generated helper bodies (sections with more than 6 dofs)
-  // strainrange: per section, the limits of its strain coordinates (lo, hi for kx ky kz px py pz;
-  // 0 0: not limited), and the rod's solreflimit / solimplimit for them, verbatim
-  std::vector<std::array<double, 12>> strain_range;
+  // the rod's solreflimit / solimplimit for its strain limits (RodDecl::strain_range), verbatim
   Attributes limit;
 };
 
@@ -715,7 +713,7 @@ RodInput Preprocessor::read_rod(XMLElement* cosserat, const std::string& parent_
   // the strain limits' softness, for every limited strain joint (MuJoCo's joint solreflimit and
   // solimplimit; its defaults otherwise)
   for (auto [attr, lo, hi] : {std::tuple{"solreflimit", 2, 2}, {"solimplimit", 3, 5}}) {
-    r.check(!r.has(attr) || r.has("strainrange") || std::any_of(rod.strain_range.begin(), rod.strain_range.end(),
+    r.check(!r.has(attr) || r.has("strainrange") || std::any_of(rod.decl.strain_range.begin(), rod.decl.strain_range.end(),
                                                                  [](const auto& a) { return a != std::array<double, 12>{}; }),
             attr, "is given, but no strain is limited (strainrange)");
     r.pass_through(attr, lo, hi, rod.limit);
@@ -764,7 +762,7 @@ void Preprocessor::read_sections(const Reader& r, RodInput& rod) {
     s.check(s.has("strainrange") || ss.order == 0 || range == std::array<double, 12>{}, "order",
             "makes this a GVS section, which the rod's strainrange cannot limit (its coordinates are Legendre "
             "coefficients): give the section strainrange=\"0 0 0 0 0 0 0 0 0 0 0 0\" or order 0");
-    rod.strain_range.push_back(range);
+    rod.decl.strain_range.push_back(range);
     check_section_scales(s, ss, std::min(spec.radius_base, spec.radius_tip), warnings_);
     ss.length = s.number("length", 0.0);
     s.check(!s.has("length") || ss.length > 0, "length", "must be positive, got " + s.text("length"));
@@ -780,7 +778,7 @@ void Preprocessor::read_sections(const Reader& r, RodInput& rod) {
   if (secs.empty()) {
     if (requested < 2 * kDepthLimit) {
       secs.assign(requested, spec.section);
-      rod.strain_range.assign(requested, rod_range);
+      rod.decl.strain_range.assign(requested, rod_range);
     }
     sized.assign(secs.size(), false);
   } else if (n_attr > 0 && n_attr != static_cast<int>(secs.size())) {
@@ -976,7 +974,7 @@ XMLElement* Preprocessor::build_rod(XMLDocument& doc, RodInput& rod) {
     for (int c = 0; c < 6; ++c)
       for (int k = 0; sec.dofs[c] && k <= sec.order; ++k) {
         joints.push_back(prefix + "/" + kComponents[c] + (sec.order == 0 ? "" : std::to_string(k)));
-        const double lo = rod.strain_range[i][2 * c], hi = rod.strain_range[i][2 * c + 1];
+        const double lo = rod.decl.strain_range[i][2 * c], hi = rod.decl.strain_range[i][2 * c + 1];
         limits.emplace_back();
         if (lo == 0.0 && hi == 0.0) continue;
         limits.back() = {{"limited", "true"}, {"range", fmt(lo) + " " + fmt(hi)}};

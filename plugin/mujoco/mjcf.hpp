@@ -19,6 +19,7 @@
 // proxies of a rod pairwise and with its base.
 #pragma once
 
+#include <array>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -68,6 +69,10 @@ struct RodDecl {
   // (drag="0": no fluid force on this rod); wavelength="lambda" the wave they are computed from
   std::vector<double> drag;
   double wavelength = 0.0;
+  // strainrange, resolved per section (a <section>'s own, else the rod's; checked): lo, hi of each
+  // of kx ky kz px py pz, deviations from the rest strain; 0 0 where not limited. Empty before
+  // the sections are read.
+  std::vector<std::array<double, 12>> strain_range;
 };
 
 // Where a line of the generated MJCF comes from in the user's files.

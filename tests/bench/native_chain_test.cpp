@@ -116,8 +116,31 @@ TEST(NativeChain, StrainRangeBecomesJointLimits) {
       EXPECT_EQ(m->jnt_solref[mjNREF * ky], 0.004);
     }
   }
-  const std::string own = "<mujoco><worldbody>" + rod + ">\n<section strainrange=\"0 0 0 0 -1 1 0 0 0 0 0 0\"/><section/></cosserat></worldbody></mujoco>";
-  EXPECT_THROW(native_chain_xml(own, "/tmp/chain.xml", o), std::runtime_error);
+  // a <section>'s own range: the joints in that section take it, the others the rod's
+  const std::string own = "<mujoco><worldbody>" + rod + ">\n<section strainrange=\"0 0 0 0 -3 1 0 0 0 0 0 0\"/><section/></cosserat></worldbody></mujoco>";
+  {
+    std::unique_ptr<mjModel, ModelDeleter> m(load_mujoco_string(native_chain_xml(own, "/tmp/chain.xml", o), "/tmp/chain.xml"));
+    for (int k = 0; k < N; ++k) {
+      SCOPED_TRACE(k);
+      const std::string j = "rod/b" + std::to_string(k) + "/";
+      const int kz = mj_name2id(m.get(), mjOBJ_JOINT, (j + "kz").c_str()), ky = mj_name2id(m.get(), mjOBJ_JOINT, (j + "ky").c_str()),
+                px = mj_name2id(m.get(), mjOBJ_JOINT, (j + "px").c_str());
+      ASSERT_GE(kz, 0);
+      ASSERT_GE(ky, 0);
+      ASSERT_GE(px, 0);
+      const bool first = k < N / 2;  // joints at X_k = k ds: the first five in the first section
+      EXPECT_EQ(m->jnt_limited[kz], first ? 1 : 0);
+      EXPECT_EQ(m->jnt_limited[ky], first ? 0 : 1);
+      EXPECT_EQ(m->jnt_limited[px], first ? 0 : 1);
+      if (first) {
+        EXPECT_NEAR(m->jnt_range[2 * kz], -3.0 * ds, 1e-12);
+        EXPECT_NEAR(m->jnt_range[2 * kz + 1], 1.0 * ds, 1e-12);
+        EXPECT_EQ(m->jnt_solref[mjNREF * kz], 0.004);
+      } else {
+        EXPECT_NEAR(m->jnt_range[2 * ky + 1], 2.0 * ds, 1e-12);
+      }
+    }
+  }
   o.ball = true;
   EXPECT_THROW(native_chain_xml("<mujoco><worldbody>" + rod + "/></worldbody></mujoco>", "/tmp/chain.xml", o),
                std::runtime_error);
