@@ -496,6 +496,26 @@ TEST(KernelsFast, GroupJacobiansEqualSectionJacobians) {
   }
 }
 
+// The kinematics (poses, motion subspaces, group Jacobians, their rates, bias accelerations) of
+// two models of the same tree from one random state agree to `tol` (relative where they scale).
+void expect_same_kinematics(const Model& m, const Model& ref, unsigned seed, double tol) {
+  Data d(m), dr(ref);
+  randomize(d, seed);
+  dr.q = d.q;
+  dr.v = d.v;
+  fwd_position(m, d);
+  fwd_velocity(m, d);
+  fwd_position(ref, dr);
+  fwd_velocity(ref, dr);
+  for (size_t i = 0; i < m.nodes.size(); ++i) {
+    EXPECT_LT((d.g[i].u - dr.g[i].u).norm() + (d.g[i].R - dr.g[i].R).norm(), tol) << i;
+    EXPECT_LE((d.S[i] - dr.S[i]).norm(), tol * dr.S[i].norm()) << i;  // (0 = 0 at a base node)
+    EXPECT_LE((d.Jg[i] - dr.Jg[i]).norm(), tol * dr.Jg[i].norm()) << i;
+    EXPECT_LT((d.Sdot[i] - dr.Sdot[i]).norm(), tol * (1 + dr.Sdot[i].norm())) << i;
+    EXPECT_LT((d.cbias[i] - dr.cbias[i]).norm(), tol * (1 + dr.cbias[i].norm())) << i;
+  }
+}
+
 // PCS steps of equal length (the quadrature is symmetric) are computed once (Node::same_step):
 // the kinematics equal those of the same model computing every step.
 TEST(KernelsFast, RepeatedPcsStepsEqualRecomputedOnes) {
@@ -521,20 +541,7 @@ TEST(KernelsFast, RepeatedPcsStepsEqualRecomputedOnes) {
     } else {
       EXPECT_EQ(reused, 3 * ((quadrature + 1) / 2)) << quadrature;
     }
-    Data d(m), dr(ref);
-    randomize(d, 5 + quadrature);
-    dr.q = d.q;
-    dr.v = d.v;
-    fwd_position(m, d);
-    fwd_velocity(m, d);
-    fwd_position(ref, dr);
-    fwd_velocity(ref, dr);
-    for (size_t i = 0; i < m.nodes.size(); ++i) {
-      EXPECT_LT((d.g[i].u - dr.g[i].u).norm() + (d.g[i].R - dr.g[i].R).norm(), 1e-14) << i;
-      EXPECT_LE((d.S[i] - dr.S[i]).norm(), 1e-14 * dr.S[i].norm()) << i;  // (0 = 0 at the base node)
-      EXPECT_LT((d.Sdot[i] - dr.Sdot[i]).norm(), 1e-14 * (1 + dr.Sdot[i].norm())) << i;
-      EXPECT_LT((d.cbias[i] - dr.cbias[i]).norm(), 1e-14 * (1 + dr.cbias[i].norm())) << i;
-    }
+    expect_same_kinematics(m, ref, 5 + quadrature, 1e-14);
   }
 }
 
@@ -564,21 +571,7 @@ TEST(KernelsFast, SparseGvsBasesEqualDenseProducts) {
     for (const Node& n : m.nodes) stepping += n.ndof > 0;
     EXPECT_EQ(sparse, stepping) << c.basis << " order " << c.order;
     EXPECT_GT(sparse, 0);
-    Data d(m), dr(ref);
-    randomize(d, 11 + c.order);
-    dr.q = d.q;
-    dr.v = d.v;
-    fwd_position(m, d);
-    fwd_velocity(m, d);
-    fwd_position(ref, dr);
-    fwd_velocity(ref, dr);
-    for (size_t i = 0; i < m.nodes.size(); ++i) {
-      EXPECT_LT((d.g[i].u - dr.g[i].u).norm() + (d.g[i].R - dr.g[i].R).norm(), 1e-13) << i;
-      EXPECT_LE((d.S[i] - dr.S[i]).norm(), 1e-13 * dr.S[i].norm()) << i;
-      EXPECT_LE((d.Jg[i] - dr.Jg[i]).norm(), 1e-13 * dr.Jg[i].norm()) << i;
-      EXPECT_LT((d.Sdot[i] - dr.Sdot[i]).norm(), 1e-13 * (1 + dr.Sdot[i].norm())) << i;
-      EXPECT_LT((d.cbias[i] - dr.cbias[i]).norm(), 1e-13 * (1 + dr.cbias[i].norm())) << i;
-    }
+    expect_same_kinematics(m, ref, 11 + c.order, 1e-13);
   }
 }
 
