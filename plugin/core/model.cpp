@@ -334,8 +334,10 @@ void Model::finalize() {
       n.sparse_basis = n.ndof == sec.ndof;
       for (int k = 0; k < n.ndof && n.sparse_basis; ++k) {
         const int r = sec.B_row[k / nb];
-        n.sparse_basis = r >= 0;
-        if (!n.sparse_basis) break;
+        if (r < 0) {
+          n.sparse_basis = false;
+          break;
+        }
         Vec6 ea = Vec6::Zero(), eb = Vec6::Zero();
         ea(r) = n.Phi_a(r, k), eb(r) = n.Phi_b(r, k);
         n.sparse_basis = n.Phi_a.col(k) == ea && n.Phi_b.col(k) == eb;
