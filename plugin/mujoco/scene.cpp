@@ -26,6 +26,7 @@
 #include <cstdio>
 #include <cstring>
 #include <limits>
+#include <tuple>
 #include <unordered_set>
 #include <vector>
 
@@ -1214,6 +1215,123 @@ void tendon_site_points(const mjModel* m, const mjData* d, int t, Visit&& visit)
   }
 }
 
+}  // namespace
+
+// Whether every tendon of m is a spatial tendon through sites and pulleys only (no wrapping
+// geoms, no fixed tendon): tendons_by_wrenches computes those.
+bool tendons_of_sites_only(const mjModel* m) {
+  for (int t = 0; t < m->ntendon; ++t)
+    for (int k = m->tendon_adr[t]; k < m->tendon_adr[t] + m->tendon_num[t]; ++k)
+      if (m->wrap_type[k] != mjWRAP_SITE && m->wrap_type[k] != mjWRAP_PULLEY) return false;
+  return true;
+}
+
+namespace {
+
+// mj_tendon for tendons_of_sites_only models: the same lengths (the same operations), path points
+// (ten_wrapadr, ten_wrapnum, wrap_obj, wrap_xpos) and Jacobian layout (dense rows, or compressed
+// rows on the union of the segments' bodies' dof chains, as mj_jacDifPair's merged chains make
+// it), with the Jacobian summed as a transposed product instead of mj_tendon's two mj_jac calls
+// per segment (each O(nv) wide: on the octopus arm's three cables through 8 sites, 11% of a step):
+// a segment from p0 on body b0 to p1 on b1 with unit direction u pulls with u / divisor at p1 and
+// -u / divisor at p0; each body's wrench (force, and moment about its tree's subtree_com, the
+// point MuJoCo's cdof are taken at) is summed up the tree, and dL/dq_j = cdof_j . (moment, force)
+// of the subtree of dof j's body. Equal to mj_tendon's to rounding (Scene test
+// TendonsOfSitesTakeMuJoCosLengthsAndJacobians); as mj_tendon, segments between sites of one body
+// add nothing.
+void tendons_by_wrenches(const mjModel* m, mjData* d, SceneData& sd) {
+  const int nv = m->nv, nbody = m->nbody;
+  const bool sparse = mj_isSparse(m);
+  mjtNum* W = sd.ten_wrench.data();
+  char* chain = sd.ten_chain.data();
+  int wrapcount = 0;
+  if (sparse) std::fill(d->ten_J_rownnz, d->ten_J_rownnz + m->ntendon, 0);
+  for (int i = 0; i < m->ntendon; ++i) {
+    const int adr = m->tendon_adr[i], num = m->tendon_num[i];
+    d->ten_wrapadr[i] = wrapcount;
+    d->ten_wrapnum[i] = 0;
+    d->ten_length[i] = 0;
+    std::fill(W, W + 6 * nbody, 0.0);
+    std::fill(chain, chain + nbody, 0);
+    mjtNum divisor = 1;
+    for (int j = 0; j < num - 1;) {
+      const int type0 = m->wrap_type[adr + j], type1 = m->wrap_type[adr + j + 1];
+      if (type0 == mjWRAP_PULLEY || type1 == mjWRAP_PULLEY) {
+        if (type0 == mjWRAP_PULLEY) {
+          divisor = m->wrap_prm[adr + j];
+          mju_zero3(d->wrap_xpos + 3 * wrapcount);
+          d->wrap_obj[wrapcount++] = -2;
+          d->ten_wrapnum[i]++;
+        }
+        ++j;
+        continue;
+      }
+      const int id0 = m->wrap_objid[adr + j], id1 = m->wrap_objid[adr + j + 1];
+      const mjtNum* p0 = d->site_xpos + 3 * id0;
+      const mjtNum* p1 = d->site_xpos + 3 * id1;
+      d->ten_length[i] += mju_dist3(p0, p1) / divisor;
+      const int b0 = m->site_bodyid[id0], b1 = m->site_bodyid[id1];
+      if (b0 != b1) {
+        mjtNum u[3];
+        mju_sub3(u, p1, p0);
+        mju_normalize3(u);
+        mju_scl3(u, u, 1 / divisor);
+        for (const auto& [b, p, sign] : {std::tuple{b1, p1, 1.0}, std::tuple{b0, p0, -1.0}}) {
+          const mjtNum* c = d->subtree_com + 3 * m->body_rootid[b];
+          const Vec3 r(p[0] - c[0], p[1] - c[1], p[2] - c[2]);
+          const Vec3 f = sign * Vec3(u[0], u[1], u[2]);
+          Eigen::Map<Vec3>(W + 6 * b) += r.cross(f);
+          Eigen::Map<Vec3>(W + 6 * b + 3) += f;
+          for (int a = b; a > 0 && !chain[a]; a = m->body_parentid[a]) chain[a] = 1;
+        }
+      }
+      mju_copy3(d->wrap_xpos + 3 * wrapcount, p0);
+      d->wrap_obj[wrapcount++] = -1;
+      d->ten_wrapnum[i]++;
+      ++j;
+      if (j == num - 1 || m->wrap_type[adr + j + 1] == mjWRAP_PULLEY) {  // the last site before a pulley or the end
+        mju_copy3(d->wrap_xpos + 3 * wrapcount, p1);
+        d->wrap_obj[wrapcount++] = -1;
+        d->ten_wrapnum[i]++;
+      }
+    }
+    for (int b = nbody - 1; b > 0; --b)  // subtree sums (a parent's index is below its child's)
+      if (const int p = m->body_parentid[b]; p > 0)
+        for (int k = 0; k < 6; ++k) W[6 * p + k] += W[6 * b + k];
+    const auto moment = [&](int dof) {
+      const mjtNum* cd = d->cdof + 6 * dof;
+      const mjtNum* w = W + 6 * m->dof_bodyid[dof];
+      return cd[0] * w[0] + cd[1] * w[1] + cd[2] * w[2] + cd[3] * w[3] + cd[4] * w[4] + cd[5] * w[5];
+    };
+    if (!sparse) {
+      for (int dof = 0; dof < nv; ++dof) d->ten_J[i * nv + dof] = moment(dof);
+      continue;
+    }
+    const int row = d->ten_J_rowadr[i] = i > 0 ? d->ten_J_rowadr[i - 1] + d->ten_J_rownnz[i - 1] : 0;
+    int nnz = 0;
+    for (int dof = 0; dof < nv; ++dof)
+      if (chain[m->dof_bodyid[dof]]) {
+        d->ten_J_colind[row + nnz] = dof;
+        d->ten_J[row + nnz++] = moment(dof);
+      }
+    d->ten_J_rownnz[i] = nnz;
+  }
+}
+
+}  // namespace
+
+// MuJoCo's tendon stage on a scene: tendons_by_wrenches where the scene has rods and its tendons
+// are all spatial through sites and pulleys, else mj_tendon (rod-free scenes keep mj_step's bits).
+void scene_tendons(const Scene& s, SceneData& sd) {
+  if (!s.m->ntendon) return;
+  if (!s.rods.empty() && tendons_of_sites_only(s.m))
+    tendons_by_wrenches(s.m, sd.d, sd);
+  else
+    mj_tendon(s.m, sd.d);
+}
+
+namespace {
+
 // Spatial tendons through rod sites: dL/dq gets the true site Jacobians. For a site at path point
 // k, dL/dp_k = (u_in - u_out) / divisor (unit vectors of the segments into and out of it, which
 // start or end at a wrapping geom's tangent point where the cable wraps one: the wrapped length is
@@ -1446,6 +1564,8 @@ SceneData::SceneData(const Scene& s) {
   if (s.m->ntendon && !s.rods.empty()) {  // (patch_tendons)
     ten_J_rows.assign(static_cast<size_t>(s.m->ntendon) * nv, 0);
     ten_J_mark.assign(static_cast<size_t>(s.m->ntendon) * nv, 0);
+    ten_wrench.assign(static_cast<size_t>(s.m->nbody) * 6, 0.0);
+    ten_chain.assign(s.m->nbody, 0);
   }
   newton.size(s.m);
   for (auto* v : {&newton.f0, &newton.A0, &newton.A, &newton.r, &newton.y, &newton.delta, &newton.v_end})
@@ -1601,7 +1721,7 @@ void fwd_position(const Scene& s, SceneData& sd, Need need) {
   fwd_inertia(s, sd, !static_forces);
   mj_camlight(m, d);
   if (!s.com_cameras.empty() || !s.com_lights.empty()) patch_com_tracking(s, sd);
-  mj_tendon(m, d);
+  scene_tendons(s, sd);
   if (m->ntendon && !s.rods.empty()) patch_tendons(s, sd);
   fluid_damping(s, sd);  // fluid hook: damping matrix (scene_fluid.hpp); no-op without the fluid
   // (MuJoCo factorises M before the collisions; nothing up to the constraint projection reads
@@ -3211,7 +3331,7 @@ bool midpoint_step(const Scene& s, SceneData& sd, int iterations) {
     // into a change of the speeds, within the correction's limit.)
     double Vs0 = 0.0, Vs1 = 0.0, V1_all = 0.0;
     if (springs) {
-      mj_tendon(m, d);  // the lengths (the kinematics patched for rod sites)
+      scene_tendons(s, sd);  // the lengths (the kinematics patched for rod sites)
       V1_all = nonlinear_springs(m, d, V1, nullptr, W1);
       for (int k = 0; k < nsp; ++k) {
         if (W0[k] * W1[k] < 0) continue;

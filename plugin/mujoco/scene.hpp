@@ -367,6 +367,10 @@ struct SceneData {
   // coupling's dense reads go through tendon_jacobian_row(). ten_J_mark: scratch, the pattern.
   std::vector<mjtNum> ten_J_rows;
   std::vector<char> ten_J_mark;
+  // scratch of tendons_by_wrenches (scene.cpp): a wrench per body (nbody x 6) and the bodies on
+  // the chains a tendon's pattern spans (nbody)
+  std::vector<mjtNum> ten_wrench;
+  std::vector<char> ten_chain;
   struct NewtonScratch : SavedState {  // the step's start state, and:
     std::vector<mjtNum> f0, A0, A, r, y, delta;
     // generalized alpha: the end acceleration A0 carries over to the next step if it starts from
@@ -470,6 +474,13 @@ bool has_joint_damping(const mjModel* m);
 // Jacobians are sparse). Null for a scene without rods in the compressed layout: nothing there
 // reads dense rows, and the step does not unpack them (d->ten_J is MuJoCo's own).
 const mjtNum* tendon_jacobian_row(const Scene& s, const SceneData& sd, int t);
+
+// The step's tendon stage, before the rod-site corrections: MuJoCo's mj_tendon outputs (lengths,
+// path points, d->ten_J in MuJoCo's layout for the proxies' rigid Jacobians). In a scene with rods
+// whose tendons are all spatial through sites and pulleys (tendons_of_sites_only) they are summed
+// as wrenches up the tree, equal to mj_tendon's to rounding and cheaper; elsewhere mj_tendon.
+void scene_tendons(const Scene& s, SceneData& sd);
+bool tendons_of_sites_only(const mjModel* m);
 
 // Staged MuJoCo pipeline with the rod patches: position, velocity, actuation, acceleration,
 // constraint solve. With Need::Acceleration it leaves d->qacc as MuJoCo's forward would. MuJoCo's

@@ -301,3 +301,88 @@ TEST(Cable, SparseAndDenseTendonJacobiansGiveTheSameMotion) {
 }
 
 }  // namespace
+
+namespace {
+
+// scene_tendons' outputs (tendons_by_wrenches on these scenes) against MuJoCo 2.2.2's own mj_tendon
+// from the same state: lengths and path points bit for bit, the compressed layout's pattern
+// exactly, the Jacobian to rounding.
+void expect_tendons_as_mj_tendon(const Scene& s, SceneData& sd, const std::string& what) {
+  const mjModel* m = s.m;
+  mjData* d = sd.d;
+  ASSERT_TRUE(tendons_of_sites_only(m)) << what;
+  scene_tendons(s, sd);
+  const int nten = m->ntendon, nv = m->nv, nJ = nten * nv;
+  const std::vector<mjtNum> L(d->ten_length, d->ten_length + nten), J(d->ten_J, d->ten_J + nJ);
+  const std::vector<int> wadr(d->ten_wrapadr, d->ten_wrapadr + nten), wnum(d->ten_wrapnum, d->ten_wrapnum + nten);
+  const std::vector<int> nnz(d->ten_J_rownnz, d->ten_J_rownnz + nten), adr(d->ten_J_rowadr, d->ten_J_rowadr + nten),
+      col(d->ten_J_colind, d->ten_J_colind + nJ);
+  int nwrap = 0;
+  for (int t = 0; t < nten; ++t) nwrap = std::max(nwrap, wadr[t] + wnum[t]);
+  const std::vector<int> obj(d->wrap_obj, d->wrap_obj + nwrap);
+  const std::vector<mjtNum> xpos(d->wrap_xpos, d->wrap_xpos + 3 * nwrap);
+  mj_tendon(m, d);
+  double scale = 0.0;
+  for (int k = 0; k < nJ; ++k) scale = std::max(scale, std::abs(d->ten_J[k]));
+  ASSERT_GT(scale, 1e-3) << what;  // moment arms of millimetres: not all zero
+  for (int t = 0; t < nten; ++t) {
+    EXPECT_EQ(L[t], d->ten_length[t]) << what << " tendon " << t;
+    EXPECT_EQ(wadr[t], d->ten_wrapadr[t]) << what << " tendon " << t;
+    ASSERT_EQ(wnum[t], d->ten_wrapnum[t]) << what << " tendon " << t;
+  }
+  for (int k = 0; k < nwrap; ++k) {
+    EXPECT_EQ(obj[k], d->wrap_obj[k]) << what << " path point " << k;
+    for (int e = 0; e < 3; ++e) EXPECT_EQ(xpos[3 * k + e], d->wrap_xpos[3 * k + e]) << what << " path point " << k;
+  }
+  if (!mj_isSparse(m)) {
+    for (int k = 0; k < nJ; ++k) EXPECT_NEAR(J[k], d->ten_J[k], 1e-13 * scale) << what << " " << k / nv << " " << k % nv;
+    return;
+  }
+  for (int t = 0; t < nten; ++t) {
+    ASSERT_EQ(nnz[t], d->ten_J_rownnz[t]) << what << " tendon " << t;
+    ASSERT_EQ(adr[t], d->ten_J_rowadr[t]) << what << " tendon " << t;
+    for (int k = adr[t]; k < adr[t] + nnz[t]; ++k) {
+      ASSERT_EQ(col[k], d->ten_J_colind[k]) << what << " tendon " << t;
+      EXPECT_NEAR(J[k], d->ten_J[k], 1e-13 * scale) << what << " tendon " << t << " dof " << col[k];
+    }
+  }
+}
+
+// Cables through rod sites (and rigid bodies' sites, through a pulley) summed as wrenches up the
+// tree (scene_tendons) give mj_tendon's lengths, path points and Jacobian, dense and compressed,
+// in bent states; the rods' corrections then follow as before (the length-difference tests above
+// read the corrected rows).
+TEST(Cable, TendonsOfSitesTakeMuJoCosLengthsAndJacobians) {
+  const std::string data = std::string(COSSERAT_SOURCE_DIR) + "/tests/mujoco/data/";
+  const std::string pulley = R"(<mujoco><option gravity="0 0 -9.81"/><worldbody>
+    <site name="anchor" pos="-0.08 0 0.985"/><site name="anchor2" pos="-0.08 0 1.02"/>
+    <body name="hub" pos="0 0 1"><joint name="yaw" type="hinge" axis="0 0 1"/><geom type="sphere" size="0.005"/>
+      <site name="h1" pos="0.004 0 0"/><site name="h2" pos="0 0.004 0"/>
+      <cosserat name="arm" length="0.3" sections="3" strain="kl" radius="0.01">
+        <site name="a" at="0.06" pos="0 0.003 0.006"/><site name="b" at="0.17" pos="0 0.006 0.002"/>
+        <site name="c" at="0.28" pos="0 -0.004 0.005"/>
+      </cosserat></body></worldbody>
+    <tendon><spatial name="cable"><site site="anchor"/><site site="a"/><pulley divisor="2"/><site site="anchor2"/>
+      <site site="h1"/><site site="h2"/><site site="b"/><site site="c"/></spatial>
+      <spatial name="short"><site site="h1"/><site site="c"/></spatial></tendon>
+    <actuator><motor tendon="cable" gear="-1"/></actuator>
+  </mujoco>)";
+  std::string sparse = pulley;
+  sparse.replace(sparse.find("<worldbody>"), 11, "<option jacobian=\"sparse\"/><worldbody>");
+  std::vector<std::pair<std::string, std::unique_ptr<Scene>>> scenes;
+  scenes.emplace_back("pulley, dense", load_scene_string(pulley, "/tmp/cosserat_cable_test.xml"));
+  scenes.emplace_back("pulley, sparse", load_scene_string(sparse, "/tmp/cosserat_cable_test.xml"));
+  scenes.emplace_back("two arms (sparse)", load_scene(data + "two_arms_cables.xml"));
+  scenes.emplace_back("octopus arm", load_scene(std::string(COSSERAT_SOURCE_DIR) + "/models/octopus_arm.xml"));
+  ASSERT_TRUE(mj_isSparse(scenes[1].second->m));
+  ASSERT_TRUE(mj_isSparse(scenes[2].second->m));
+  for (auto& [what, s] : scenes) {
+    SceneData sd(*s);
+    for (int u = 0; u < s->m->nu; ++u) sd.d->ctrl[u] = 0.3;
+    for (int k = 0; k < 100; ++k) ASSERT_EQ(step(*s, sd), Status::Ok) << what;
+    forward(*s, sd);
+    expect_tendons_as_mj_tendon(*s, sd, what);
+  }
+}
+
+}  // namespace
