@@ -1236,8 +1236,8 @@ namespace {
 // a segment from p0 on body b0 to p1 on b1 with unit direction u pulls with u / divisor at p1 and
 // -u / divisor at p0; each body's wrench (force, and moment about its tree's subtree_com, the
 // point MuJoCo's cdof are taken at) is summed up the tree, and dL/dq_j = cdof_j . (moment, force)
-// of the subtree of dof j's body. Equal to mj_tendon's to rounding (Scene test
-// TendonsOfSitesTakeMuJoCosLengthsAndJacobians); as mj_tendon, segments between sites of one body
+// of the subtree of dof j's body. Equal to mj_tendon's to rounding (test
+// Cable.TendonsOfSitesTakeMuJoCosLengthsAndJacobians); as mj_tendon, segments between sites of one body
 // add nothing.
 void tendons_by_wrenches(const mjModel* m, mjData* d, SceneData& sd) {
   const int nv = m->nv, nbody = m->nbody;
