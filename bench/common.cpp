@@ -11,6 +11,7 @@
 #include <fstream>
 #include <sstream>
 #include <stdexcept>
+#include <stdexcept>
 #include <thread>
 
 namespace cosserat::bench {
@@ -146,13 +147,64 @@ std::string set_rod_attr(const std::string& xml, const std::string& attr, const 
   return print(doc);
 }
 
+namespace {
+
+// Whether two <section> elements are the same section: the same attributes (no `length` on
+// either: such sections share the rod's free length evenly) and no children.
+bool same_free_section(const XMLElement* a, const XMLElement* b) {
+  if (a->Attribute("length") || b->Attribute("length") || a->FirstChild() || b->FirstChild()) return false;
+  int na = 0, nb = 0;
+  for (const tinyxml2::XMLAttribute* x = a->FirstAttribute(); x; x = x->Next(), ++na) {
+    const char* v = b->Attribute(x->Name());
+    if (!v || std::strcmp(v, x->Value()) != 0) return false;
+  }
+  for (const tinyxml2::XMLAttribute* x = b->FirstAttribute(); x; x = x->Next()) ++nb;
+  return na == nb;
+}
+
+}  // namespace
+
 std::string refine_sections(const std::string& xml, int k) {
+  if (k == 0 || k == -1) throw std::invalid_argument("refine_sections: k must be >= 1 or <= -2");
   XMLDocument doc;
   parse(doc, xml);
   visit(doc.RootElement(), [&](XMLElement*, XMLElement* c) {
     if (std::strcmp(c->Name(), "cosserat") != 0) return false;
     std::vector<XMLElement*> secs;
     for (XMLElement* e = c->FirstChildElement("section"); e; e = e->NextSiblingElement("section")) secs.push_back(e);
+    if (k < 0) {
+      // coarsening: every run of identical length-free sections, m = -k of them into one (the
+      // run's sections then share the rod's free length in fewer, longer pieces: the same rest
+      // shape where they have the same rest strain)
+      const int m = -k;
+      const int n0 = secs.empty() ? c->IntAttribute("sections", 1) : static_cast<int>(secs.size());
+      int kept = 0;
+      for (size_t i = 0; i < secs.size();) {
+        size_t j = i + 1;
+        while (j < secs.size() && same_free_section(secs[i], secs[j])) ++j;
+        const size_t run = j - i;
+        if (run > 1 || !secs[i]->Attribute("length")) {
+          if (run % m != 0)
+            throw std::invalid_argument("refine_sections: a run of " + std::to_string(run) +
+                                        " identical sections cannot be merged " + std::to_string(m) + " to one");
+          for (size_t q = i; q < j; ++q)
+            if ((q - i) % m != 0) c->DeleteChild(secs[q]);
+          kept += static_cast<int>(run) / m;
+        } else {
+          ++kept;
+        }
+        i = j;
+      }
+      if (secs.empty()) {
+        if (n0 % m != 0)
+          throw std::invalid_argument("refine_sections: " + std::to_string(n0) + " sections cannot be merged " +
+                                      std::to_string(m) + " to one");
+        c->SetAttribute("sections", n0 / m);
+      } else if (c->Attribute("sections")) {
+        c->SetAttribute("sections", kept);
+      }
+      return true;
+    }
     if (secs.empty()) {
       c->SetAttribute("sections", c->IntAttribute("sections", 1) * k);
       return true;

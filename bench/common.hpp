@@ -47,7 +47,11 @@ bool file_exists(const std::string& path);
 std::string set_rod_attr(const std::string& xml, const std::string& attr, const std::string& value,
                          const std::string& rod = "");
 // Every rod with k times as many sections: each <section> child becomes k copies (a given length
-// divided by k), or the `sections` attribute is multiplied by k.
+// divided by k), or the `sections` attribute is multiplied by k. k = -m <= -2 coarsens instead:
+// every run of m identical <section> children without a length (same attributes, no children)
+// becomes one, so the run shares the rod's free length in pieces m times as long (exact where they
+// have the same rest strain); or `sections` is divided by m. Throws std::invalid_argument where a
+// run or `sections` is not a multiple of m.
 std::string refine_sections(const std::string& xml, int k);
 // Sets <option attr="value"> (creating <option> if needed).
 std::string set_option(const std::string& xml, const std::string& attr, const std::string& value);
