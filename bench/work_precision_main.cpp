@@ -505,7 +505,7 @@ Problem octopus(const Options& o) {
     p.families.push_back({"native hinge / euler", true, false, Method::Euler, {8}, 0, {1e-3, 5e-4}});
   } else {
     for (Method m : {Method::Implicit, Method::TrapezoidalLinear, Method::RK4, Method::Rosenbrock})
-      p.families.push_back({std::string("PCS / ") + method_name(m), false, false, m, {2, 3, 4, 6, 8, 12, 16, 24, 32}, 0, ours_h});
+      p.families.push_back({std::string("PCS / ") + method_name(m), false, false, m, {1, 2, 3, 4, 6, 8, 12, 16, 24, 32}, 0, ours_h});
     for (Method m : {Method::Implicit, Method::TrapezoidalLinear, Method::RK4, Method::Rosenbrock})
       p.families.push_back({std::string("GVS 2 sec / ") + method_name(m), false, false, m, {1, 2, 3, 4}, 2, ours_h});
     for (Method m : {Method::Euler, Method::Implicit, Method::RK4})
