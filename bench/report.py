@@ -137,6 +137,63 @@ def equal_error_rows(j):
     return rows, ours, nat
 
 
+def round_ratios(j, errors):
+    """The equal-error ratio in each interleaved round: {error: [native / ours in round r, ...]}. The
+    fronts and the points each row interpolates between are the table's (median wall times); each
+    round puts in those points' own timings from that round where the run timed them again in
+    interleaved rounds ("interleaved": wall_runs_s in round order, ours and the native chain's
+    alternately), their medians elsewhere. The spread says how far a row's ratio moved within one
+    run, between timings taken side by side ({} where no point was re-timed)."""
+    import math
+    credit_errors(j)
+    sides = [side_points(j, False), side_points(j, True)]
+    inter = [p for ps in sides for p in ps if p.get("interleaved") and p.get("wall_runs_s")]
+    if not inter:
+        return {}
+    rounds = min(len(p["wall_runs_s"]) for p in inter)
+
+    def bracket(points, e):
+        """(p0, p1, a): the front points the table's time at error e interpolates between (log-log,
+        weight a on p1), or None."""
+        pts = sorted((p for p in points if credited(p) is not None and credited(p) > 0),
+                     key=lambda p: (p["wall_s"], credited(p)))
+        fr = []
+        for p in pts:
+            if not fr or credited(p) < credited(fr[-1]):
+                fr.append(p)
+        if not fr or e < credited(fr[-1]):
+            return None
+        if e >= credited(fr[0]):
+            return fr[0], fr[0], 0.0
+        for p0, p1 in zip(fr, fr[1:]):
+            e0, e1 = credited(p0), credited(p1)
+            if e1 <= e <= e0:
+                return (p1, p1, 0.0) if e0 == e1 else (p0, p1, (math.log(e) - math.log(e0)) / (math.log(e1) - math.log(e0)))
+        return None
+
+    def wall(p, r):
+        return p["wall_runs_s"][r] if p.get("interleaved") and len(p.get("wall_runs_s", [])) > r else p["wall_s"]
+
+    out = {}
+    for e in errors:
+        b = [bracket(ps, e) for ps in sides]
+        if None in b:
+            continue
+        out[e] = []
+        for r in range(rounds):
+            t = [math.exp((1 - a) * math.log(wall(p0, r)) + a * math.log(wall(p1, r))) for p0, p1, a in b]
+            out[e].append(t[1] / t[0])
+    return out
+
+
+def fmt_range(rs):
+    """'(lo-hi)' of per-round ratios, '' when fewer than two."""
+    if len(rs) < 2:
+        return ""
+    lo, hi = min(rs), max(rs)
+    return f" ({fmt_ratio(lo)[:-1]}-{fmt_ratio(hi)})"
+
+
 def work_precision_section(files, plots, outdir):
     out = ["## Work-precision (run time against error)", ""]
     for path in files:
@@ -475,18 +532,20 @@ def reaching(points, e):
 
 
 def block_work_precision(outdir):
-    out = ["| problem (error measure) | error | ours | native chain | native / ours | our run reaching it | native run reaching it |",
+    out = ["| problem (error measure) | error | ours | native chain | native / ours (per round) | our run reaching it | native run reaching it |",
            "|---|---|---|---|---|---|---|"]
     js = wp_files(outdir)
     for j in js:
         rows, _, _ = equal_error_rows(j)
+        spread = round_ratios(j, [e for e, _, _, _ in rows])
         ours, nat = side_points(j, False), side_points(j, True)
         label = PROBLEM_LABELS.get(j["problem"], j["problem"])
         res = j.get("reference", {}).get("check_difference")
         if res and res > 1e-6:
             label = label[:-1] + f"; the reference resolves {res:.1e})"
         for k, (e, to, tn, sp) in enumerate(rows):
-            out.append(f"| {label if k == 0 else ''} | {e:.0e} | {fmt_us(to)} | {fmt_us(tn)} | {fmt_ratio(sp)} | "
+            out.append(f"| {label if k == 0 else ''} | {e:.0e} | {fmt_us(to)} | {fmt_us(tn)} | "
+                       f"{fmt_ratio(sp)}{fmt_range(spread.get(e, [])) if sp is not None else ''} | "
                        f"{reaching(ours, e)} | {reaching(nat, e) if tn is not None else '-'} |")
     out += ["", "Least error of any single run (ours / native chain; not credited, and ours below the reference's "
                 "resolution where it has one): " + "; ".join(
@@ -504,8 +563,14 @@ def block_goal(outdir):
         if j["problem"] not in GOAL_PROBLEMS:
             continue
         rows, _, _ = equal_error_rows(j)  # (credits the errors: credited() below reads them)
-        met = [f"{e:.0e} ({fmt_ratio(sp)})" for e, to, tn, sp in rows if sp is not None and sp >= 10]
-        missed = [f"{e:.0e} ({fmt_ratio(sp)})" for e, to, tn, sp in rows if sp is not None and sp < 10]
+        spread = round_ratios(j, [e for e, _, _, _ in rows])
+
+        def entry(e, sp):  # the per-round range too where some round falls on the other side of 10x
+            rs = spread.get(e, [])
+            straddles = rs and min(rs) < 10 <= max(rs)
+            return f"{e:.0e} ({fmt_ratio(sp)}{'; rounds ' + fmt_range(rs)[2:-1] if straddles else ''})"
+        met = [entry(e, sp) for e, to, tn, sp in rows if sp is not None and sp >= 10]
+        missed = [entry(e, sp) for e, to, tn, sp in rows if sp is not None and sp < 10]
         never = [e for e, to, tn, sp in rows if to is not None and tn is None]
         # the native side's least credited error (what the rows use: a run is credited with the
         # largest error of its own and of its finer steps)
