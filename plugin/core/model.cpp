@@ -167,6 +167,7 @@ int Model::add_rod(int parent, const SE3& placement, const RodSpec& spec) {
       sec.B_row[c] = nonzeros == 1 && sec.B(row, c) == 1.0 ? row : -1;
     }
     sec.ndof = static_cast<int>(sec.B.cols()) * (ss.order + 1);
+    sec.axial = sec.ndof > 0 && !sec.B.row(3).isZero();
     sec.dof0 = nv;
     sec.rest_strain = ss.rest_strain;
     sec.material = ss.material;

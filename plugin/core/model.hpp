@@ -164,8 +164,10 @@ struct Section {
   // Phi(X) x for the section's dof block x (strains, or strain rates), given the Legendre weights
   // P = [P_0 .. P_order]((X - X0)/length) (legendre01): no matrix is formed.
   Vec6 basis_apply(const double* P, const double* x) const;
-  // Whether the axial strain p_x is a dof of this section (it can stretch and collapse).
-  bool axial_free() const { return ndof > 0 && !B.row(3).isZero(); }
+  // Whether the axial strain p_x is a dof of this section (it can stretch and collapse): set with B
+  // by Model::add_rod (min_axial_stretch reads it at every evaluation).
+  bool axial = false;
+  bool axial_free() const { return axial; }
 };
 
 struct Rod {
