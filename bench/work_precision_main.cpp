@@ -124,7 +124,7 @@ struct Family {
   bool ball = false;
   Method method;
   std::vector<int> spaces;  // sections or segments (PCS, native), or orders (GVS)
-  int gvs_sections = 0;     // GVS: sections (the knob is the order)
+  int gvs_sections = 0;     // GVS: sections, or Setting::space's refinement (the knob is the order); 0: PCS
   std::vector<double> steps;
   double base_spring = 1.0;  // native: clamp spring factor (NativeChainOptions)
   double armature = 0.0;     // native: hinge armature factor (NativeChainOptions)
@@ -436,6 +436,13 @@ std::vector<Problem> flagellates(const Options& o) {
       p.families.push_back({"PCS / implicit", false, false, Method::Implicit, spaces, 0, hs});
       p.families.push_back({"PCS / rk4", false, false, Method::RK4, spaces, 0, hs});
       p.families.push_back({"PCS / rosenbrock", false, false, Method::Rosenbrock, spaces, 0, hs});
+      // GVS: the model's sections (or the helix merged) with strains of order 1-3 along each
+      if (std::string(f) == "flagellate")
+        for (int k : spaces)
+          if (k <= 1)
+            p.families.push_back({std::string("GVS ") + (k < 0 ? "1/" + std::to_string(-k) : std::to_string(k)) +
+                                      " sec / implicit",
+                                  false, false, Method::Implicit, {1, 2, 3}, k, hs});
       p.families.push_back({"native / euler", true, false, Method::Euler, kNativeChains, 0, hs});
       p.families.push_back({"native / rk4", true, false, Method::RK4, kNativeChains, 0, hs});
       // the native chain with our implicit step too (motor servo and fluid damping implicit), so
@@ -760,7 +767,7 @@ json run_problem(const Problem& p, const Options& o) {
         s.lobatto = f.lobatto;
         s.method = f.method;
         s.h = h;
-        if (f.gvs_sections > 0)
+        if (f.gvs_sections != 0)
           s.space = f.gvs_sections, s.order = knob;
         else
           s.space = knob;
