@@ -78,6 +78,9 @@ std::string fmt_g(double v) {
   return b;
 }
 
+// A space knob as labels print it: "4", or "1/4" for runs of 4 identical sections merged into one.
+std::string space_text(int space) { return space < 0 ? "1/" + std::to_string(-space) : std::to_string(space); }
+
 // One run: ours (sections, order, method, h) or the native chain (segments, ball, method, h).
 struct Setting {
   bool native = false;
@@ -100,7 +103,7 @@ struct Setting {
                     armature > 0 ? (" armature x" + fmt_g(armature)).c_str() : "", space, method_name(method), h);
     else
       std::snprintf(b, sizeof b, "%s %s sec%s%s %s h=%g", order ? "GVS" : "PCS",
-                    (space < 0 ? "1/" + std::to_string(-space) : std::to_string(space)).c_str(),
+                    space_text(space).c_str(),
                     order ? (" order " + std::to_string(order)).c_str() : "",
                     lobatto ? " lobatto" : quadrature ? (" q" + std::to_string(quadrature)).c_str() : "",
                     method_name(method), h);
@@ -440,9 +443,7 @@ std::vector<Problem> flagellates(const Options& o) {
       if (std::string(f) == "flagellate")
         for (int k : spaces)
           if (k <= 1)
-            p.families.push_back({std::string("GVS ") + (k < 0 ? "1/" + std::to_string(-k) : std::to_string(k)) +
-                                      " sec / implicit",
-                                  false, false, Method::Implicit, {1, 2, 3}, k, hs});
+            p.families.push_back({"GVS " + space_text(k) + " sec / implicit", false, false, Method::Implicit, {1, 2, 3}, k, hs});
       p.families.push_back({"native / euler", true, false, Method::Euler, kNativeChains, 0, hs});
       p.families.push_back({"native / rk4", true, false, Method::RK4, kNativeChains, 0, hs});
       // the native chain with our implicit step too (motor servo and fluid damping implicit), so
