@@ -88,31 +88,51 @@ def side_points(j, native):
     return [p for f in j["families"] if f["native"] == native for p in f["points"]]
 
 
-def front(points):
-    """Pareto front (wall time ascending, credited error descending) of points with a finite error."""
-    pts = sorted((p["wall_s"], credited(p)) for p in points if credited(p) is not None and credited(p) > 0)
+def front_points(points):
+    """The points on the Pareto front (wall time ascending, credited error descending) among those
+    with a finite error."""
+    pts = sorted((p for p in points if credited(p) is not None and credited(p) > 0),
+                 key=lambda p: (p["wall_s"], credited(p)))
     out = []
-    for t, e in pts:
-        if not out or e < out[-1][1]:
-            out.append((t, e))
+    for p in pts:
+        if not out or credited(p) < credited(out[-1]):
+            out.append(p)
     return out
+
+
+def front(points):
+    """Pareto front as (wall time, credited error) pairs (front_points)."""
+    return [(p["wall_s"], credited(p)) for p in front_points(points)]
+
+
+def interpolation(errors, e):
+    """Where error e falls on a front's descending errors: (i0, i1, a), the time there being
+    log t = log t[i0] + a (log t[i1] - log t[i0]) (interp_time); None when the front never gets
+    that low."""
+    import math
+    if not errors or e < errors[-1]:
+        return None
+    if e >= errors[0]:
+        return 0, 0, 0.0
+    for i, (e0, e1) in enumerate(zip(errors, errors[1:])):
+        if e1 <= e <= e0:
+            if e0 == e1:
+                return i + 1, i + 1, 0.0
+            return i, i + 1, (math.log(e) - math.log(e0)) / (math.log(e1) - math.log(e0))
+    return None
+
+
+def interp_time(t0, t1, a):
+    """log-log interpolation between two front times (interpolation's weight a; t0 itself at a = 0)."""
+    import math
+    return t0 if a == 0.0 else math.exp(math.log(t0) + a * (math.log(t1) - math.log(t0)))
 
 
 def time_at_error(fr, e):
     """Least wall time to reach error e on a Pareto front, interpolating log(time) against log(error)
     between its points (None when the front never gets that low)."""
-    import math
-    if not fr or e < fr[-1][1]:
-        return None
-    if e >= fr[0][1]:
-        return fr[0][0]
-    for (t0, e0), (t1, e1) in zip(fr, fr[1:]):
-        if e1 <= e <= e0:
-            if e0 == e1:
-                return t1
-            a = (math.log(e) - math.log(e0)) / (math.log(e1) - math.log(e0))
-            return math.exp(math.log(t0) + a * (math.log(t1) - math.log(t0)))
-    return None
+    b = interpolation([x[1] for x in fr], e)
+    return None if b is None else interp_time(fr[b[0]][0], fr[b[1]][0], b[2])
 
 
 def equal_error_rows(j):
@@ -144,44 +164,25 @@ def round_ratios(j, errors):
     interleaved rounds ("interleaved": wall_runs_s in round order, ours and the native chain's
     alternately), their medians elsewhere. The spread says how far a row's ratio moved within one
     run, between timings taken side by side ({} where no point was re-timed)."""
-    import math
     credit_errors(j)
     sides = [side_points(j, False), side_points(j, True)]
     inter = [p for ps in sides for p in ps if p.get("interleaved") and p.get("wall_runs_s")]
     if not inter:
         return {}
     rounds = min(len(p["wall_runs_s"]) for p in inter)
-
-    def bracket(points, e):
-        """(p0, p1, a): the front points the table's time at error e interpolates between (log-log,
-        weight a on p1), or None."""
-        pts = sorted((p for p in points if credited(p) is not None and credited(p) > 0),
-                     key=lambda p: (p["wall_s"], credited(p)))
-        fr = []
-        for p in pts:
-            if not fr or credited(p) < credited(fr[-1]):
-                fr.append(p)
-        if not fr or e < credited(fr[-1]):
-            return None
-        if e >= credited(fr[0]):
-            return fr[0], fr[0], 0.0
-        for p0, p1 in zip(fr, fr[1:]):
-            e0, e1 = credited(p0), credited(p1)
-            if e1 <= e <= e0:
-                return (p1, p1, 0.0) if e0 == e1 else (p0, p1, (math.log(e) - math.log(e0)) / (math.log(e1) - math.log(e0)))
-        return None
+    fronts = [front_points(ps) for ps in sides]
 
     def wall(p, r):
         return p["wall_runs_s"][r] if p.get("interleaved") and len(p.get("wall_runs_s", [])) > r else p["wall_s"]
 
     out = {}
     for e in errors:
-        b = [bracket(ps, e) for ps in sides]
+        b = [interpolation([credited(p) for p in fr], e) for fr in fronts]
         if None in b:
             continue
         out[e] = []
         for r in range(rounds):
-            t = [math.exp((1 - a) * math.log(wall(p0, r)) + a * math.log(wall(p1, r))) for p0, p1, a in b]
+            t = [interp_time(wall(fr[i0], r), wall(fr[i1], r), a) for fr, (i0, i1, a) in zip(fronts, b)]
             out[e].append(t[1] / t[0])
     return out
 
