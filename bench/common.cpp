@@ -11,7 +11,6 @@
 #include <fstream>
 #include <sstream>
 #include <stdexcept>
-#include <stdexcept>
 #include <thread>
 
 namespace cosserat::bench {
@@ -177,7 +176,6 @@ std::string refine_sections(const std::string& xml, int k) {
       // run's sections then share the rod's free length in fewer, longer pieces: the same rest
       // shape where they have the same rest strain)
       const int m = -k;
-      const int n0 = secs.empty() ? c->IntAttribute("sections", 1) : static_cast<int>(secs.size());
       int kept = 0;
       for (size_t i = 0; i < secs.size();) {
         size_t j = i + 1;
@@ -196,6 +194,7 @@ std::string refine_sections(const std::string& xml, int k) {
         i = j;
       }
       if (secs.empty()) {
+        const int n0 = c->IntAttribute("sections", 1);
         if (n0 % m != 0)
           throw std::invalid_argument("refine_sections: " + std::to_string(n0) + " sections cannot be merged " +
                                       std::to_string(m) + " to one");
