@@ -29,7 +29,7 @@ int sections(const mj::Scene& s) { return static_cast<int>(s.rods.at(0).decl.pro
 
 // flagellate.xml: a hook (its own length and strain) and 12 helical sections; flagellate_rigid.xml:
 // a hook and 8. Merged m to one they keep the hook and have 12/m (8/m) helical sections, and the
-// tip, the hook's end and the motor-side base stay where they were at rest (to rounding: the
+// tip and the hook's end stay where they were at rest (to rounding: the
 // helix's end after 720 degrees, from fewer exponentials).
 TEST(RefineSections, MergingIdenticalSectionsKeepsTheRestShape) {
   for (const auto& [file, helix] : {std::pair<std::string, int>{"flagellate.xml", 12}, {"flagellate_rigid.xml", 8}}) {
