@@ -339,6 +339,7 @@ class RodSim : public Sim {
   mjData* d() override { return data_.d; }
   bool step() override { return mj::step(*scene_, data_, integ_) == Status::Ok; }
   void positions() override { mj::fwd_position(*scene_, data_); }
+  void reset() override { mj::reset(*scene_, data_); }
   double energy(double* kinetic) override {
     const mj::SceneEnergy e = mj::energy(*scene_, data_);
     if (kinetic) *kinetic = e.kinetic;
@@ -376,6 +377,7 @@ class MujocoSim : public Sim {
     return true;
   }
   void positions() override { mj_fwdPosition(m_, d_); }
+  void reset() override { mj_resetData(m_, d_); }
   double energy(double* kinetic) override {
     const int save = m_->opt.enableflags;
     m_->opt.enableflags |= mjENBL_ENERGY;

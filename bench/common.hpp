@@ -86,6 +86,8 @@ class Sim {
   virtual bool step() = 0;
   // positions of the current state (site_xpos, xpos): the position stage, run outside the timing
   virtual void positions() = 0;
+  // back to the model's initial state (qpos0, zero velocities, time 0; ctrl and xfrc_applied zero)
+  virtual void reset() = 0;
   // total mechanical energy of the current state (kinetic + gravity + elastic) and its kinetic
   // part, after positions()
   virtual double energy(double* kinetic = nullptr) = 0;

@@ -59,6 +59,7 @@ const std::vector<int> kNativeChains = {2, 3, 4, 6, 8, 12, 16, 24, 32, 48, 64};
 
 struct Options {
   bool quick = false;
+  bool cold = false;  // --cold
   std::vector<std::string> problems;
   std::string out = "docs/bench";
   std::string models = COSSERAT_SOURCE_DIR "/models";
@@ -151,6 +152,7 @@ struct Problem {
   Setting reference, reference_check;
   std::vector<Family> families;
   std::string reference_note;
+  bool warm = true;  // time short runs warm (kWarmBelow; --cold: false)
 };
 
 // XML of `p` for setting s (ours: sections/order edited into every rod; native: the generated chain).
@@ -170,11 +172,19 @@ std::string scene_xml(const Problem& p, const Setting& s) {
 }
 
 struct Outcome {
-  Trajectory tr;
+  Trajectory tr;  // tr.wall: the timed run's (warm where cold_wall is set)
   int nv = 0;
   double speed = NAN;
   std::string error_message;
+  double cold_wall = NAN;  // the first run's wall after the model's load, where the timed run was warm
 };
+
+// Runs that take less than this from a freshly loaded model are timed warm: run once, the state
+// reset, run again (the same trajectory, checked bit for bit) and the second run timed. Our first
+// step after a load costs about 3 us more than the next (cold caches; 1-2 steady steps of a small
+// rod, 0.2 us for a small native chain's mj_step: the forty-fourth session), which a run of 2-8
+// steps does not amortise but no use of a loaded model repeats.
+constexpr double kWarmBelow = 0.01;  // [s]
 
 Outcome simulate(const Problem& p, const Setting& s) {
   Outcome o;
@@ -183,8 +193,11 @@ Outcome simulate(const Problem& p, const Setting& s) {
     std::unique_ptr<Sim> sim = s.native && !p.native_via_plugin ? make_mujoco_sim(xml, p.path, s.method, s.h)
                                                                 : make_rod_sim(xml, p.path, s.method, s.h);
     // controls of the first keyframe (qpos is not portable between discretisations)
-    if (sim->m()->nkey > 0)
-      for (int i = 0; i < sim->m()->nu; ++i) sim->d()->ctrl[i] = sim->m()->key_ctrl[i];
+    auto controls = [&sim] {
+      if (sim->m()->nkey > 0)
+        for (int i = 0; i < sim->m()->nu; ++i) sim->d()->ctrl[i] = sim->m()->key_ctrl[i];
+    };
+    controls();
     o.nv = sim->m()->nv;
     std::vector<int> sites, bodies;
     for (const auto& n : p.sites) {
@@ -194,6 +207,15 @@ Outcome simulate(const Problem& p, const Setting& s) {
     }
     if (!p.swimmer.empty()) bodies.push_back(sim->body_id(p.swimmer));
     o.tr = run(*sim, p.T, s.h, p.every, sites, p.control, false, bodies);
+    if (p.warm && !o.tr.diverged && o.tr.wall < kWarmBelow) {
+      sim->reset();
+      controls();
+      Trajectory again = run(*sim, p.T, s.h, p.every, sites, p.control, false, bodies);
+      if (again.diverged || again.t != o.tr.t || again.p != o.tr.p)
+        throw std::runtime_error("the run again from the reset state differs from the first run");
+      o.cold_wall = o.tr.wall;
+      o.tr.wall = again.wall;
+    }
     if (!p.swimmer.empty() && !o.tr.diverged) {
       // mean speed over the second half of the run
       const size_t n = o.tr.p.size(), k = n / 2;
@@ -566,6 +588,7 @@ struct Point {
   // equal-error summary use it (credit_errors)
   double credited = kInf;
   std::vector<double> walls;
+  std::vector<double> cold_walls;  // the runs' first runs after their loads, where walls are warm
   bool interleaved = false;  // walls from retime_fronts_interleaved
   bool diverged = false;
   std::string message;
@@ -650,13 +673,18 @@ void retime_fronts_interleaved(const Problem& p, const Options& o, std::vector<s
     if (order.empty()) return;
     std::printf("-- the fronts' %zu points under %.0f s timed again in %d interleaved rounds\n", order.size(), kMaxWall,
                 o.reps);
-    std::vector<std::vector<double>> walls(order.size());
+    std::vector<std::vector<double>> walls(order.size()), cold(order.size());
     for (int r = 0; r < o.reps; ++r)
-      for (size_t k = 0; k < order.size(); ++k) walls[k].push_back(simulate(p, order[k]->s).tr.wall);
+      for (size_t k = 0; k < order.size(); ++k) {
+        const Outcome oc = simulate(p, order[k]->s);
+        walls[k].push_back(oc.tr.wall);
+        if (!std::isnan(oc.cold_wall)) cold[k].push_back(oc.cold_wall);
+      }
     for (size_t k = 0; k < order.size(); ++k) {
       std::printf("   %-44s wall %10.3e s (was %10.3e s)\n", order[k]->s.label().c_str(), median(walls[k]),
                   order[k]->wall());
       order[k]->walls = walls[k];
+      order[k]->cold_walls = cold[k];
       order[k]->interleaved = true;
     }
     std::fflush(stdout);
@@ -672,6 +700,7 @@ json run_problem(const Problem& p, const Options& o) {
   out["duration_s"] = p.T;
   out["sample_interval_s"] = p.every;
   out["quick"] = o.quick;
+  out["warm_below_s"] = p.warm ? kWarmBelow : 0.0;  // runs under it timed warm (Outcome::cold_wall)
   out["machine"] = machine_info();
 
   // reference: cached in --refs when computed with the same problem and setting for at least T
@@ -797,6 +826,7 @@ json run_problem(const Problem& p, const Options& o) {
         pt.diverged = oc.tr.diverged;
         pt.message = oc.error_message;
         pt.walls.push_back(oc.tr.wall);
+        if (!std::isnan(oc.cold_wall)) pt.cold_walls.push_back(oc.cold_wall);
         pt.error = error_of(p, oc, ref);
         pt.nv = oc.nv;
         std::printf("   %-44s nv %4d  error %10.3e  wall %9.4f s%s%s\n", s.label().c_str(), pt.nv, pt.error,
@@ -841,6 +871,7 @@ json run_problem(const Problem& p, const Options& o) {
       while (static_cast<int>(pt.walls.size()) < o.reps && pt.wall() < cap) {  // runs over the cap: once
         const Outcome oc = simulate(p, pt.s);
         pt.walls.push_back(oc.tr.wall);
+        if (!std::isnan(oc.cold_wall)) pt.cold_walls.push_back(oc.cold_wall);
       }
     };
     constexpr double kCheap = 0.01;  // [s]: at most reps x 10 ms more per run
@@ -869,6 +900,7 @@ json run_problem(const Problem& p, const Options& o) {
       j["credited_error"] = std::isfinite(pt.credited) ? json(pt.credited) : json(nullptr);
       j["wall_s"] = pt.wall();
       j["wall_runs_s"] = pt.walls;
+      if (!pt.cold_walls.empty()) j["wall_cold_runs_s"] = pt.cold_walls;
       if (pt.interleaved) j["interleaved"] = true;
       j["diverged"] = pt.diverged;
       if (!pt.message.empty()) j["message"] = pt.message;
@@ -939,6 +971,10 @@ int run_work_precision(int argc, char** argv) {
        cli::text_option("--models", "DIR", "where the shipped models are (default models/)", o.models),
        cli::text_option("--refs", "DIR", "where the reference trajectories are cached (default docs/bench)", o.refs),
        cli::flag_option("--reference-only", "compute (or load) the references and stop", o.reference_only),
+       cli::flag_option("--cold",
+                        "time every run from a freshly loaded model (default: runs under 10 ms are timed warm, "
+                        "run again from the reset state)",
+                        o.cold),
        {"--family", "TEXT",
         "only the contender families whose name contains TEXT (repeatable), e.g. midpoint or 'native hinge'",
         [&](const std::string& v) {
@@ -957,6 +993,7 @@ int run_work_precision(int argc, char** argv) {
     else if (name == "octopus") ps.push_back(octopus(o));
     else cli::fail("unknown problem '" + name + "'");
     for (Problem& p : ps) {
+      p.warm = !o.cold;
       if (!o.families.empty()) {  // --family: only the families whose name contains one of the texts
         auto unwanted = [&o](const Family& f) {
           return std::none_of(o.families.begin(), o.families.end(),
