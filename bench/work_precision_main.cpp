@@ -182,7 +182,7 @@ struct Outcome {
 // Runs that take less than this from a freshly loaded model are timed warm: run once, the state
 // reset, run again (the same trajectory, checked bit for bit) and the second run timed. Our first
 // step after a load costs about 3 us more than the next (cold caches; 1-2 steady steps of a small
-// rod, 0.2 us for a small native chain's mj_step: the forty-fourth session), which a run of 2-8
+// rod, 0.5 us for a small native chain's mj_step: the forty-fourth session), which a run of 2-8
 // steps does not amortise but no use of a loaded model repeats.
 constexpr double kWarmBelow = 0.01;  // [s]
 
