@@ -16,13 +16,13 @@
 // space error), and a family stops growing when one run costs more than --cap seconds. The
 // Pareto-optimal points of each family (no other point of the family both faster and more
 // accurate) and every run under 10 ms are re-run until --reps timings exist: their wall times are
-// medians. Errors are
+// medians (a run under 10 ms is timed warm, made again from the reset state: kWarmBelow). Errors are
 // relative (divided by the rod length, or by the reference speed). The summary compares the Pareto
 // front of all our families with that of all native families at equal error (log-log
 // interpolation between front points).
 //
 // Usage: work_precision [--quick] [--problem NAME]... [--out DIR] [--reps N] [--cap S]
-//                       [--models DIR] [--family TEXT]...
+//                       [--models DIR] [--family TEXT]... [--cold]
 // --family keeps only the contender families whose name contains TEXT (e.g. "midpoint", "native
 // hinge"): for trying one contender; the README figures come from runs of all of them.
 // Writes DIR/work_precision_<problem>.json (plots: bench/plot.py).
