@@ -45,11 +45,11 @@ Vec6 step_twist(const Node& n, const Eigen::Ref<const VecX>& qi, Mat6X* G) {
   if (n.sparse_basis) {  // (GVS with a selecting basis: the products below without their zeros)
     for (int k = 0; k < n.ndof; ++k) xa(n.basis_row[k]) += n.basis_a(k) * qi(k), xb(n.basis_row[k]) += n.basis_b(k) * qi(k);
     if (G) {
-      // G = h/2 (Phi_a + Phi_b) + c (ad_{xa} Phi_b - ad_{xb} Phi_a), a column of ad per dof
-      const Mat6 Aa = ad(xa), Ab = ad(xb);
+      // G = h/2 (Phi_a + Phi_b) + c (ad_{xa} Phi_b - ad_{xb} Phi_a): column k is column r of
+      // ad_y, y = c (b_k xa - a_k xb) (ad is linear in its argument), r the dof's strain component
       for (int k = 0; k < n.ndof; ++k) {
         const int r = n.basis_row[k];
-        G->col(k) = (c * n.basis_b(k)) * Aa.col(r) - (c * n.basis_a(k)) * Ab.col(r);
+        G->col(k) = ad_column((c * n.basis_b(k)) * xa - (c * n.basis_a(k)) * xb, r);
         (*G)(r, k) += 0.5 * n.h * (n.basis_a(k) + n.basis_b(k));
       }
     }

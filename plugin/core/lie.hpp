@@ -92,6 +92,21 @@ inline Vec6 coAd_apply(const SE3& g, const Vec6& F) {
   r.tail<3>() = n;
   return r;
 }
+// column r of ad_a (ad_a e_r) without the 6 x 6 matrix: for r < 3 (w x e_r, v x e_r), else (0, w x e_(r-3))
+inline Vec6 ad_column(const Vec6& a, int r) {
+  const auto cross_unit = [](const auto& w, int i) {  // w x e_i
+    return i == 0 ? Vec3(0.0, w(2), -w(1)) : i == 1 ? Vec3(-w(2), 0.0, w(0)) : Vec3(w(1), -w(0), 0.0);
+  };
+  Vec6 col;
+  if (r < 3) {
+    col.head<3>() = cross_unit(a.head<3>(), r);
+    col.tail<3>() = cross_unit(a.tail<3>(), r);
+  } else {
+    col.head<3>().setZero();
+    col.tail<3>() = cross_unit(a.head<3>(), r - 3);
+  }
+  return col;
+}
 // ad_a b
 inline Vec6 ad_apply(const Vec6& a, const Vec6& b) {
   Vec6 r;

@@ -585,6 +585,8 @@ TEST(LieIdentities, GroupAndAdjointIdentities) {
     EXPECT_LT(rel_err(coAd_apply(g, F), Vec6(coAd(g) * F)), kTolId);
     EXPECT_LT(rel_err(ad_apply(x, e), Vec6(ad_ref(x) * e)), kTolId);
     EXPECT_LT(rel_err(coad_apply(x, F), Vec6(-ad_ref(x).transpose() * F)), kTolId);
+    for (int r = 0; r < 6; ++r)  // the columns of ad, entry for entry (each a component or its negative)
+      EXPECT_EQ(ad_column(x, r), Vec6(ad_ref(x).col(r))) << "column " << r;
 
     // Unit quaternion with the same rotation, w >= 0 (the convention of quat_from_matrix).
     const Eigen::Vector4d q = quat_from_matrix(g.R);
