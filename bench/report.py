@@ -135,13 +135,13 @@ def time_at_error(fr, e):
     return None if b is None else interp_time(fr[b[0]][0], fr[b[1]][0], b[2])
 
 
-def equal_error_rows(j):
+def equal_error_rows(j, timed=lambda p: p):
     """Ours against the native chain at equal error: the Pareto fronts of all our families and of all
     native families (credited errors), interpolated (log-log) at errors from the coarsest to the
-    finest reached."""
+    finest reached. `timed` maps each point to the point with the wall time to use (cold_ratios)."""
     credit_errors(j)
-    ours = front(side_points(j, False))
-    nat = front(side_points(j, True))
+    ours = front([timed(p) for p in side_points(j, False)])
+    nat = front([timed(p) for p in side_points(j, True)])
     # errors below the reference's own resolution (two fine solutions differ by that much) measure
     # nothing: left out (outside probe Q: the soft flagellate's rows down to 3e-5 were time errors
     # of runs at the reference's own discretisation)
@@ -193,7 +193,6 @@ def cold_ratios(j, errors):
     state; bench/README.md), their first runs' walls kept in wall_cold_runs_s: here their medians
     stand in for wall_s, and the fronts are taken again ({} where no run was timed warm)."""
     import statistics
-    credit_errors(j)
     if not any(p.get("wall_cold_runs_s") for ps in (side_points(j, False), side_points(j, True)) for p in ps):
         return {}
 
@@ -202,13 +201,8 @@ def cold_ratios(j, errors):
         if p.get("wall_cold_runs_s"):
             q["wall_s"] = statistics.median(p["wall_cold_runs_s"])
         return q
-    fronts = [front([cold(p) for p in side_points(j, native)]) for native in (False, True)]
-    out = {}
-    for e in errors:
-        to, tn = time_at_error(fronts[0], e), time_at_error(fronts[1], e)
-        if to is not None and tn is not None:
-            out[e] = tn / to
-    return out
+    rows, _, _ = equal_error_rows(j, cold)
+    return {e: sp for e, _, _, sp in rows if e in errors and sp is not None}
 
 
 def fmt_range(rs):

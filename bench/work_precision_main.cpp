@@ -593,6 +593,11 @@ struct Point {
   bool diverged = false;
   std::string message;
   double wall() const { return median(walls); }
+  // one more timing of the point's run (and its cold first run where it was timed warm)
+  void add_timing(const Outcome& oc) {
+    walls.push_back(oc.tr.wall);
+    if (!std::isnan(oc.cold_wall)) cold_walls.push_back(oc.cold_wall);
+  }
 };
 
 // Point::credited for the points of one family (same discretisation: same space knob and order).
@@ -673,18 +678,14 @@ void retime_fronts_interleaved(const Problem& p, const Options& o, std::vector<s
     if (order.empty()) return;
     std::printf("-- the fronts' %zu points under %.0f s timed again in %d interleaved rounds\n", order.size(), kMaxWall,
                 o.reps);
-    std::vector<std::vector<double>> walls(order.size()), cold(order.size());
+    std::vector<Point> timed(order.size());  // (their timings of these rounds only)
     for (int r = 0; r < o.reps; ++r)
-      for (size_t k = 0; k < order.size(); ++k) {
-        const Outcome oc = simulate(p, order[k]->s);
-        walls[k].push_back(oc.tr.wall);
-        if (!std::isnan(oc.cold_wall)) cold[k].push_back(oc.cold_wall);
-      }
+      for (size_t k = 0; k < order.size(); ++k) timed[k].add_timing(simulate(p, order[k]->s));
     for (size_t k = 0; k < order.size(); ++k) {
-      std::printf("   %-44s wall %10.3e s (was %10.3e s)\n", order[k]->s.label().c_str(), median(walls[k]),
+      std::printf("   %-44s wall %10.3e s (was %10.3e s)\n", order[k]->s.label().c_str(), timed[k].wall(),
                   order[k]->wall());
-      order[k]->walls = walls[k];
-      order[k]->cold_walls = cold[k];
+      order[k]->walls = timed[k].walls;
+      order[k]->cold_walls = timed[k].cold_walls;
       order[k]->interleaved = true;
     }
     std::fflush(stdout);
@@ -825,8 +826,7 @@ json run_problem(const Problem& p, const Options& o) {
         const Outcome oc = simulate(p, s);
         pt.diverged = oc.tr.diverged;
         pt.message = oc.error_message;
-        pt.walls.push_back(oc.tr.wall);
-        if (!std::isnan(oc.cold_wall)) pt.cold_walls.push_back(oc.cold_wall);
+        pt.add_timing(oc);
         pt.error = error_of(p, oc, ref);
         pt.nv = oc.nv;
         std::printf("   %-44s nv %4d  error %10.3e  wall %9.4f s%s%s\n", s.label().c_str(), pt.nv, pt.error,
@@ -869,9 +869,7 @@ json run_problem(const Problem& p, const Options& o) {
     credit_errors(pts);
     auto repeat = [&](Point& pt) {
       while (static_cast<int>(pt.walls.size()) < o.reps && pt.wall() < cap) {  // runs over the cap: once
-        const Outcome oc = simulate(p, pt.s);
-        pt.walls.push_back(oc.tr.wall);
-        if (!std::isnan(oc.cold_wall)) pt.cold_walls.push_back(oc.cold_wall);
+        pt.add_timing(simulate(p, pt.s));
       }
     };
     constexpr double kCheap = 0.01;  // [s]: at most reps x 10 ms more per run

@@ -9,6 +9,8 @@
 // usage: probe rod_kl.xml   (or rod_ikl.xml, or a plain MuJoCo chain such as the one
 //        tests/mujoco/contact_test.cpp builds in ARodOnTwoSupportsSinksAsDeepAsItsNativeChain)
 //        probe MODEL override=FILE   (FILE: lines "body tran rot", weights put in before the equilibrium)
+// It writes rule_invweight.txt in the working directory: the weights of the locked-strain rule, in
+// override's format.
 #include <mujoco/mujoco.h>
 
 #include <Eigen/Dense>
