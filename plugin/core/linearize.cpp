@@ -96,7 +96,7 @@ void state_space(Linearization& L) {
     L.damping_ratios.resize(n);
     for (int i = 0; i < n; ++i) {
       L.omega2(i) = es.eigenvalues()(i);
-      const double w = std::sqrt(std::max(es.eigenvalues()(i), 0.0));
+      const double w = es.eigenvalues()(i) > 0 ? std::sqrt(es.eigenvalues()(i)) : 0.0;  // (not -0 for -0)
       const VecX x = es.eigenvectors().col(i);
       L.frequencies_hz(i) = w / (2.0 * M_PI);
       L.damping_ratios(i) = w > 0 ? x.dot(L.D * x) / (2.0 * w) : std::nan("");
@@ -113,7 +113,7 @@ void state_space(Linearization& L) {
       const double mass = modes[i].second.dot(L.M * modes[i].second);
       L.modes.col(i) = mass > 0 ? VecX(modes[i].second / std::sqrt(mass)) : modes[i].second;
       L.omega2(i) = modes[i].first;
-      L.frequencies_hz(i) = std::sqrt(std::max(modes[i].first, 0.0)) / (2.0 * M_PI);
+      L.frequencies_hz(i) = modes[i].first > 0 ? std::sqrt(modes[i].first) / (2.0 * M_PI) : 0.0;
       if (modes[i].first < -L.neutral_omega2 && unstable(modes[i].second, Ks)) ++L.unstable_modes;
     }
   }

@@ -172,6 +172,8 @@ MatrixXd free_directions(const MatrixXd& J) {
   return svd.matrixV().rightCols(n - rank);
 }
 
+std::vector<int> floating_joints(const mjModel* m);
+
 // The static problem of one scene: the loads as the user set them (scaled by the load factor at
 // every evaluation and restored on destruction) and evaluations of the smooth force at rest.
 class StaticProblem {
@@ -183,6 +185,8 @@ class StaticProblem {
         qfrc_applied_(d_->qfrc_applied, d_->qfrc_applied + m_->nv),
         xfrc_applied_(d_->xfrc_applied, d_->xfrc_applied + 6 * m_->nbody) {
     tree_ = dof_trees(m_, ntree_);
+    for (const int j : floating_joints(m_))
+      for (int k = 0; k < 6; ++k) floating_.push_back(m_->jnt_dofadr[j] + k);
   }
   StaticProblem(const StaticProblem&) = delete;
   StaticProblem& operator=(const StaticProblem&) = delete;
@@ -493,6 +497,19 @@ class StaticProblem {
     return Bu;
   }
 
+  // The dofs of the floating free joints (floating_joints): Newton keeps them where they are
+  // (hold_floating) and the stability test leaves them out, their stiffness being round-off.
+  const std::vector<int>& floating() const { return floating_; }
+  // Kt and f with the floating dofs held: their rows and columns those of a unit spring at rest.
+  void hold_floating(MatrixXd& Kt, VectorXd& f) const {
+    for (const int i : floating_) {
+      Kt.row(i).setZero();
+      Kt.col(i).setZero();
+      Kt(i, i) = 1.0;
+      f(i) = 0.0;
+    }
+  }
+
   std::vector<mjtNum> qpos() const { return std::vector<mjtNum>(d_->qpos, d_->qpos + m_->nq); }
   void set_qpos(const std::vector<mjtNum>& q) { std::copy(q.begin(), q.end(), d_->qpos); }
   // qpos = q0 (+) alpha dq, the tangent-space step (quaternions stay unit).
@@ -523,6 +540,7 @@ class StaticProblem {
   std::vector<int> tree_;       // per dof, its tree (dof_trees)
   int ntree_ = 0;
   VectorXd tree_weights_;       // tree_weight_scales, with weight_scale_
+  std::vector<int> floating_;   // floating(): the floating free joints' dofs
 };
 
 // Candidate directions for Kt dq = f, tried in turn (k = 0, 1, ...) until one decreases |f|: the
@@ -572,11 +590,13 @@ bool newton(StaticProblem& p, double lambda, const SceneStaticsOptions& opt, Sce
     if (res.residual <= opt.tolerance) return true;
     ++res.iterations;
     p.stiffness(lambda, Kt);
+    VectorXd fh = f;
+    p.hold_floating(Kt, fh);
     const std::vector<mjtNum> q0 = p.qpos();
     const double f0 = f.norm();
     bool accepted = false;
     for (int k = 0; k < kDirections && !accepted; ++k) {
-      const VectorXd dq = newton_direction(Kt, f, k);
+      const VectorXd dq = newton_direction(Kt, fh, k);
       if (!dq.allFinite()) continue;
       double alpha = 1.0;
       for (int ls = 0; ls < 30 && !accepted; ++ls, alpha *= 0.5) {
@@ -746,10 +766,17 @@ bool stable_equilibrium(StaticProblem& p, const Scene& s, SceneData& sd, double 
     }
     Kt += Kc;
     noise += Kc_noise;
-    N = free_directions(J);
   } else {
     VectorXd f(n);
     p.force(lambda, f);  // the stages (and qM) at the equilibrium again
+  }
+  // the floating bodies' motions are neutral: held like the constraint rows
+  if (constraints || !p.floating().empty()) {
+    const int rows = constraints ? static_cast<int>(J.rows()) : 0;
+    MatrixXd held = MatrixXd::Zero(rows + static_cast<int>(p.floating().size()), n);
+    if (rows) held.topRows(rows) = J;
+    for (size_t k = 0; k < p.floating().size(); ++k) held(rows + static_cast<int>(k), p.floating()[k]) = 1.0;
+    N = free_directions(held);
   }
   if (N.cols() == 0) return true;  // nothing can move
   std::vector<mjtNum> full(static_cast<size_t>(n) * n);
@@ -1120,6 +1147,35 @@ bool held_by_forces(const mjModel* m, int j, bool gravity) {
   return false;
 }
 
+// Whether an equality constraint holds free joint j's body (b): a weld or connect between its
+// subtree and something outside it (a weld inside the subtree, to its own child, holds nothing:
+// outside probe AI).
+bool held_by_equality(const mjModel* m, int j) {
+  const int b = m->jnt_bodyid[j];
+  for (int e = 0; e < m->neq; ++e)
+    if ((m->eq_type[e] == mjEQ_CONNECT || m->eq_type[e] == mjEQ_WELD) &&
+        is_descendant(m, m->eq_obj1id[e], b) != is_descendant(m, m->eq_obj2id[e], b))
+      return true;
+  return false;
+}
+
+bool has_gravity(const mjModel* m) {
+  return !(m->opt.disableflags & mjDSBL_GRAVITY) && mju_norm3(m->opt.gravity) > 0;
+}
+
+// The free joints that float: without gravity, held by no weld or connect (held_by_equality) and
+// by no force that grows with their displacement (held_by_forces). Under no net load any placement
+// of such a body is an equilibrium: equilibrium() checks that none acts and keeps it where it
+// starts (outside probe BA: a rod on a free hub in zero gravity, whose free-free modes linearize
+// gives, had been refused as free-floating).
+std::vector<int> floating_joints(const mjModel* m) {
+  std::vector<int> out;
+  if (has_gravity(m)) return out;
+  for (int j = 0; j < m->njnt; ++j)
+    if (m->jnt_type[j] == mjJNT_FREE && !held_by_equality(m, j) && !held_by_forces(m, j, false)) out.push_back(j);
+  return out;
+}
+
 // Whether a contact of d touches the subtree of body b.
 bool touches(const mjModel* m, const mjData* d, int b) {
   for (int c = 0; c < d->ncon; ++c)
@@ -1375,36 +1431,95 @@ void tangent_stiffness(const Scene& s, SceneData& sd, double lambda, MatrixXd& K
   p.stiffness(lambda, Kt);
 }
 
+namespace {
+
+// The net load on the first floating body (floating_joints) that has one beyond the tolerance of
+// the scene's forces, at rest at the current qpos: a message naming it (such a body accelerates
+// for ever), empty if none.
+std::string floating_body_pushed(const Scene& s, SceneData& sd, const std::vector<int>& floating, double tolerance,
+                                 const char* when) {
+  if (floating.empty()) return {};
+  const mjModel* m = s.m;
+  VectorXd f(m->nv);
+  double scale = 0.0;
+  {
+    StaticProblem p(s, sd);
+    scale = p.force(1.0, f);
+  }
+  std::string out;
+  for (const int j : floating) {
+    const double load = f.segment(m->jnt_dofadr[j], 6).norm();
+    if (!(load > tolerance * scale)) continue;
+    const char* name = mj_id2name(m, mjOBJ_BODY, m->jnt_bodyid[j]);
+    char buf[400];
+    std::snprintf(buf, sizeof buf,
+                  "a free-floating body has no static equilibrium: '%s' (free joint), held by no weld, connect, "
+                  "spring, rope or servo, floats without gravity, but a net load of %.3g (its free joint's "
+                  "generalised force, N and N m) acts on it %s",
+                  name ? name : "?", load, when);
+    out = buf;
+    break;
+  }
+  mju_zero(sd.d->qvel, m->nv);
+  forward(s, sd);
+  return out;
+}
+
+SceneStaticsResult equilibrium_of_held(const Scene& s, SceneData& sd, const SceneStaticsOptions& opt);
+
+}  // namespace
+
 SceneStaticsResult equilibrium(const Scene& s, SceneData& sd, const SceneStaticsOptions& opt) {
+  const std::vector<int> floating = floating_joints(s.m);
+  SceneStaticsResult res;
+  res.message = floating_body_pushed(s, sd, floating, opt.tolerance, "at the start");
+  if (!res.message.empty()) return res;
+  res = equilibrium_of_held(s, sd, opt);
+  if (!res.converged || floating.empty()) return res;
+  if (std::string why = floating_body_pushed(s, sd, floating, opt.tolerance, "at the equilibrium found"); !why.empty()) {
+    res.converged = false;
+    res.message = why;
+    return res;
+  }
+  for (const int j : floating) {
+    const char* name = mj_id2name(s.m, mjOBJ_BODY, s.m->jnt_bodyid[j]);
+    res.message += std::string("; '") + (name ? name : "?") +
+                   "' (free joint) floats: without gravity and with no net load on it, any placement of it is an "
+                   "equilibrium";
+  }
+  return res;
+}
+
+namespace {
+
+// equilibrium() of a scene whose free bodies are held, fall onto a support, or float (the
+// floating ones' net load checked by the caller)
+SceneStaticsResult equilibrium_of_held(const Scene& s, SceneData& sd, const SceneStaticsOptions& opt) {
   const PreciseCollisions precise(s.m);
   const mjModel* m = s.m;
   mjData* d = sd.d;
   SceneStaticsResult res;
   // A free body has an equilibrium only where something holds it: an equality constraint on its
   // subtree, a force that grows with its displacement (held_by_forces), or, under gravity, a
-  // contact (a box on a table); otherwise it floats or falls for ever (a swimmer). (Outside probe
-  // AH: a box hanging from a `connect` on its free joint was refused.)
-  const bool gravity = !(m->opt.disableflags & mjDSBL_GRAVITY) && mju_norm3(m->opt.gravity) > 0;
+  // contact (a box on a table); otherwise it falls for ever (a swimmer). (Outside probe AH: a box
+  // hanging from a `connect` on its free joint was refused.) Without gravity such a body floats,
+  // and is in equilibrium anywhere while no net load acts on it (floating_joints).
+  const bool gravity = has_gravity(m);
   std::vector<int> loose;  // free joints only a contact can hold (relax watches them fall)
   for (int j = 0; j < m->njnt; ++j) {
-    if (m->jnt_type[j] != mjJNT_FREE) continue;
+    if (m->jnt_type[j] != mjJNT_FREE || !gravity) continue;
     const int b = m->jnt_bodyid[j];
+    if (held_by_equality(m, j) || held_by_forces(m, j, gravity)) continue;
     bool held = false;
-    // (a weld inside the subtree, to its own child, holds nothing: outside probe AI)
-    for (int e = 0; e < m->neq && !held; ++e)
-      if (m->eq_type[e] == mjEQ_CONNECT || m->eq_type[e] == mjEQ_WELD)
-        held = is_descendant(m, m->eq_obj1id[e], b) != is_descendant(m, m->eq_obj2id[e], b);
-    if (held || held_by_forces(m, j, gravity)) continue;
     for (int g = 0; g < m->ngeom && !held; ++g)
-      held = gravity && s.may_collide && (m->geom_contype[g] || m->geom_conaffinity[g]) && is_descendant(m, m->geom_bodyid[g], b);
+      held = s.may_collide && (m->geom_contype[g] || m->geom_conaffinity[g]) && is_descendant(m, m->geom_bodyid[g], b);
     if (held) {
       loose.push_back(j);
       continue;
     }
     const char* name = mj_id2name(m, mjOBJ_BODY, b);
     res.message = std::string("a free-floating body has no static equilibrium: '") + (name ? name : "?") +
-                  "' (free joint) is held by no weld, connect, spring, rope or servo" +
-                  (gravity ? " and touches nothing" : "");
+                  "' (free joint) is held by no weld, connect, spring, rope or servo and touches nothing";
     mju_zero(d->qvel, m->nv);
     forward(s, sd);
     return res;
@@ -1549,6 +1664,8 @@ SceneStaticsResult equilibrium(const Scene& s, SceneData& sd, const SceneStatics
     return res;
   }
 }
+
+}  // namespace
 
 SceneLinearization linearize(const Scene& s, SceneData& sd, const SceneLinearizeOptions& opt) {
   const PreciseCollisions precise(s.m);

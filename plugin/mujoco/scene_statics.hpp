@@ -7,7 +7,9 @@
 // qfrc_bias. Newton's method with a central finite-difference tangent stiffness in the tangent
 // space of qpos (ball joints are perturbed with mj_integratePos), a backtracking line search, and
 // load continuation on a factor lambda that scales gravity, controls and applied forces together.
-// Free joints are refused: a free-floating body has no static equilibrium.
+// A free body held by no weld, connect or force that grows with its displacement has no static
+// equilibrium under gravity but on a support; without gravity it floats, in equilibrium anywhere
+// under no net load, and is kept where it starts (a net load on it is refused, named).
 //
 // The smooth residual ignores constraint forces. When contacts, limits or equality constraints
 // carry load at the smooth solution (or the smooth solve fails while constraint rows exist), the

@@ -244,6 +244,52 @@ TEST(SceneStatics, FreeBodiesAreRefused) {
   EXPECT_NE(ir.message.find("'box' (free joint) is held by no weld, connect"), std::string::npos) << ir.message;
 }
 
+// Without gravity a free body that nothing holds floats: under no net load any placement of it is
+// an equilibrium (outside probe BA: refused as free-floating, so that a free-free rod had no modes).
+// A rod of 1 m (E = 1e8 Pa, r = 5 mm) on a hub of 1e-9 kg: equilibrium straightens it from a bend
+// and leaves the hub where it was; linearize gives six neutral modes and then the free-free beam's
+// bending pairs, (beta L)^2 sqrt(EI / (rho A L^4)) / (2 pi) with beta L = 4.7300, 7.8532 (the
+// rotary inertia, Rayleigh's correction, lowers them by about 3e-4). Held at the hub instead, the
+// first would be the clamped rod's 1.8751^2 (0.44 Hz against 2.82). A push on the hub leaves it no
+// equilibrium.
+TEST(SceneStatics, AFreeRodWithoutGravityFloatsAndHasItsFreeFreeModes) {
+  const std::string xml = R"(<mujoco><option gravity="0 0 0"/><worldbody>
+      <body name="hub"><freejoint/><inertial pos="0 0 0" mass="1e-9" diaginertia="1e-15 1e-15 1e-15"/>
+        <cosserat name="rod" length="1" sections="4" order="4" strain="ikl" radius="0.005" density="1000"
+                  young="1e8" poisson="0.3" contype="0" conaffinity="0"/>
+      </body></worldbody></mujoco>)";
+  auto s = load_scene_string(xml, kPath);
+  SceneData sd(*s);
+  const int nv = s->m->nv;
+  ASSERT_EQ(nv, 6 + 4 * 3 * 5);
+  for (int i = 7; i < s->m->nq; ++i) sd.d->qpos[i] = 0.3 * std::sin(1.0 + i);  // bent and twisted
+  const std::vector<mjtNum> hub(sd.d->qpos, sd.d->qpos + 7);
+  const SceneStaticsResult res = equilibrium(*s, sd);
+  ASSERT_TRUE(res.converged) << res.message;
+  EXPECT_NE(res.message.find("'hub' (free joint) floats"), std::string::npos) << res.message;
+  for (int i = 0; i < 7; ++i) EXPECT_EQ(sd.d->qpos[i], hub[i]) << i;
+  for (int i = 7; i < s->m->nq; ++i) EXPECT_NEAR(sd.d->qpos[i], 0.0, 1e-9) << i;
+
+  const SceneLinearization L = linearize(*s, sd);
+  ASSERT_EQ(L.frequencies_hz.size(), nv);
+  EXPECT_EQ(L.unstable_modes, 0);
+  const double EI = 1e8 * M_PI * std::pow(0.005, 4) / 4, rhoA = 1000 * M_PI * 0.005 * 0.005;
+  const double f1 = 4.7300407 * 4.7300407 * std::sqrt(EI / rhoA) / (2 * M_PI);
+  const double f2 = 7.8532046 * 7.8532046 * std::sqrt(EI / rhoA) / (2 * M_PI);
+  for (int k = 0; k < 6; ++k) EXPECT_LT(std::abs(L.omega2(k)), 1e-6) << k;
+  for (int k = 6; k < 8; ++k) EXPECT_NEAR(L.frequencies_hz(k) / f1, 1.0, 1e-3) << k;
+  for (int k = 8; k < 10; ++k) EXPECT_NEAR(L.frequencies_hz(k) / f2, 1.0, 1e-3) << k;
+
+  SceneData pushed(*s);
+  pushed.d->xfrc_applied[6 * body(*s, "hub") + 0] = 1e-3;
+  const SceneStaticsResult pr = equilibrium(*s, pushed);
+  EXPECT_FALSE(pr.converged);
+  EXPECT_NE(pr.message.find("'hub' (free joint), held by no weld, connect, spring, rope or servo, floats without "
+                            "gravity, but a net load of 0.001"),
+            std::string::npos)
+      << pr.message;
+}
+
 // A free body that something holds has an equilibrium (outside probe AH: refused as "free-floating"):
 // a box hanging from a `connect` on its free joint, a compound pendulum, omega^2 = m g d / I_pivot
 // with d = 0.3 m and I_pivot = m ((0.1^2 + 0.6^2) / 12 + d^2), and a box resting on a floor.
