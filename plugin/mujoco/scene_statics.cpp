@@ -185,6 +185,10 @@ class StaticProblem {
         qfrc_applied_(d_->qfrc_applied, d_->qfrc_applied + m_->nv),
         xfrc_applied_(d_->xfrc_applied, d_->xfrc_applied + 6 * m_->nbody) {
     tree_ = dof_trees(m_, ntree_);
+    for (int i = 0; i < m_->nv; ++i) {
+      const int j = m_->dof_jntid[i], t = m_->jnt_type[j];
+      if (t == mjJNT_HINGE || t == mjJNT_BALL || (t == mjJNT_FREE && i - m_->jnt_dofadr[j] >= 3)) turning_.push_back(i);
+    }
     for (const int j : floating_joints(m_))
       for (int k = 0; k < 6; ++k) floating_.push_back(m_->jnt_dofadr[j] + k);
   }
@@ -510,6 +514,18 @@ class StaticProblem {
     }
   }
 
+  // dq scaled down so that no hinge, ball or free joint turns by more than 1 rad: where the stiffness
+  // of a joint vanishes (a pendulum starting horizontal) Newton's step is unbounded (outside probe
+  // BB: the Levenberg-Marquardt step took such a pendulum 1e6 rad, 160 000 turns, to an equilibrium
+  // there, where the finite differences' step relative to the angle was 1 rad and linearize read
+  // its frequency 8% low)
+  void limit_turns(VectorXd& dq) const {
+    constexpr double kMaxTurn = 1.0;
+    double most = 0.0;
+    for (const int i : turning_) most = std::max(most, std::abs(dq(i)));
+    if (most > kMaxTurn) dq *= kMaxTurn / most;
+  }
+
   std::vector<mjtNum> qpos() const { return std::vector<mjtNum>(d_->qpos, d_->qpos + m_->nq); }
   void set_qpos(const std::vector<mjtNum>& q) { std::copy(q.begin(), q.end(), d_->qpos); }
   // qpos = q0 (+) alpha dq, the tangent-space step (quaternions stay unit).
@@ -519,8 +535,12 @@ class StaticProblem {
   }
 
  private:
-  // The finite-difference step of dof j at q.
-  double step_size(const std::vector<mjtNum>& q, int j) const { return 1e-6 * std::max(1.0, std::abs(scalar_coordinate(q, j))); }
+  // The finite-difference step of dof j at q: 1e-6 relative to a slide's position, to a hinge's
+  // angle from 1000 rad on (the rounding of sin and cos of a larger angle), else 1e-6.
+  double step_size(const std::vector<mjtNum>& q, int j) const {
+    const bool hinge = m_->jnt_type[m_->dof_jntid[j]] == mjJNT_HINGE;
+    return 1e-6 * std::max(1.0, std::abs(scalar_coordinate(q, j)) * (hinge ? 1e-3 : 1.0));
+  }
 
   // qpos value of dof j when its joint is a hinge or slide (0 for ball joints).
   double scalar_coordinate(const std::vector<mjtNum>& q, int j) const {
@@ -541,6 +561,7 @@ class StaticProblem {
   int ntree_ = 0;
   VectorXd tree_weights_;       // tree_weight_scales, with weight_scale_
   std::vector<int> floating_;   // floating(): the floating free joints' dofs
+  std::vector<int> turning_;    // the dofs of hinges, balls and free joints' rotations (limit_turns)
 };
 
 // Candidate directions for Kt dq = f, tried in turn (k = 0, 1, ...) until one decreases |f|: the
@@ -596,8 +617,9 @@ bool newton(StaticProblem& p, double lambda, const SceneStaticsOptions& opt, Sce
     const double f0 = f.norm();
     bool accepted = false;
     for (int k = 0; k < kDirections && !accepted; ++k) {
-      const VectorXd dq = newton_direction(Kt, fh, k);
+      VectorXd dq = newton_direction(Kt, fh, k);
       if (!dq.allFinite()) continue;
+      p.limit_turns(dq);
       double alpha = 1.0;
       for (int ls = 0; ls < 30 && !accepted; ++ls, alpha *= 0.5) {
         p.move(q0, dq, alpha);
