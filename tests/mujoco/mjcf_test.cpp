@@ -240,6 +240,10 @@ std::vector<BadCase> bad_cases() {
       // (fuzzing, second round: sections allocated before the depth check exhausted memory; sizes
       // that overflow the inertia gave an internal error without a line)
       {"a billion sections", in_world(rod + R"( sections="999999999"/>)"), 3, "'sections' is 999999999, but each section nests one body"},
+      // (outside probe BB, forty-fifth session: sections of many dofs nest one body per 6, counted
+      // only after their O(depth^2) generation: 60 sections of order 20 took 2.8 GB to be refused)
+      {"GVS sections nesting a thousand bodies", in_world(rod + R"( sections="60" order="20" strain="sr"/>)"), 3,
+       "'sections' is 60, nesting 1260 bodies (one per 6 strain dofs of a section"},
       {"radius beyond 1e6 m", in_world(rod + R"( radius="1e100"/>)"), 3, "'radius' must be at most 1e6 m"},
       {"length beyond 1e6 m", in_world(R"(<cosserat name="a" length="1e150"/>)"), 3, "'length' must be at most 1e6 m"},
       // (outside probe N, twentieth session: a rod without mass or stiffness loaded and ran without a word)
