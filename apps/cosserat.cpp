@@ -609,12 +609,16 @@ int cmd_run(int argc, char** argv) {
   write_row(energy.final());
   // how deep the start puts bodies into each other: what MuJoCo's soft contacts give back from
   // there is energy energy() does not count
+  // (the pair's geoms kept: outside probe BB, the warning named the pair at the same index of the
+  // end's contacts)
   double start_depth = 0.0;
-  int deepest = -1;
+  int deepest = -1, deepest_geom1 = -1, deepest_geom2 = -1;
   for (int c = 0; c < s.data().d->ncon; ++c)
     if (-s.data().d->contact[c].dist > start_depth) {
       start_depth = -s.data().d->contact[c].dist;
       deepest = c;
+      deepest_geom1 = s.data().d->contact[c].geom1;
+      deepest_geom2 = s.data().d->contact[c].geom2;
     }
   long k = 0;
   bool diverged = false, touched = false;
@@ -696,12 +700,11 @@ int cmd_run(int argc, char** argv) {
   // bodies that start deep in each other (outside fuzzing: a 100 m leg through a floor went from
   // -1.8e4 J to 2.2e7 J in 0.02 s without a word)
   if (const mjModel* m = s.scene().m; deepest >= 0 && start_depth > 1e-2 * m->stat.extent) {
-    const mjContact& c = s.data().d->contact[deepest];
     char b[512];
     std::snprintf(b, sizeof b,
                   "the run started with bodies '%s' and '%s' %.3g m into each other (%.3g of the scene's extent): "
                   "MuJoCo's soft contacts push them apart with energy the run's figures do not count",
-                  body_name(m, m->geom_bodyid[c.geom1]).c_str(), body_name(m, m->geom_bodyid[c.geom2]).c_str(), start_depth, start_depth / m->stat.extent);
+                  body_name(m, m->geom_bodyid[deepest_geom1]).c_str(), body_name(m, m->geom_bodyid[deepest_geom2]).c_str(), start_depth, start_depth / m->stat.extent);
     warnings.push_back(b);
   }
   const std::vector<std::string> exchanges = energy_exchanges(s.scene(), touched);
