@@ -135,9 +135,18 @@ LoadError mujoco_error(const Preprocessed& pre, const std::string& error) {
     if (at == std::string::npos || !hint.empty()) continue;
     const size_t end = first.find('\'', at + 1);
     const std::string name = first.substr(at + 1, end == std::string::npos ? std::string::npos : end - at - 1);
+    // (outside probe BB: a bad condim on a rod, MuJoCo's message naming a capsule, read "has no")
     if (std::find(r.joints.begin(), r.joints.end(), name) != r.joints.end() ||
-        std::find(r.proxies.begin(), r.proxies.end(), name) != r.proxies.end())
+        std::find(r.proxies.begin(), r.proxies.end(), name) != r.proxies.end() || name == r.name + "/base" ||
+        std::any_of(r.geoms.begin(), r.geoms.end(), [&](const RodGeomDecl& g) { return g.name == name; }) ||
+        std::any_of(r.sites.begin(), r.sites.end(), [&](const RodSiteDecl& x) { return x.name == name; }) ||
+        (name.rfind(r.name + "/s", 0) == 0 && name.find("/h") != std::string::npos)) {
+      if (std::any_of(r.geoms.begin(), r.geoms.end(), [&](const RodGeomDecl& g) { return g.name == name; }))
+        hint = ": '" + name + "' is a capsule of rod '" + r.name +
+               "', which takes the rod's geom attributes (contype, conaffinity, condim, friction, solref, solimp, "
+               "margin, gap, rgba, group, material)";
       continue;
+    }
     // the coordinates of the section the name points at, if it has one, else of the first (outside
     // probe AE: with sections of different strains the first section's misled)
     std::string section = r.name + "/s0";

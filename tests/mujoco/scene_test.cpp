@@ -488,6 +488,12 @@ TEST(Scene, MujocoCompileErrorsPointAtTheUsersFileAndLine) {
                       "rod 'A' has no '" + joint + "'. Its sections are A/s0 to A/s2 (bodies), its strain joints "
                       "A/s<i>/<coordinate>, section A/s" + (joint == "A/s1/py" ? "1" : "0") +
                           "'s coordinates: kx ky kz px");
+  // a capsule the rod generates is no unknown name: a bad condim on the rod says the capsule takes
+  // the rod's geom attributes (outside probe BB: "rod 'A' has no 'A/s0/g0'")
+  expect_load_error("<mujoco>\n<worldbody>\n<cosserat name=\"A\" length=\"0.3\" condim=\"5\"/>\n</worldbody>\n</mujoco>\n",
+                    dir, "condim.xml", 3,
+                    "invalid condim in geom 'A/s0/g0' (id = 0) (object 'A/s0/g0'): 'A/s0/g0' is a capsule of rod 'A', "
+                    "which takes the rod's geom attributes");
   // with sections of different strains, the named section's coordinates (outside probe AE)
   expect_load_error("<mujoco>\n<worldbody>\n<cosserat name=\"A\" length=\"0.3\" sections=\"2\">\n<section/>\n"
                     "<section strain=\"ikl\"/>\n</cosserat>\n</worldbody>\n<actuator>\n<motor joint=\"A/s1/px\"/>\n"
