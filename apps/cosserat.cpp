@@ -1352,6 +1352,15 @@ int cmd_demo(int argc, char** argv) {
   const Integrator integrator = o.integrator.value_or(Integrator::Implicit);
   if (integrator == Integrator::GeneralizedAlpha || integrator == Integrator::Midpoint)
     fail(std::string("--integrator ") + integrator_name(integrator) + ": MuJoCo scenes only (the demo runs the core solver)");
+  // (outside probe BB: 400 sections ran 129 s before a word, 1000 looked like a hang; and a bad
+  // --out failed at the end, after the statics and the run)
+  constexpr int kDemoDofs = 600;
+  if (static_cast<long long>(o.sections) * 6 * (o.order + 1) > kDemoDofs)
+    fail("--sections " + std::to_string(o.sections) + " --order " + std::to_string(o.order) + ": the demo's rod would have " +
+         std::to_string(static_cast<long long>(o.sections) * 6 * (o.order + 1)) + " dofs; it takes at most " +
+         std::to_string(kDemoDofs) + " (its dense statics grow as the cube of them: 600 take 2 s, 1200 15 s)");
+  const std::string csv = o.out + "/demo.csv";
+  check_writable("--out", csv);
 
   const Model m = demo_model(o);
   Data d(m);
@@ -1369,10 +1378,7 @@ int cmd_demo(int argc, char** argv) {
   std::printf("natural frequencies there [Hz]: %.3f %.3f %.3f %.3f\n", lin.frequencies_hz(0), lin.frequencies_hz(1),
               lin.frequencies_hz(2), lin.frequencies_hz(3));
 
-  std::filesystem::create_directories(o.out);
-  const std::string csv = o.out + "/demo.csv";
-  std::ofstream f(csv);
-  if (!f) fail("cannot write " + csv);
+  std::ofstream f = open_output(csv);
   f << "time,energy,tip.x,tip.y,tip.z,tension\n";
   const long steps = step_count(o.duration, o.timestep, "--duration");
   Progress progress("demo", steps);

@@ -71,12 +71,12 @@ struct PictureOptions {
     c.options.push_back(int_option("--height", "H", "picture height in pixels (default: the model's offheight)", r.height, 1));
     c.options.push_back(text_option("--camera", "NAME", "a camera of the model (default: a free camera framing the scene: render's the whole run, snapshot's the picture's state)", r.camera.name));
     c.options.push_back(text_option("--track", "BODY", "the free camera follows this body (framed on the first picture's state)", r.camera.track));
-    c.options.push_back(number("--azimuth", "DEG", "free camera azimuth (default 90: looking along +y)", r.camera.azimuth));
-    c.options.push_back(number("--elevation", "DEG", "free camera elevation (default -20: from above)", r.camera.elevation, -89, 89));
-    c.options.push_back(number("--margin", "F", "free camera: empty border, fraction of the picture (default 0.08)", r.camera.margin, 0, 0.45));
+    c.options.push_back(given(number("--azimuth", "DEG", "free camera azimuth (default 90: looking along +y)", r.camera.azimuth), free_camera_given));
+    c.options.push_back(given(number("--elevation", "DEG", "free camera elevation (default -20: from above)", r.camera.elevation, -89, 89), free_camera_given));
+    c.options.push_back(given(number("--margin", "F", "free camera: empty border, fraction of the picture (default 0.08)", r.camera.margin, 0, 0.45), free_camera_given));
     c.options.push_back(text_option("--color-by", "WHAT", "rod colours: model (the MJCF rgba), strain or stress (magnitude at the surface)", coloring));
-    c.options.push_back(positive_option("--color-max", "V", "strain or stress at the top of the colour map (default: the largest in each picture)",
-                                 r.rods.color_max));
+    c.options.push_back(given(positive_option("--color-max", "V", "with --color-by strain or stress: the value at the top of the colour map (default: the largest in each picture)",
+                                 r.rods.color_max), color_max_given));
     c.options.push_back(int_option("--rod-segments", "N", "rings drawn along each rod's tube, evenly spaced (default: adaptive to its bending)", r.rods.segments, 1));
     c.options.push_back({"--no-shadows", "", "do not draw shadows", [&r](const std::string&) { r.shadows = false; }});
     c.options.push_back(int_option("--samples", "N", "multisampling per pixel (default: the model's offsamples)", r.samples, 0));
@@ -88,8 +88,23 @@ struct PictureOptions {
     newton.add_rho_to(c);
   }
 
+  // (outside probe BB: these were accepted and did nothing)
+  bool free_camera_given = false, color_max_given = false;
+  // `o` that also sets `flag` when given
+  static Option given(Option o, bool& flag) {
+    o.set = [set = std::move(o.set), &flag](const std::string& v) {
+      set(v);
+      flag = true;
+    };
+    return o;
+  }
+
   void finish() {
     if (out.empty()) fail("--out is required");
+    if (free_camera_given && !render.camera.name.empty())
+      fail("--azimuth, --elevation and --margin place the free camera: drop --camera " + render.camera.name + " to use them");
+    if (color_max_given && coloring == "model")
+      fail("--color-max is the top of the strain or stress colour map: give --color-by strain or --color-by stress");
     if (render.rods.segments > 10000) fail("--rod-segments: at most 10000 rings per rod, got " + std::to_string(render.rods.segments));
     render.rods.coloring = rd::parse_rod_coloring(coloring);
   }
@@ -186,10 +201,7 @@ int render_mode(Simulation& sim, const PictureOptions& o, int mode, double ampli
     mju_zero(sd.d->qvel, m->nv);
     mj::fwd_position(s, sd);
   };
-  rd::Renderer renderer(s, o.render);
-  std::error_code ec;
-  fs::create_directories(o.out, ec);
-  if (!fs::is_directory(o.out)) fail("--out: cannot create directory " + o.out + (ec ? " (" + ec.message() + ")" : ""));
+  rd::Renderer renderer(s, o.render);  // (--out's directory: render_command made it)
   if (renderer.free_camera() && o.render.camera.track.empty()) {  // framed on the cycle's extremes
     rd::Extent e;
     for (const double phase : {0.0, M_PI / 2, -M_PI / 2}) {
@@ -237,7 +249,7 @@ int render_command(int argc, char** argv) {
     cl.options.push_back(positive_option("--duration", "T", "simulated time [s] (default 1)", duration));
     cl.options.push_back(positive_option("--fps", "F", "frames per simulated second (default 30)", fps));
     cl.options.push_back(int_option("--mode", "K", "animate mode K (1: the lowest) at the static equilibrium instead of simulating", mode, 1));
-    cl.options.push_back(positive_option("--amplitude", "A", "--mode: the largest displacement [m] (default: a tenth of the longest rod, else 0.05)", amplitude));
+    cl.options.push_back(positive_option("--amplitude", "A", "--mode: the largest displacement [m] (default: the larger of 0.05 and a tenth of the longest rod)", amplitude));
     cl.options.push_back(text_option("--video", "F.mp4", "also encode the frames into a video with ffmpeg (must be installed)", video));
     o.add_to(cl);
     const auto pos = cl.parse(argc - 1, argv + 1);  // after the command name
@@ -264,6 +276,12 @@ int render_command(int argc, char** argv) {
     check_writable("--video", video);
 
     if (amplitude > 0 && mode == 0) fail("--amplitude is the amplitude of --mode K's animation: give --mode too");
+    // the frames' directory before the model is loaded (outside probe BB: a bad model was reported
+    // before a bad --out, unlike the other commands)
+    std::error_code ec;
+    fs::create_directories(o.out, ec);
+    if (!fs::is_directory(o.out)) fail("--out: cannot create directory " + o.out + (ec ? " (" + ec.message() + ")" : ""));
+    check_writable("--out", rd::frame_path(o.out, 0));
     Simulation sim((*pos)[0], o);
     if (mode > 0) return render_mode(sim, o, mode, amplitude, frames, video);
     const double h = sim.scene->m->opt.timestep;
@@ -272,9 +290,6 @@ int render_command(int argc, char** argv) {
       fail("--fps " + format(fps) + " puts frames " + format(1.0 / fps) + " s apart, closer than the time step " +
            format(h) + " s: use --fps " + format(1.0 / h) + " or less, or a smaller --timestep");
     rd::Renderer renderer(*sim.scene, o.render);
-    std::error_code ec;
-    fs::create_directories(o.out, ec);
-    if (!fs::is_directory(o.out)) fail("--out: cannot create directory " + o.out + (ec ? " (" + ec.message() + ")" : ""));
     if (renderer.free_camera() && o.render.camera.track.empty()) {
       // the free camera frames the whole run: a first pass simulates it (up to a divergence, which
       // the second pass then reports after writing the frames before it) and merges the extents
@@ -324,6 +339,11 @@ int snapshot_command(int argc, char** argv) {
     const auto pos = cl.parse(argc - 1, argv + 1);  // after the command name
     if (!pos) return 0;
     o.finish();
+    {  // (outside probe BB: --out pic.jpg wrote PNG data under that name)
+      std::string ext = fs::path(o.out).extension().string();
+      std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+      if (ext != ".png") fail("--out: the picture is a PNG: give a name ending in .png, got " + o.out);
+    }
     check_writable("--out", o.out);
 
     Simulation sim((*pos)[0], o);

@@ -37,6 +37,13 @@ Renderer::Renderer(const mj::Scene& s, const RenderOptions& o)
     throw std::invalid_argument("picture " + std::to_string(width_) + "x" + std::to_string(height_) +
                                 " is larger than OpenGL allows here (" + std::to_string(limit) + " pixels a side)");
 
+  if (o.samples > 0) {  // (outside probe BB: --samples 1000 drew what 64 draws, without a word)
+    GLint most = 0;
+    glGetIntegerv(GL_MAX_SAMPLES, &most);
+    if (o.samples > most)
+      throw std::invalid_argument("--samples " + std::to_string(o.samples) + ": OpenGL here multisamples at most " +
+                                  std::to_string(most) + " per pixel");
+  }
   mjv_defaultOption(&opt_);
   mjv_defaultScene(&scn_);
   mjv_makeScene(s.m, &scn_, scene_capacity(s));

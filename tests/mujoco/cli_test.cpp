@@ -859,6 +859,20 @@ TEST_F(Cli, DemoStillWorks) {
   ASSERT_EQ(std::sscanf(r.out.c_str() + at, "tip at (%lf, %lf, %lf)", &x, &y, &z), 3) << r.out;
   EXPECT_LE(std::sqrt(x * x + y * y + z * z), 0.4 * 1.001) << r.out;
   EXPECT_LT(z, -0.1) << r.out;
+  // a bad --out, and a rod beyond 600 dofs, are refused before any work, in one line (outside probe
+  // BB: the output failed after the statics and the run, with std::filesystem's message; 1000
+  // sections looked like a hang)
+  const fs::path file = scratch() / "a_file";
+  std::ofstream(file) << "x";
+  const Result bad_out = cosserat("demo --out '" + file.string() + "'");
+  EXPECT_EQ(bad_out.status, 1);
+  EXPECT_EQ(bad_out.out, "");
+  EXPECT_EQ(lines(bad_out.err).size(), 1u) << bad_out.err;
+  EXPECT_NE(bad_out.err.find("--out: cannot write"), std::string::npos) << bad_out.err;
+  const Result big = cosserat("demo --sections 1000 --out '" + dir.string() + "'");
+  EXPECT_EQ(big.status, 1);
+  EXPECT_EQ(big.out, "");
+  EXPECT_NE(big.err.find("the demo's rod would have 6000 dofs; it takes at most 600"), std::string::npos) << big.err;
 }
 
 // `cosserat run <args>` on the shipped cantilever succeeds without any warning line.

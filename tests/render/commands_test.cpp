@@ -208,6 +208,25 @@ TEST_F(CommandsTest, BadInputIsAOneLineError) {
   EXPECT_NE(failure(snapshot_command, {"snapshot", (dir / "bad.xml").string(), "--out", (dir / "s.png").string()})
                 .find("bad.xml:3:"),
             std::string::npos);
+  // options that would do nothing are refused, and render's --out is checked before the model
+  // (outside probe BB: the free camera's options with --camera, --color-max without --color-by,
+  // --samples beyond OpenGL's, a .jpg name for PNG data, all accepted; a bad model reported first)
+  const std::string png = (dir / "s.png").string();
+  EXPECT_NE(failure(snapshot_command, {"snapshot", model, "--out", png, "--camera", "side", "--azimuth", "30"})
+                .find("--azimuth, --elevation and --margin place the free camera: drop --camera side"),
+            std::string::npos);
+  EXPECT_NE(failure(snapshot_command, {"snapshot", model, "--out", png, "--color-max", "0.1"})
+                .find("--color-max is the top of the strain or stress colour map"),
+            std::string::npos);
+  EXPECT_NE(failure(snapshot_command, {"snapshot", model, "--out", png, "--samples", "1000"})
+                .find("--samples 1000: OpenGL here multisamples at most"),
+            std::string::npos);
+  EXPECT_NE(failure(snapshot_command, {"snapshot", model, "--out", (dir / "s.jpg").string()})
+                .find("--out: the picture is a PNG: give a name ending in .png"),
+            std::string::npos);
+  EXPECT_NE(failure(render_command, {"render", (dir / "bad.xml").string(), "--out", "/proc/no_such_dir"})
+                .find("--out: cannot create directory /proc/no_such_dir"),
+            std::string::npos);
 }
 
 TEST_F(CommandsTest, HelpListsTheOptions) {
