@@ -977,8 +977,11 @@ int cmd_linearize(int argc, char** argv) {
   const Equilibrium eq(pos->front(), state, relaxation_time);
   if (!eq.result.converged) fail("no static equilibrium to linearise about: " + eq.result.message);
   const mj::SceneLinearization lin = [&] {
+    Progress progress("linearize", 1);  // (cleared before the output)
+    mj::SceneLinearizeOptions with_progress = lopt;
+    with_progress.progress = [&progress](const std::string& where) { progress.note(where); };
     try {
-      return mj::linearize(*eq.scene, *eq.data, lopt);
+      return mj::linearize(*eq.scene, *eq.data, with_progress);
     } catch (const MujocoError& e) {
       throw error_while(pos->front(), e, "linearising at the equilibrium");
     } catch (const std::runtime_error& e) {

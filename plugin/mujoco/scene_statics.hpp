@@ -90,6 +90,9 @@ struct SceneLinearizeOptions {
   // its supports, as long as they hold it (a contact that would lift off is held all the same).
   // False (the default): contacts and limits are left out (the frequencies without them).
   bool rigid_contacts = false;
+  // called now and then with where the linearisation is (the stiffness's finite-difference columns,
+  // the eigenproblem): a long one's progress line (the cosserat tool's `linearize`)
+  std::function<void(const std::string&)> progress;
 };
 
 // Linearisation at the current qpos (call equilibrium() first), qvel = 0 and the current ctrl:
