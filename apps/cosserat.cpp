@@ -226,6 +226,15 @@ std::vector<std::string> collect_warnings(const mj::Scene& sc, const mj::SceneDa
   return w;
 }
 
+// Prints warnings but those the load printed already (`loaded`, with `prefix`: "A: " in compare),
+// which the JSON keeps (outside probe BB: a load warning was printed twice in one run).
+void print_warnings(std::FILE* to, const std::vector<std::string>& warnings, const std::vector<std::string>& loaded,
+                    const std::string& prefix = "") {
+  for (const auto& w : warnings)
+    if (std::none_of(loaded.begin(), loaded.end(), [&](const std::string& l) { return prefix + l == w; }))
+      std::fprintf(to, "warning: %s\n", w.c_str());
+}
+
 // ------------------------------------------------------------------------------- simulation --
 
 struct SimOptions {
@@ -813,9 +822,9 @@ int cmd_run(int argc, char** argv) {
                   1 << mj::kMaxSubstepLevel);
     print_positions(out, s.data());
     print_sensors(sensors, s.data().d);
-    for (const auto& w : warnings) std::printf("warning: %s\n", w.c_str());
+    print_warnings(stdout, warnings, s.scene().load_warnings);
   } else {  // (outside probe AL: with --csv - the warnings had gone nowhere)
-    for (const auto& w : warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
+    print_warnings(stderr, warnings, s.scene().load_warnings);
   }
   if (diverged) fail("simulation diverged: " + s.data().warning + " (" + divergence_hint(s) + ")");
   return 0;
@@ -1291,9 +1300,16 @@ int cmd_compare(int argc, char** argv) {
     for (const char* k : {"a", "b"})
       for (const auto& [name, v] : j["swimming_speed"][k].items())
         std::printf("swimming speed (%s) %s: %s m/s\n", k, name.c_str(), v.dump().c_str());
-    for (const auto& w : warnings) std::printf("warning: %s\n", w.c_str());
-  } else {
-    for (const auto& w : warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
+  }
+  {
+    std::vector<std::string> rest;  // the load warnings of A and B were printed at their loads
+    for (const auto& w : warnings)
+      if (std::none_of(a.sim.scene().load_warnings.begin(), a.sim.scene().load_warnings.end(),
+                       [&](const std::string& l) { return "A: " + l == w; }) &&
+          std::none_of(b.sim.scene().load_warnings.begin(), b.sim.scene().load_warnings.end(),
+                       [&](const std::string& l) { return "B: " + l == w; }))
+        rest.push_back(w);
+    print_warnings(json_path == "-" ? stderr : stdout, rest, {});
   }
   if (diverged) fail(std::string("simulation of ") + (a.diverged ? "A" : "B") + " diverged: " +
                      (a.diverged ? a.sim.data().warning : b.sim.data().warning));

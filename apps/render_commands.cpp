@@ -50,7 +50,9 @@ Option number(const std::string& name, const std::string& metavar, const std::st
             target = parse_number(name, v);
             if (positive && !(target > 0)) fail(name + ": must be positive, got '" + v + "'");
             if (target < lo || target > hi)
-              fail(name + ": must be in [" + format(lo) + ", " + format(hi) + "], got '" + v + "'");
+              fail(name + (hi == HUGE_VAL ? ": must be at least " + format(lo)
+                                          : ": must be in [" + format(lo) + ", " + format(hi) + "]") +
+                   ", got '" + v + "'");
           }};
 }
 // ------------------------------------------------------------------- options both commands share --

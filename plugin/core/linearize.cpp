@@ -99,7 +99,7 @@ void state_space(Linearization& L) {
       const double w = es.eigenvalues()(i) > 0 ? std::sqrt(es.eigenvalues()(i)) : 0.0;  // (not -0 for -0)
       const VecX x = es.eigenvectors().col(i);
       L.frequencies_hz(i) = w / (2.0 * M_PI);
-      L.damping_ratios(i) = w > 0 ? x.dot(L.D * x) / (2.0 * w) : std::nan("");
+      L.damping_ratios(i) = w > 0 ? x.dot(L.D * x) / (2.0 * w) + 0.0 : std::nan("");  // (+ 0: not -0)
       if (L.omega2(i) < -L.neutral_omega2 && unstable(x, Ks)) ++L.unstable_modes;
     }
   } else {

@@ -823,10 +823,17 @@ void Preprocessor::read_sections(const Reader& r, RodInput& rod) {
       ++unsized;
   }
   const double L = spec.length, tol = 1e-9 * L;
+  // (12 digits: the tolerance shows, the sum's rounding does not; outside probe BB read
+  // "add up to 0.30000000000000004")
+  auto digits12 = [](double v) {
+    char b[32];
+    std::snprintf(b, sizeof b, "%.12g", v);
+    return std::string(b);
+  };
   if (unsized == 0 && std::abs(given - L) > tol)
-    r.fail("section lengths add up to " + fmt(given) + ", not the rod length " + fmt(L));
+    r.fail("section lengths add up to " + digits12(given) + ", not the rod length " + digits12(L));
   if (unsized > 0 && given >= L - tol)
-    r.fail("section lengths add up to " + fmt(given) + ", leaving nothing of the rod length " + fmt(L) +
+    r.fail("section lengths add up to " + digits12(given) + ", leaving nothing of the rod length " + digits12(L) +
            " for the sections without a length");
   double X = 0.0;
   for (std::size_t i = 0; i < secs.size(); ++i) {

@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 #include <string>
@@ -523,7 +524,11 @@ TEST(SceneStatics, ContactSceneFallsBackToRelaxation) {
   const SceneStaticsResult res = equilibrium(*s, sd, opt);
   ASSERT_FALSE(heard.empty());
   EXPECT_EQ(heard.front().rfind("Newton, load step 1 to load factor 1", 0), 0u) << heard.front();
-  EXPECT_EQ(heard.back().rfind("dynamic relaxation, t = ", 0), 0u) << heard.back();
+  auto heard_of = [&heard](const std::string& what) {
+    return std::any_of(heard.begin(), heard.end(), [&](const std::string& h) { return h.rfind(what, 0) == 0; });
+  };
+  EXPECT_TRUE(heard_of("dynamic relaxation, t = "));
+  EXPECT_TRUE(heard_of("tangent stiffness by central differences, column 1 of 1"));  // (and the stiffness's columns)
   ASSERT_TRUE(res.converged) << res.message;
   EXPECT_EQ(res.method, "dynamic relaxation");
   EXPECT_GT(res.constraint_rows, 0);
