@@ -21,7 +21,12 @@ using namespace cosserat;
 
 int main(int argc, char** argv) {
   const std::string path = argc > 1 ? argv[1] : COSSERAT_MODELS_DIR "/cantilever.xml";
-  const double seconds = argc > 2 ? std::atof(argv[2]) : 1.0;
+  char* end = nullptr;
+  const double seconds = argc > 2 ? std::strtod(argv[2], &end) : 1.0;
+  if (argc > 2 && (*end != '\0' || !(seconds >= 0 && seconds <= 1e6))) {  // (not "1e999", "-1", "abc")
+    std::fprintf(stderr, "SECONDS: a number of seconds from 0 to 1e6, got '%s'\n", argv[2]);
+    return 1;
+  }
 
   std::unique_ptr<mj::Scene> scene;
   try {

@@ -24,7 +24,12 @@ using namespace cosserat;
 
 int main(int argc, char** argv) {
   const std::string path = argc > 1 ? argv[1] : COSSERAT_MODELS_DIR "/octopus_arm.xml";
-  const double seconds = argc > 2 ? std::atof(argv[2]) : 0.5;
+  char* end = nullptr;
+  const double seconds = argc > 2 ? std::strtod(argv[2], &end) : 0.5;
+  if (argc > 2 && (*end != '\0' || !(seconds >= 0 && seconds <= 1e6))) {  // (not "1e999", "-1", "abc")
+    std::fprintf(stderr, "SECONDS: a number of seconds from 0 to 1e6, got '%s'\n", argv[2]);
+    return 1;
+  }
   const std::string out = argc > 3 ? argv[3] : "snapshot.png";
   try {
     auto scene = mj::load_scene(path);
