@@ -34,10 +34,22 @@ Helix helix_of(const Vec6& xi) {
 RodFluidInfo set_rod_drag(Model& m, int rod, const RodFluid& f) {
   const Rod& r = m.rods.at(rod);
   RodFluidInfo info;
-  // the wave: the first helical section's rest strain, unless given
+  // the wave: the first helical section's rest strain, unless given. A helix whose pitch is under
+  // a tenth of a turn's arc length (its tangent within 6 degrees of the plane the turns lie in) is
+  // taken as planar: as the twist of a curved section goes to zero its pitch does too, and the
+  // pitch as the slender-body length made the coefficients grow without bound (outside probe BD: an
+  // arc of 0.2 m twisted by 0.03 1/m, 0.6 mm out of its plane, had c_t 31 times the planar
+  // arc's; at 1e-3 1/m they came out negative and the model was refused)
   Helix hx;
-  for (int s = r.first_section; s < r.first_section + r.nsections && !hx.helical; ++s)
-    hx = helix_of(m.sections[s].rest_strain);
+  for (int s = r.first_section; s < r.first_section + r.nsections && !hx.helical; ++s) {
+    const Helix h = helix_of(m.sections[s].rest_strain);
+    const double turn = 2.0 * M_PI / m.sections[s].rest_strain.head<3>().norm();  // arc length of a turn
+    if (h.helical && std::abs(h.pitch) < kPlanarPitch * turn) {
+      if (info.nearly_planar_section < 0) info.nearly_planar_section = s - r.first_section;
+      continue;
+    }
+    hx = h;
+  }
   info.helical = hx.helical;
   double lambda = f.wavelength > 0 ? f.wavelength : hx.helical ? std::abs(hx.pitch) : 0.5 * r.length;
   info.default_wavelength = !(f.wavelength > 0);

@@ -50,6 +50,9 @@ struct Helix {
   double radius = 0.0, pitch = 0.0;
 };
 Helix helix_of(const Vec6& strain);
+// A helix whose pitch is under this fraction of a turn's arc length counts as planar for a rod's
+// default wavelength (set_rod_drag): nearly planar, or coiled tighter than the slender-body law.
+constexpr double kPlanarPitch = 0.1;
 
 // How a rod meets the fluid.
 struct RodFluid {
@@ -70,6 +73,9 @@ struct RodFluidInfo {
   double along_filament = 0.0;  // Lighthill's Lambda: hypot(lambda, 2 pi R) on a helix, else lambda
   bool helical = false;         // the rod has a helical section (R: its radius)
   bool default_wavelength = false;  // lambda is the default: the helix's pitch, or L/2
+  // the first section (index in the rod) whose rest shape is a helix of pitch under kPlanarPitch of
+  // a turn's arc length, taken as planar for the default wavelength; -1: none
+  int nearly_planar_section = -1;
   RftCoefficients base;         // coefficients at X = 0
 };
 

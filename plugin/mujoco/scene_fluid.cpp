@@ -182,6 +182,13 @@ void setup_fluid(Scene& s) {
     } catch (const std::invalid_argument& e) {
       throw LoadError(rb.decl.file, rb.decl.line, std::string("<cosserat>: ") + e.what());
     }
+    if (const RodFluidInfo& info = f.rods[r]; rf.enabled && !rf.drag && info.default_wavelength &&
+                                              info.nearly_planar_section >= 0)
+      f.warnings.push_back("rod '" + rb.decl.name + "': section " + std::to_string(info.nearly_planar_section) +
+                           "'s rest shape is a helix whose pitch is under a tenth of a turn's arc length (nearly "
+                           "planar, or tightly coiled): the default drag does not take that pitch as its wavelength" +
+                           (info.helical ? " but the next helical section's" : " but the planar rule's, L/2") +
+                           "; give the rod a wavelength (or drag) to set it");
     f.rod_enabled[r] = rf.enabled;
   }
 

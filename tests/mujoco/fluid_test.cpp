@@ -152,6 +152,29 @@ TEST(SceneFluid, OwnershipRules) {
     EXPECT_NEAR(nt.drag(4, 4), lighthill(2, 0.003, 0.05).cn * nt.dX, 1e-14);
     EXPECT_EQ(t->fluid.rods[0].along_filament, 0.05);
   }
+  {  // a curved rod twisted a little is no helix to the default wavelength: the planar rule's L/2,
+     // the same coefficients as untwisted, and a warning; a real helix keeps its pitch (outside
+     // probe BD: the pitch, going to zero with the twist, made c_t 31 times the planar arc's at a
+     // twist of 0.03 1/m, and non-positive coefficients, refused, at 1e-3)
+    auto arc = load_scene_string(rod_scene("2", "reststrain=\"0 0 10 1 0 0\""), kPath);
+    const Node& na = arc->rods[0].model.nodes[arc->rods[0].model.sections[0].first_node];
+    for (const char* twist : {"1e-6", "1e-3", "0.03", "0.9"}) {
+      auto s = load_scene_string(rod_scene("2", std::string("reststrain=\"") + twist + " 0 10 1 0 0\""), kPath);
+      const Node& n = s->rods[0].model.nodes[s->rods[0].model.sections[0].first_node];
+      EXPECT_EQ(n.drag(3, 3), na.drag(3, 3)) << twist;
+      EXPECT_EQ(n.drag(4, 4), na.drag(4, 4)) << twist;
+      EXPECT_EQ(s->fluid.rods[0].wavelength, arc->fluid.rods[0].wavelength) << twist;
+      ASSERT_EQ(s->fluid.warnings.size(), 1u) << twist;
+      EXPECT_NE(s->fluid.warnings[0].find("section 0's rest shape is a helix whose pitch is under a tenth of a turn's "
+                                          "arc length"),
+                std::string::npos)
+          << s->fluid.warnings[0];
+    }
+    auto helix = load_scene_string(rod_scene("2", "reststrain=\"1.2 0 10 1 0 0\""), kPath);
+    EXPECT_TRUE(helix->fluid.rods[0].helical);
+    EXPECT_NEAR(helix->fluid.rods[0].wavelength, 2 * M_PI * 1.2 / (100 + 1.44), 1e-15);
+    EXPECT_TRUE(helix->fluid.warnings.empty());
+  }
   {  // "mujoco": the rods feel no fluid, MuJoCo's own model stays on; a warning says so (outside
      // probe AL: a rod had sunk through it ten times as fast without a word)
     std::string x = rod_scene("2");
