@@ -102,14 +102,15 @@ std::ofstream open_output(const std::string& path) {
 void write_json(const std::string& path, const json& j) {
   if (path == "-") {
     std::cout << j.dump(2) << "\n";
-    if (!std::cout.flush()) fail("cannot write stdout");
+    if (!std::cout.flush()) fail("--json: cannot write stdout");
     return;
   }
   std::ofstream f = open_output(path);
   f << j.dump(2) << "\n";
   errno = 0;
   f.close();
-  if (!f) fail("cannot write " + path + (errno ? " (" + std::string(std::strerror(errno)) + ")" : ""));
+  // (the option named: outside probe BB)
+  if (!f) fail("--json: cannot write " + path + (errno ? " (" + std::string(std::strerror(errno)) + ")" : ""));
 }
 
 // ---------------------------------------------------------------------------- scene outputs --
@@ -654,7 +655,7 @@ int cmd_run(int argc, char** argv) {
     energy.add(s.energy());
   }
   const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  if (csv_out && !csv_out->flush()) fail("cannot write " + (csv == "-" ? std::string("stdout") : csv));
+  if (csv_out && !csv_out->flush()) fail("--csv: cannot write " + (csv == "-" ? std::string("stdout") : csv));
 
   std::vector<std::string> warnings = collect_warnings(s.scene(), s.data());
   if (s.scene().newton_for(s.integrator()) > 0 && k > 0) {

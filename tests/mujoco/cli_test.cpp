@@ -308,7 +308,7 @@ TEST_F(Cli, OutputsThatCannotBeWrittenFailTheCommand) {
                                  "equilibrium '" + kCantilever + "' --json /dev/full"}) {
     const Result r = cosserat(args);
     EXPECT_EQ(r.status, 1) << args;
-    EXPECT_NE(r.err.find("cannot write /dev/full (No space left on device)"), std::string::npos) << args << ": " << r.err;
+    EXPECT_NE(r.err.find("--json: cannot write /dev/full (No space left on device)"), std::string::npos) << args << ": " << r.err;
   }
   for (const std::string args : {"run '" + kCantilever + "' --duration 0.01 --json -", "check '" + kCantilever + "'",
                                  "linearize '" + kCantilever + "' --json -"}) {
