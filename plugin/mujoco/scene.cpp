@@ -1528,8 +1528,9 @@ Scene::~Scene() {
   if (m) mj_deleteModel(m);
 }
 
-SceneData::SceneData(const Scene& s) {
+SceneData::SceneData(const Scene& s) : owner(&s) {
   d = mj_makeData(s.m);
+  step_start_warmstart.assign(s.m->nv, 0);
   for (const auto& r : s.rods) rod.emplace_back(r.model);
   const int nv = s.m->nv, nq = s.m->nq, na = s.m->na;
   tmp_nv.assign(nv, 0);
@@ -1792,7 +1793,14 @@ void lower_compression(const Scene& s, const SceneData& sd, SceneData::Compressi
   }
 }
 
+// SceneData is made for one Scene: another's sizes and buffers differ.
+static void check_owner(const Scene& s, const SceneData& sd) {
+  if (sd.owner != &s)
+    throw std::invalid_argument("a SceneData steps with the Scene it was made from (SceneData(scene)), not another");
+}
+
 void forward(const Scene& s, SceneData& sd, Need need) {
+  check_owner(s, sd);
   const mjModel* m = s.m;
   mjData* d = sd.d;
   // the constraint model of the step a substep belongs to (SceneData::constraint_timestep)
@@ -3720,6 +3728,7 @@ Status step(const Scene& s, SceneData& sd) { return step(s, sd, s.integrator); }
 
 void abandon_step(SceneData& sd, const std::string& reason) {
   restore_state(sd.step_start, sd.d);
+  std::copy(sd.step_start_warmstart.begin(), sd.step_start_warmstart.end(), sd.d->qacc_warmstart);
   sd.d->pstack = 0;  // the unwound MuJoCo frames did not release their stack allocations
   sd.status = Status::Diverged;
   sd.warning = reason + " (in the step from t = " + std::to_string(sd.d->time) + " s)";
@@ -3733,7 +3742,9 @@ Status step(const Scene& s, SceneData& sd, Integrator method) {
     explicit InStep(SceneData& x) : sd(x) { sd.in_step = true, sd.step_sensors_done = false; }
     ~InStep() { sd.in_step = false, sd.step_sensors_done = false; }
   } in_step(sd);
+  check_owner(s, sd);
   save_state(sd.step_start, m, d);
+  std::copy(d->qacc_warmstart, d->qacc_warmstart + m->nv, sd.step_start_warmstart.begin());
   sd.step_compression = {};
   const double t = d->time;
   // a step from an earlier time than the last step's end starts a new run (MuJoCo's mj_resetData
@@ -3763,6 +3774,7 @@ Status step(const Scene& s, SceneData& sd, Integrator method) {
   }
   if (!state_finite(m, d)) {
     restore_state(sd.step_start, d);
+    std::copy(sd.step_start_warmstart.begin(), sd.step_start_warmstart.end(), d->qacc_warmstart);
     if (sd.step_compression.stretch <= kCollapsedStretch && !(sd.compression.stretch <= kCollapsedStretch)) {
       sd.compression = sd.step_compression;
       sd.compression.time = t;
@@ -3824,13 +3836,28 @@ bool generated_body(const Scene& s, int b) {
   return std::any_of(s.rods.begin(), s.rods.end(), [b](const RodBinding& r) { return b >= r.base_body && b < r.below_begin; });
 }
 
-SE3 rod_frame(const Scene& s, const SceneData& sd, int r, double X) { return rod_pose(s.rods[r].model, sd.rod[r], 0, X); }
+namespace {
+// (outside probe BE: rod_index's -1 for a misspelt name, passed on, read freed memory and crashed)
+void check_rod(const Scene& s, const SceneData& sd, int r) {
+  check_owner(s, sd);
+  if (r < 0 || r >= static_cast<int>(s.rods.size()))
+    throw std::out_of_range("rod index " + std::to_string(r) + ": the scene has " + std::to_string(s.rods.size()) +
+                            " rods (rod_index gives -1 for a name it does not know)");
+}
+}  // namespace
+
+SE3 rod_frame(const Scene& s, const SceneData& sd, int r, double X) {
+  check_rod(s, sd, r);
+  return rod_pose(s.rods[r].model, sd.rod[r], 0, X);
+}
 
 Vec6 rod_strain(const Scene& s, const SceneData& sd, int r, double X) {
+  check_rod(s, sd, r);
   return cosserat::rod_strain(s.rods[r].model, sd.rod[r], 0, X);
 }
 
 std::vector<Vec3> rod_centerline(const Scene& s, const SceneData& sd, int r, int n) {
+  check_rod(s, sd, r);
   std::vector<Vec3> pts;
   const double L = s.rods[r].model.rods[0].length;
   for (int i = 0; i < n; ++i) pts.push_back(rod_pose(s.rods[r].model, sd.rod[r], 0, L * i / std::max(n - 1, 1)).u);

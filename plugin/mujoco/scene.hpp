@@ -260,6 +260,11 @@ inline bool takes_substeps(Integrator method) {
   return method != Integrator::Euler && method != Integrator::RK4 && method != Integrator::Rosenbrock;
 }
 
+// A Scene and its SceneData can be neither copied nor moved (they hold MuJoCo's model and data and
+// point into each other): keep them where they are made, or in std::unique_ptr (load_scene returns
+// one; std::make_unique<SceneData>(scene) for a vector of states). A SceneData steps with the Scene
+// it was made from only (step and forward throw std::invalid_argument otherwise), and must not
+// outlive it. Read its state after forward(): a fresh SceneData's mjData holds zeros until then.
 struct SceneData {
   explicit SceneData(const Scene& s);
   SceneData(const SceneData&) = delete;
@@ -318,6 +323,12 @@ struct SceneData {
     }
   };
   SavedState step_start;  // the state step() started from (restored when the step diverges)
+  // and its constraint solver's warm start, restored with it when the step diverges (outside probe
+  // BE: left at the diverged step's 1e17-1e75)
+  std::vector<mjtNum> step_start_warmstart;
+  // the Scene this SceneData was made for: step() and forward() refuse another (outside probe BE:
+  // a SceneData of one model stepped with another's Scene wrote past a heap buffer)
+  const Scene* owner = nullptr;
   // the 4 stages of RK4 and of the Rosenbrock-W method: kq, kv, ka hold one row of nv (na) per stage
   std::vector<mjtNum> rk_q0, rk_v0, rk_a0, rk_kq, rk_kv, rk_ka, rk_dx;
   std::vector<mjtNum> ros_M0, ros_sq, ros_sv, ros_rhs;  // Rosenbrock-W: M at the step's start, sums
@@ -432,7 +443,6 @@ enum class Vocabulary { Cpp, CommandLine };
 std::string divergence_hint(const Scene& s, const SceneData& sd, Integrator method,
                             Vocabulary words = Vocabulary::Cpp);
 
-// Loads an MJCF file with <cosserat> elements. Throws LoadError on bad input.
 // Whether any two geoms of m can ever touch (Scene::may_collide).
 bool scene_may_collide(const mjModel* m);
 // Whether m can ever have constraint rows other than equalities (contacts where may_collide, joint
@@ -440,6 +450,12 @@ bool scene_may_collide(const mjModel* m);
 // Newton schemes (Scene::may_have_events).
 bool scene_may_have_events(const mjModel* m, bool may_collide);
 
+// Loads an MJCF file with <cosserat> elements (or the text `xml`, read as if it were the file
+// `path`: relative asset paths and messages use it). Throws LoadError on bad input.
+// Fluid: the plugin takes over a scene's fluid at load (m->opt.viscosity then reads 0, and the
+// rods' drag is set from the load's viscosity): to change the viscosity, load the model again;
+// setting m->opt.viscosity afterwards turns MuJoCo's own fluid on for the rigid bodies beside
+// the plugin's (outside probe BE).
 std::unique_ptr<Scene> load_scene(const std::string& path);
 std::unique_ptr<Scene> load_scene_string(const std::string& xml, const std::string& path);
 
@@ -484,7 +500,13 @@ bool tendons_of_sites_only(const mjModel* m);
 
 // Staged MuJoCo pipeline with the rod patches: position, velocity, actuation, acceleration,
 // constraint solve. With Need::Acceleration it leaves d->qacc as MuJoCo's forward would. MuJoCo's
-// control callback (mjcb_control) is called before the actuation, as mj_forward calls it.
+// control callback (mjcb_control) is called before the actuation, as mj_forward calls it. Like
+// mj_forward it rewrites the constraint solver's warm start (and the rod capsules' sizes follow
+// the state): a forward between steps (to log) can change the next steps of a scene with contacts
+// by the solver's tolerance, which chaotic contact motion then amplifies (outside probe BE).
+// Velocities of rod points: MuJoCo's mj_objectVelocity on a rod site reads its section's proxy
+// body, whose d->cvel the step leaves uncomputed where nothing reads it (zero); a velocimeter or
+// framelinvel/frameangvel sensor on the site gives the material point's velocity.
 void forward(const Scene& s, SceneData& sd, Need need = Need::Acceleration);
 // One time step with s.integrator (or `method`). Returns Diverged (and restores the state) when
 // the state goes non-finite. Euler and Implicit treat the fluid's damping implicitly (as joint
@@ -519,7 +541,9 @@ SceneEnergy energy(const Scene& s, SceneData& sd);
 // forward: MuJoCo's rigid bodies plus the rods (the core's, with their bases' motion).
 Vec6 momentum(const Scene& s, const SceneData& sd);
 
-// Rod shapes, after forward (rod: index in Scene::rods; rod_index finds it by name, -1 if none):
+// Rod shapes, after forward (rod: index in Scene::rods; rod_index finds it by name, -1 if none;
+// an index out of range throws std::out_of_range; X is clamped to [0, L], the base's or the tip's
+// frame beyond them):
 int rod_index(const Scene& s, const std::string& name);
 // Whether body b is one the loader generated for a rod (its base or a section's proxy) rather than
 // one of the model's own bodies.

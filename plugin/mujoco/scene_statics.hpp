@@ -95,7 +95,9 @@ struct SceneLinearizeOptions {
   std::function<void(const std::string&)> progress;
 };
 
-// Linearisation at the current qpos (call equilibrium() first), qvel = 0 and the current ctrl:
+// Linearisation at the current qpos (call equilibrium() first), qvel = 0 and the current ctrl.
+// It sets d->qvel to zero (the linearisation is at rest) and leaves the stages evaluated there: to
+// continue a run afterwards, save qvel before and restore it (outside probe BE):
 //   M dqacc + D dqvel + Kt dq = Bu dctrl,   x = [dq; dqvel],   x_dot = A x + B dctrl.
 // M is the patched mass matrix (rods included), D the rods' Kelvin-Voigt damping plus joint and
 // tendon damping, Kt the tangent stiffness. With a control callback (mjcb_control, called at every
@@ -130,6 +132,7 @@ struct ModeShape {
   std::vector<std::vector<Vec3>> rods;
   std::vector<Vec3> sites, bodies;
 };
+// (k outside 0 .. L.modes.cols() - 1 throws std::invalid_argument)
 ModeShape mode_shape(const Scene& s, SceneData& sd, const SceneLinearization& L, int k, int points = 17);
 
 }  // namespace cosserat::mj

@@ -1565,3 +1565,31 @@ TEST(Scene, ADivergenceHintNamesTheRemedyInTheProgramsTerms) {
   const std::string full = divergence_hint(*s, fresh, Integrator::Trapezoidal);
   EXPECT_EQ(full.rfind("try a smaller time step (m->opt.timestep), or more Newton corrections", 0), 0u) << full;
 }
+
+// Misuse of the API is refused, not undefined (outside probe BE): a SceneData stepped with another
+// Scene (it wrote past a heap buffer), a rod index out of range (rod_index's -1 for a misspelt name
+// crashed rod_frame); and a diverged step restores the constraint solver's warm start with the
+// state (it was left at the diverged step's 1e17-1e75).
+TEST(Scene, MisuseIsRefusedAndADivergedStepRestoresTheWarmStart) {
+  const std::string rod = R"(<mujoco><worldbody><geom type="plane" size="1 1 0.1"/>
+      <cosserat name="r" pos="0 0 0.003" length="0.3" sections="3" radius="0.004"/></worldbody></mujoco>)";
+  auto a = load_scene_string(rod, kPath);
+  auto b = load_scene_string(rod, kPath);
+  SceneData da(*a);
+  EXPECT_THROW(step(*b, da), std::invalid_argument);
+  EXPECT_THROW(forward(*b, da), std::invalid_argument);
+  forward(*a, da);
+  EXPECT_THROW(rod_frame(*a, da, -1, 0.0), std::out_of_range);
+  EXPECT_THROW(rod_frame(*a, da, 1, 0.0), std::out_of_range);
+  EXPECT_THROW(rod_strain(*a, da, 1, 0.0), std::out_of_range);
+  EXPECT_NO_THROW(rod_frame(*a, da, 0, 0.3));
+
+  for (int k = 0; k < 20; ++k) ASSERT_EQ(step(*a, da), Status::Ok);  // resting on the floor: a warm start
+  const std::vector<mjtNum> warm(da.d->qacc_warmstart, da.d->qacc_warmstart + a->m->nv);
+  const std::vector<mjtNum> q(da.d->qpos, da.d->qpos + a->m->nq);
+  ASSERT_GT(Eigen::Map<const Eigen::VectorXd>(warm.data(), a->m->nv).norm(), 0.0);
+  da.d->qfrc_applied[0] = std::numeric_limits<double>::infinity();
+  ASSERT_EQ(step(*a, da), Status::Diverged);
+  for (int i = 0; i < a->m->nv; ++i) EXPECT_EQ(da.d->qacc_warmstart[i], warm[i]) << i;
+  for (int i = 0; i < a->m->nq; ++i) EXPECT_EQ(da.d->qpos[i], q[i]) << i;
+}
