@@ -1823,7 +1823,14 @@ void forward(const Scene& s, SceneData& sd, Need need) {
     d->energy[0] = e.gravity + e.elastic;
     d->energy[1] = e.kinetic;
   }
-  if (mjcb_control) mjcb_control(m, d);  // MuJoCo 2.2.2's mj_forwardSkip calls it here, at every evaluation
+  if (mjcb_control) {  // MuJoCo 2.2.2's mj_forwardSkip calls it here, at every evaluation
+    try {
+      mjcb_control(m, d);
+    } catch (...) {  // the application's own exception: step() passes it on (newton_step_split)
+      sd.callback_threw = true;
+      throw;
+    }
+  }
   mj_fwdActuation(m, d);
   if (sd.forces_only) {  // no constraints, no acceleration sensors: the forces are all the step needs
     smooth_forces(m, d);
@@ -3477,7 +3484,9 @@ void newton_step_split(const Scene& s, SceneData& sd, Integrator method, int dep
   try {
     converged = single_step(s, sd, method);
   } catch (const std::exception&) {
-    if (depth == kMaxSplit || !sd.newton.saved) throw;
+    // (an exception of the control callback is the application's, not a failed correction: outside
+    // probe BE's was swallowed, the step split and returned Ok)
+    if (depth == kMaxSplit || !sd.newton.saved || sd.callback_threw) throw;
     sd.d->pstack = 0;  // the unwound MuJoCo frames did not release their stack allocations
   }
   if (converged) return;
@@ -3755,22 +3764,32 @@ Status step(const Scene& s, SceneData& sd, Integrator method) {
     sd.status = Status::Ok;
     sd.warning.clear();
   }
-  switch (method) {
-    case Integrator::Euler:
-      if (s.fluid.active) {
-        forward(s, sd, Need::Forces);
-        implicit_step(s, sd, false);  // fluid hook: MuJoCo's Euler plus the fluid's implicit damping
-      } else {
-        forward(s, sd);
-        mj_Euler(m, d);
-      }
-      break;
-    case Integrator::RK4: rk4_step(s, sd); break;
-    case Integrator::Rosenbrock: rosenbrock_step(s, sd); break;
-    default:  // implicit, trapezoidal, genalpha, midpoint (single_step)
-      if (s.step_tol > 0) adaptive_step(s, sd, method);
-      else newton_step_split(s, sd, method);
-      break;
+  sd.callback_threw = false;
+  try {
+    switch (method) {
+      case Integrator::Euler:
+        if (s.fluid.active) {
+          forward(s, sd, Need::Forces);
+          implicit_step(s, sd, false);  // fluid hook: MuJoCo's Euler plus the fluid's implicit damping
+        } else {
+          forward(s, sd);
+          mj_Euler(m, d);
+        }
+        break;
+      case Integrator::RK4: rk4_step(s, sd); break;
+      case Integrator::Rosenbrock: rosenbrock_step(s, sd); break;
+      default:  // implicit, trapezoidal, genalpha, midpoint (single_step)
+        if (s.step_tol > 0) adaptive_step(s, sd, method);
+        else newton_step_split(s, sd, method);
+        break;
+    }
+  } catch (...) {
+    // an exception leaving the step (the control callback's, a MuJoCo error through a throwing
+    // handler) leaves the step's start state, not a stage's or an iterate's (outside probe BE: rk4
+    // left time and velocities at its failed stage)
+    restore_state(sd.step_start, d);
+    std::copy(sd.step_start_warmstart.begin(), sd.step_start_warmstart.end(), d->qacc_warmstart);
+    throw;
   }
   if (!state_finite(m, d)) {
     restore_state(sd.step_start, d);

@@ -329,6 +329,9 @@ struct SceneData {
   // the Scene this SceneData was made for: step() and forward() refuse another (outside probe BE:
   // a SceneData of one model stepped with another's Scene wrote past a heap buffer)
   const Scene* owner = nullptr;
+  // set when mjcb_control threw inside the current step(): the exception is the application's and
+  // leaves the step (with the step's start state), rather than counting as a failed correction
+  bool callback_threw = false;
   // the 4 stages of RK4 and of the Rosenbrock-W method: kq, kv, ka hold one row of nv (na) per stage
   std::vector<mjtNum> rk_q0, rk_v0, rk_a0, rk_kq, rk_kv, rk_ka, rk_dx;
   std::vector<mjtNum> ros_M0, ros_sq, ros_sv, ros_rhs;  // Rosenbrock-W: M at the step's start, sums
@@ -517,7 +520,9 @@ void forward(const Scene& s, SceneData& sd, Need need = Need::Acceleration);
 // (mj_implicit: joint damping and the velocity derivatives of the passive, actuator and bias
 // forces implicit), as mj_step runs it.
 // Every forward evaluation of a step calls mjcb_control (and mjcb_passive), at the evaluation's
-// time: RK4 and Rosenbrock at their stage times, the Newton schemes at each iterate. After a step,
+// time: RK4 and Rosenbrock at their stage times, the Newton schemes at each iterate. An exception
+// leaving the step (one the control callback throws, a MuJoCo error through a throwing
+// mju_user_error handler that splitting the step did not avoid) leaves the step's start state. After a step,
 // d->sensordata holds the sensors of the step's start state (mj_step's convention; the further
 // evaluations skip the sensors); qacc, the contacts and the constraint rows are those of the
 // step's last evaluation. Call forward() for the end state's.
