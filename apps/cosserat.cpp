@@ -227,13 +227,11 @@ std::vector<std::string> collect_warnings(const mj::Scene& sc, const mj::SceneDa
   return w;
 }
 
-// Prints warnings but those the load printed already (`loaded`, with `prefix`: "A: " in compare),
-// which the JSON keeps (outside probe BB: a load warning was printed twice in one run).
-void print_warnings(std::FILE* to, const std::vector<std::string>& warnings, const std::vector<std::string>& loaded,
-                    const std::string& prefix = "") {
+// Prints warnings but those the load printed already (`loaded`), which the JSON keeps (outside
+// probe BB: a load warning was printed twice in one run).
+void print_warnings(std::FILE* to, const std::vector<std::string>& warnings, const std::vector<std::string>& loaded) {
   for (const auto& w : warnings)
-    if (std::none_of(loaded.begin(), loaded.end(), [&](const std::string& l) { return prefix + l == w; }))
-      std::fprintf(to, "warning: %s\n", w.c_str());
+    if (std::find(loaded.begin(), loaded.end(), w) == loaded.end()) std::fprintf(to, "warning: %s\n", w.c_str());
 }
 
 // ------------------------------------------------------------------------------- simulation --
@@ -622,11 +620,10 @@ int cmd_run(int argc, char** argv) {
   // (the pair's geoms kept: outside probe BB, the warning named the pair at the same index of the
   // end's contacts)
   double start_depth = 0.0;
-  int deepest = -1, deepest_geom1 = -1, deepest_geom2 = -1;
+  int deepest_geom1 = -1, deepest_geom2 = -1;
   for (int c = 0; c < s.data().d->ncon; ++c)
     if (-s.data().d->contact[c].dist > start_depth) {
       start_depth = -s.data().d->contact[c].dist;
-      deepest = c;
       deepest_geom1 = s.data().d->contact[c].geom1;
       deepest_geom2 = s.data().d->contact[c].geom2;
     }
@@ -709,7 +706,7 @@ int cmd_run(int argc, char** argv) {
   if (const std::string w = motion.warning(s.scene().m, energy); !w.empty() && !diverged) warnings.push_back(w);
   // bodies that start deep in each other (outside fuzzing: a 100 m leg through a floor went from
   // -1.8e4 J to 2.2e7 J in 0.02 s without a word)
-  if (const mjModel* m = s.scene().m; deepest >= 0 && start_depth > 1e-2 * m->stat.extent) {
+  if (const mjModel* m = s.scene().m; deepest_geom1 >= 0 && start_depth > 1e-2 * m->stat.extent) {
     char b[512];
     std::snprintf(b, sizeof b,
                   "the run started with bodies '%s' and '%s' %.3g m into each other (%.3g of the scene's extent): "
@@ -1302,16 +1299,10 @@ int cmd_compare(int argc, char** argv) {
       for (const auto& [name, v] : j["swimming_speed"][k].items())
         std::printf("swimming speed (%s) %s: %s m/s\n", k, name.c_str(), v.dump().c_str());
   }
-  {
-    std::vector<std::string> rest;  // the load warnings of A and B were printed at their loads
-    for (const auto& w : warnings)
-      if (std::none_of(a.sim.scene().load_warnings.begin(), a.sim.scene().load_warnings.end(),
-                       [&](const std::string& l) { return "A: " + l == w; }) &&
-          std::none_of(b.sim.scene().load_warnings.begin(), b.sim.scene().load_warnings.end(),
-                       [&](const std::string& l) { return "B: " + l == w; }))
-        rest.push_back(w);
-    print_warnings(json_path == "-" ? stderr : stdout, rest, {});
-  }
+  std::vector<std::string> loaded;  // the load warnings of A and B, printed at their loads
+  for (const auto& l : a.sim.scene().load_warnings) loaded.push_back("A: " + l);
+  for (const auto& l : b.sim.scene().load_warnings) loaded.push_back("B: " + l);
+  print_warnings(json_path == "-" ? stderr : stdout, warnings, loaded);
   if (diverged) fail(std::string("simulation of ") + (a.diverged ? "A" : "B") + " diverged: " +
                      (a.diverged ? a.sim.data().warning : b.sim.data().warning));
   return 0;
@@ -1375,9 +1366,10 @@ int cmd_demo(int argc, char** argv) {
   // (outside probe BB: 400 sections ran 129 s before a word, 1000 looked like a hang; and a bad
   // --out failed at the end, after the statics and the run)
   constexpr int kDemoDofs = 600;
-  if (static_cast<long long>(o.sections) * 6 * (o.order + 1) > kDemoDofs)
+  const long long dofs = static_cast<long long>(o.sections) * 6 * (o.order + 1);  // (strain "sr")
+  if (dofs > kDemoDofs)
     fail("--sections " + std::to_string(o.sections) + " --order " + std::to_string(o.order) + ": the demo's rod would have " +
-         std::to_string(static_cast<long long>(o.sections) * 6 * (o.order + 1)) + " dofs; it takes at most " +
+         std::to_string(dofs) + " dofs; it takes at most " +
          std::to_string(kDemoDofs) + " (its dense statics grow as the cube of them: 600 take 2 s, 1200 15 s)");
   const std::string csv = o.out + "/demo.csv";
   check_writable("--out", csv);

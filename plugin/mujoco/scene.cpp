@@ -136,12 +136,12 @@ LoadError mujoco_error(const Preprocessed& pre, const std::string& error) {
     const size_t end = first.find('\'', at + 1);
     const std::string name = first.substr(at + 1, end == std::string::npos ? std::string::npos : end - at - 1);
     // (outside probe BB: a bad condim on a rod, MuJoCo's message naming a capsule, read "has no")
-    if (std::find(r.joints.begin(), r.joints.end(), name) != r.joints.end() ||
+    const bool capsule = std::any_of(r.geoms.begin(), r.geoms.end(), [&](const RodGeomDecl& g) { return g.name == name; });
+    if (capsule || std::find(r.joints.begin(), r.joints.end(), name) != r.joints.end() ||
         std::find(r.proxies.begin(), r.proxies.end(), name) != r.proxies.end() || name == r.name + "/base" ||
-        std::any_of(r.geoms.begin(), r.geoms.end(), [&](const RodGeomDecl& g) { return g.name == name; }) ||
         std::any_of(r.sites.begin(), r.sites.end(), [&](const RodSiteDecl& x) { return x.name == name; }) ||
         (name.rfind(r.name + "/s", 0) == 0 && name.find("/h") != std::string::npos)) {
-      if (std::any_of(r.geoms.begin(), r.geoms.end(), [&](const RodGeomDecl& g) { return g.name == name; }))
+      if (capsule)
         hint = ": '" + name + "' is a capsule of rod '" + r.name +
                "', which takes the rod's geom attributes (contype, conaffinity, condim, friction, solref, solimp, "
                "margin, gap, rgba, group, material)";
@@ -3735,9 +3735,16 @@ bool state_finite(const mjModel* m, const mjData* d) {
 
 Status step(const Scene& s, SceneData& sd) { return step(s, sd, s.integrator); }
 
-void abandon_step(SceneData& sd, const std::string& reason) {
+namespace {
+// The state step() started from, with its constraint solver's warm start.
+void back_to_step_start(SceneData& sd) {
   restore_state(sd.step_start, sd.d);
   std::copy(sd.step_start_warmstart.begin(), sd.step_start_warmstart.end(), sd.d->qacc_warmstart);
+}
+}  // namespace
+
+void abandon_step(SceneData& sd, const std::string& reason) {
+  back_to_step_start(sd);
   sd.d->pstack = 0;  // the unwound MuJoCo frames did not release their stack allocations
   sd.status = Status::Diverged;
   sd.warning = reason + " (in the step from t = " + std::to_string(sd.d->time) + " s)";
@@ -3787,13 +3794,11 @@ Status step(const Scene& s, SceneData& sd, Integrator method) {
     // an exception leaving the step (the control callback's, a MuJoCo error through a throwing
     // handler) leaves the step's start state, not a stage's or an iterate's (outside probe BE: rk4
     // left time and velocities at its failed stage)
-    restore_state(sd.step_start, d);
-    std::copy(sd.step_start_warmstart.begin(), sd.step_start_warmstart.end(), d->qacc_warmstart);
+    back_to_step_start(sd);
     throw;
   }
   if (!state_finite(m, d)) {
-    restore_state(sd.step_start, d);
-    std::copy(sd.step_start_warmstart.begin(), sd.step_start_warmstart.end(), d->qacc_warmstart);
+    back_to_step_start(sd);
     if (sd.step_compression.stretch <= kCollapsedStretch && !(sd.compression.stretch <= kCollapsedStretch)) {
       sd.compression = sd.step_compression;
       sd.compression.time = t;
