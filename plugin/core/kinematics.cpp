@@ -442,31 +442,41 @@ int section_jacobian(const Model& m, const Data& d, int r, double X, Mat6X& J, M
   return section_jacobian_from(m, d, ps, G, J, Jdot, gX, nullptr);
 }
 
-PointMotion point_motion_at_rest_acceleration(const Model& m, const Data& d, int r, double X, int section) {
+// point_motion_at_rest_acceleration, and with `acc` false its pose and twist only (acc left zero:
+// Data::acc is not read, so fwd_velocity alone suffices).
+static PointMotion point_motion(const Model& m, const Data& d, int r, double X, int section, bool acc) {
   Mat6X& G = tl_scratch.G_motion;
   PartialStep ps;
   partial_step(m, d, r, X, section, &G, ps, false);
-  if (ps.full) return {d.g[ps.node], d.eta[ps.node], d.acc[ps.node]};
+  if (ps.full) return {d.g[ps.node], d.eta[ps.node], acc ? d.acc[ps.node] : Vec6::Zero()};
   const Section& sec = m.sections[m.nodes[ps.node].section];
   const SE3 grel = ps.offset * exp_se3(ps.Om);
   PointMotion pm;
   pm.pose = ps.mid ? d.g_mid[ps.node] : (ps.parent < 0 ? d.base_pose : d.g[ps.parent]) * grel;  // (rod_pose's)
   pm.eta = Ad_inv_apply(grel, ps.parent < 0 ? d.base_twist : d.eta[ps.parent]);
-  pm.acc = Ad_inv_apply(grel, ps.parent < 0 ? d.base_accel : d.acc[ps.parent]);
+  pm.acc = acc ? Ad_inv_apply(grel, ps.parent < 0 ? d.base_accel : d.acc[ps.parent]) : Vec6::Zero();
   if (sec.ndof > 0) {  // the partial step's own motion, as fwd_velocity's for a whole step
     const double* v = d.v.data() + sec.dof0;
     Vec6 Omd = Vec6::Zero();
     for (int k = 0; k < sec.ndof; ++k) Omd += G.col(k) * v[k];
     const Vec6 psi = dexp_apply(-ps.Om, Omd);
-    const bool comm = ps.sp.commutator;
-    const Vec6 sv = step_Sdot_v(ps.Om, Omd, comm ? kZanna * ps.sp.h * ps.sp.h : 0.0,
-                                comm ? sec.basis_apply(ps.sp.Pa, v) : Vec6::Zero(),
-                                comm ? sec.basis_apply(ps.sp.Pb, v) : Vec6::Zero());
     pm.eta += psi;
-    pm.acc += sv + ad_apply(pm.eta, psi);
+    if (acc) {
+      const bool comm = ps.sp.commutator;
+      const Vec6 sv = step_Sdot_v(ps.Om, Omd, comm ? kZanna * ps.sp.h * ps.sp.h : 0.0,
+                                  comm ? sec.basis_apply(ps.sp.Pa, v) : Vec6::Zero(),
+                                  comm ? sec.basis_apply(ps.sp.Pb, v) : Vec6::Zero());
+      pm.acc += sv + ad_apply(pm.eta, psi);
+    }
   }
   return pm;
 }
+
+PointMotion point_motion_at_rest_acceleration(const Model& m, const Data& d, int r, double X, int section) {
+  return point_motion(m, d, r, X, section, true);
+}
+
+Vec6 rod_twist(const Model& m, const Data& d, int r, double X) { return point_motion(m, d, r, X, -1, false).eta; }
 
 SE3 rod_pose_and_jacobian(const Model& m, const Data& d, int r, double X, int section, Mat6X& J, SE3* g_start_X) {
   Mat6X& G = tl_scratch.G_pose;

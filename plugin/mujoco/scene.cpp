@@ -916,6 +916,62 @@ bool riding_frame(const Scene& s, int b, int& rod, int& section, double& X) {
   return sec.ndof > 0;
 }
 
+// The classical acceleration of a point p (world) fixed to body b, and b's angular acceleration
+// (world axes: angular, linear), from b's spatial acceleration A in MuJoCo's com-based layout (at
+// the subtree_com of b's tree) and b's d->cvel: A's linear part carried to p plus b's spin crossed
+// with p's velocity (mj_objectAcceleration's correction).
+Vec6 point_acceleration(const mjModel* m, const mjData* d, int b, const Vec6& A, const Vec3& p) {
+  const Vec3 com(d->subtree_com + 3 * m->body_rootid[b]);
+  const Vec3 wb(d->cvel + 6 * b), vcom(d->cvel + 6 * b + 3);
+  Vec6 c;
+  c.head<3>() = A.head<3>();
+  c.tail<3>() = A.tail<3>() + A.head<3>().cross(p - com) + wb.cross(vcom + wb.cross(p - com));
+  return c;
+}
+
+// The velocity product of a point p (world) fixed to body b, where b rides with a soft rod
+// (riding_frame; false otherwise), as riding_point_velocity_product's: a section's proxy or a body
+// fixed below the rod's tip rides with that cross-section. A body below the tip that turns or
+// slides on joints of its own (Scene::riding_dof; outside probe BG: the coupler of a four-bar
+// hanging on a hinge below a soft crank had been given the tip's centripetal term over its 0.4 m
+// anchor) has the tip's velocity product carried down its chain of joints: MuJoCo's com-based cacc
+// recursion, the tip's spatial acceleration plus cdof_dot qvel of the joints below it, then the
+// point's classical acceleration with b's own spin (a contact leaves out the centripetal term of
+// p's offset from b's origin, as riding_point_velocity_product leaves out the offset from the
+// centre line). After patch_bias.
+bool riding_body_velocity_product(const Scene& s, const SceneData& sd, int b, const Vec3& p, bool centripetal,
+                                  Vec6& c) {
+  int r = -1, si = -1;
+  double X = 0.0;
+  if (!riding_frame(s, b, r, si, X)) return false;
+  if (s.riding_dof[b] < 0) {
+    c = riding_point_velocity_product(s, sd, r, si, X, p, centripetal);
+    return true;
+  }
+  const mjModel* m = s.m;
+  const mjData* d = sd.d;
+  const cosserat::PointMotion pm = cosserat::point_motion_at_rest_acceleration(s.rods[r].model, sd.rod[r], 0, X, si);
+  const Mat3& R = pm.pose.R;
+  const Vec3 w = R * pm.eta.head<3>(), v = R * pm.eta.tail<3>();  // the tip's spin, its origin's velocity
+  const Vec3 alpha = R * pm.acc.head<3>();
+  const Vec3 a0 = R * (pm.acc.tail<3>() + pm.eta.head<3>().cross(pm.eta.tail<3>()));  // its origin's acceleration
+  const int proxy = s.rods[r].proxy_body.back();
+  const Vec3 com(d->subtree_com + 3 * m->body_rootid[proxy]);
+  Vec6 A;  // the tip's spatial acceleration at the tree's subtree_com, MuJoCo's layout (angular, linear)
+  A.head<3>() = alpha;
+  A.tail<3>() = a0 - w.cross(v) + alpha.cross(com - pm.pose.u);
+  for (int j = s.riding_dof[b]; j >= 0 && m->dof_bodyid[j] > proxy; j = m->dof_parentid[j])
+    A += Eigen::Map<const Vec6>(d->cdof_dot + 6 * j) * d->qvel[j];
+  c = point_acceleration(m, d, b, A, p);
+  if (!centripetal) {
+    const Vec3 wb(d->cvel + 6 * b);
+    c.tail<3>() -= wb.cross(wb.cross(p - Vec3(d->xpos + 3 * b)));
+  }
+  // the tip's acceleration carried gravity as an upward acceleration (rod_velocity): take it out
+  if (!(m->opt.disableflags & mjDSBL_GRAVITY)) c.tail<3>() += Vec3(m->opt.gravity[0], m->opt.gravity[1], m->opt.gravity[2]);
+  return true;
+}
+
 // MuJoCo's <exclude> signatures, sorted (geoms_may_touch).
 std::vector<int> sorted_exclusions(const mjModel* m) {
   std::vector<int> excluded(m->exclude_signature, m->exclude_signature + m->nexclude);
@@ -1068,6 +1124,7 @@ void setup_sagging_contacts(Scene& s) {
 void setup_riding_frames(Scene& s) {
   s.riding_rod.assign(s.m->nbody, -1);
   s.riding_section.assign(s.m->nbody, -1);
+  s.riding_dof.assign(s.m->nbody, -1);
   for (size_t r = 0; r < s.rods.size(); ++r) {  // outer rods first: a later match is an inner rod
     const RodBinding& rb = s.rods[r];
     for (size_t k = 0; k < rb.proxy_body.size(); ++k) {
@@ -1077,6 +1134,8 @@ void setup_riding_frames(Scene& s) {
     for (int b = rb.below_begin; b < rb.below_end; ++b) {
       s.riding_rod[b] = static_cast<int>(r);
       s.riding_section[b] = static_cast<int>(rb.proxy_body.size()) - 1;
+      const int j = first_ancestor_dof(s.m, b);  // a joint between the tip's proxy and b
+      s.riding_dof[b] = j >= 0 && s.m->dof_bodyid[j] > rb.proxy_body.back() ? j : -1;
     }
   }
 }
@@ -1104,16 +1163,16 @@ void patch_contact_references(const Scene& s, SceneData& sd) {
     for (int side = 0; side < 2; ++side) {
       const int g = side == 0 ? con.geom1 : con.geom2;
       const Vec3 p(con.pos[0], con.pos[1], con.pos[2]);
-      int r = s.geom_rod[g], si = -1;
-      double X = 0.0;
+      const int r = s.geom_rod[g];
+      Vec6 cg;
       if (r >= 0) {  // a rod capsule: the cross-section under the contact
-        si = s.rods[r].decl.geoms[s.geom_index[g]].section;
+        const int si = s.rods[r].decl.geoms[s.geom_index[g]].section;
         if (s.rods[r].model.sections[si].ndof == 0) continue;
-        X = capsule_abscissa(s, sd, g, p);
-      } else if (!riding_frame(s, s.m->geom_bodyid[g], r, si, X)) {  // a geom riding with a soft rod
+        cg = riding_point_velocity_product(s, sd, r, si, capsule_abscissa(s, sd, g, p), p, false);
+      } else if (!riding_body_velocity_product(s, sd, s.m->geom_bodyid[g], p, false, cg)) {  // a geom riding with a soft rod
         continue;
       }
-      c += (side == 0 ? -1.0 : 1.0) * riding_point_velocity_product(s, sd, r, si, X, p, false);
+      c += (side == 0 ? -1.0 : 1.0) * cg;
       any = true;
     }
     if (!any) continue;
@@ -1142,7 +1201,12 @@ void patch_contact_references(const Scene& s, SceneData& sd) {
 // points riding with the cross-sections, their centripetal terms included (a material anchor's
 // second derivative; probe M: left out, 54 m/s^2 of a shaft spun at 60 rad/s with its anchor 2 cm
 // off the centre line doubled the violation). A bent shaft turning about its centre line, its tip held by a connect, drifted
-// 3.4 mm off at 2 Hz (about 4x per doubling of the speed). After patch_bias.
+// 3.4 mm off at 2 Hz (about 4x per doubling of the speed). Such a row gets the velocity product
+// of its other body's anchor too (MuJoCo's cacc: sum of cdof_dot qvel, and the point's spin term),
+// the row's whole dJ/dt qvel: with one side's alone, a four-bar whose coupler hangs on a hinge below a
+// soft crank and meets a rigid rocker was told to accelerate by the coupler's centripetal term, which
+// the rocker's left out balanced in MuJoCo's rows (outside probe BG: the loop drifted 15 mm where
+// MuJoCo's own held it to 0.6). After patch_bias.
 void patch_equality_references(const Scene& s, SceneData& sd) {
   const mjModel* m = s.m;
   mjData* d = sd.d;
@@ -1157,18 +1221,23 @@ void patch_equality_references(const Scene& s, SceneData& sd) {
       const mjtNum* data = m->eq_data + mjNEQDATA * e;
       const int body[2] = {m->eq_obj1id[e], m->eq_obj2id[e]};
       Vec6 c = Vec6::Zero();  // body 0 minus body 1 (MuJoCo's sign for equality rows): angular, linear
-      bool any = false;
+      Vec6 cb[2] = {Vec6::Zero(), Vec6::Zero()};
+      bool riding[2] = {false, false};
+      Vec3 pw[2];
       for (int j = 0; j < 2; ++j) {
-        int r = -1, si = -1;
-        double X = 0.0;
-        if (!riding_frame(s, body[j], r, si, X)) continue;
+        if (body[j] <= 0) continue;  // the world: no motion
         // the anchor point, as mj_instantiateEquality places it
         const mjtNum* anchor = type == mjEQ_CONNECT ? data + 3 * j : data + 3 * (1 - j);
-        mjtNum pw[3];
-        mju_rotVecMat(pw, anchor, d->xmat + 9 * body[j]);
-        mju_addTo3(pw, d->xpos + 3 * body[j]);
-        c += (j == 0 ? 1.0 : -1.0) * riding_point_velocity_product(s, sd, r, si, X, Vec3(pw[0], pw[1], pw[2]), true);
-        any = true;
+        mju_rotVecMat(pw[j].data(), anchor, d->xmat + 9 * body[j]);
+        pw[j] += Vec3(d->xpos + 3 * body[j]);
+        if (s.riding_rod[body[j]] >= 0) riding[j] = riding_body_velocity_product(s, sd, body[j], pw[j], true, cb[j]);
+      }
+      const bool any = riding[0] || riding[1];
+      if (any) {
+        for (int j = 0; j < 2; ++j)  // the other body's too: the row's whole velocity product
+          if (body[j] > 0 && !riding[j])
+            cb[j] = point_acceleration(m, d, body[j], velocity_product_acceleration(m, d, body[j]), pw[j]);
+        c = cb[0] - cb[1];
       }
       if (any) {
         for (int k = 0; k < 3; ++k) d->efc_aref[row + k] -= c(3 + k);
@@ -1398,16 +1467,16 @@ double tendon_velocity_product(const Scene& s, const SceneData& sd, int t) {
   const mjModel* m = s.m;
   double c = 0.0;
   tendon_site_points(m, sd.d, t, [&](int site, const Vec3& p, const Vec3& grad) {
-    int r = s.site_rod[site], si = -1;
-    double X = 0.0;
+    const int r = s.site_rod[site];
+    Vec6 cp;
     if (r >= 0) {  // a rod site: its cross-section
-      si = s.site_section[site];
+      const int si = s.site_section[site];
       if (s.rods[r].model.sections[si].ndof == 0) return;
-      X = s.rods[r].decl.sites[s.site_index[site]].X;
-    } else if (!riding_frame(s, m->site_bodyid[site], r, si, X)) {  // a site riding with a soft rod
+      cp = riding_point_velocity_product(s, sd, r, si, s.rods[r].decl.sites[s.site_index[site]].X, p, true);
+    } else if (!riding_body_velocity_product(s, sd, m->site_bodyid[site], p, true, cp)) {  // a site riding with a soft rod
       return;
     }
-    c += grad.dot(riding_point_velocity_product(s, sd, r, si, X, p, true).tail<3>());
+    c += grad.dot(cp.tail<3>());
   });
   return c;
 }
@@ -2030,12 +2099,14 @@ void recompute_qpos0_constants(Scene& s, SceneData& sd) {
 
 namespace {
 // Whether a body with mass or another rod's base lies below the rod's proxies (its subtree:
-// [base_body + 1, below_end)): they read its cdof_dot (RodBinding::cdof_dot_read).
+// [base_body + 1, below_end)), or a body below it with a joint of its own (the constraint rows'
+// velocity products on it read the d->cvel and d->cdof_dot of its chain: riding_body_velocity_product):
+// they read its cdof_dot (RodBinding::cdof_dot_read).
 bool mass_or_rod_below(const Scene& s, const RodBinding& rb) {
   const mjModel* m = s.m;
   for (int b = rb.base_body + 1; b < rb.below_end; ++b)
     if (m->body_mass[b] > 0 || m->body_inertia[3 * b] > 0 || m->body_inertia[3 * b + 1] > 0 ||
-        m->body_inertia[3 * b + 2] > 0)
+        m->body_inertia[3 * b + 2] > 0 || (b >= rb.below_begin && m->body_dofnum[b] > 0))
       return true;
   for (const RodBinding& other : s.rods)
     if (other.base_body > rb.base_body && other.base_body < rb.below_end) return true;
@@ -2052,6 +2123,16 @@ bool rigid_payload(const Scene& s, const RodBinding& rb) {
   return true;
 }
 
+// Whether a connect or weld names one of rod rb's bodies or a body below it: the velocity product of
+// its rows (patch_equality_references) reads the d->cvel and d->cdof_dot of that body's chain.
+bool equality_on_rod(const mjModel* m, const RodBinding& rb) {
+  for (int e = 0; e < m->neq; ++e)
+    if (m->eq_type[e] == mjEQ_CONNECT || m->eq_type[e] == mjEQ_WELD)
+      for (int b : {m->eq_obj1id[e], m->eq_obj2id[e]})
+        if (b > rb.base_body && b < rb.below_end) return true;
+  return false;
+}
+
 // RodBinding::cdof_dot_read and payload, and Scene::velocity_skip and payload_body, from the
 // model's sensors, bodies and body masses.
 void decide_velocity_skips(const Scene& s) {
@@ -2061,8 +2142,9 @@ void decide_velocity_skips(const Scene& s) {
   s.payload_body.assign(s.m->nbody, 0);
   for (const RodBinding& rb : s.rods) {
     rb.massless_below = !mass_or_rod_below(s, rb);
-    rb.payload = !velocity_sensors && !rb.massless_below && rigid_payload(s, rb);
-    rb.cdof_dot_read = acceleration_sensors || !(rb.massless_below || rb.payload);
+    const bool equality = equality_on_rod(s.m, rb);
+    rb.payload = !velocity_sensors && !equality && !rb.massless_below && rigid_payload(s, rb);
+    rb.cdof_dot_read = acceleration_sensors || equality || !(rb.massless_below || rb.payload);
     if (rb.payload)
       for (int b = rb.below_begin; b < rb.below_end; ++b) s.payload_body[b] = 1;
   }
@@ -3873,6 +3955,18 @@ void check_rod(const Scene& s, const SceneData& sd, int r) {
 SE3 rod_frame(const Scene& s, const SceneData& sd, int r, double X) {
   check_rod(s, sd, r);
   return rod_pose(s.rods[r].model, sd.rod[r], 0, X);
+}
+
+Vec6 rod_frame_velocity(const Scene& s, const SceneData& sd, int r, double X) {
+  check_rod(s, sd, r);
+  const cosserat::Model& model = s.rods[r].model;
+  const cosserat::Data& rd = sd.rod[r];
+  const Mat3 R = rod_pose(model, rd, 0, X).R;
+  const Vec6 eta = rod_twist(model, rd, 0, X);  // in the cross-section's frame
+  Vec6 w;
+  w.head<3>() = R * eta.head<3>();
+  w.tail<3>() = R * eta.tail<3>();
+  return w;
 }
 
 Vec6 rod_strain(const Scene& s, const SceneData& sd, int r, double X) {

@@ -74,8 +74,9 @@ struct RodBinding {
   std::vector<int> site_point;
   bool extensible = false;        // a section with a free axial strain (SceneData::compression)
   // Whether anything reads the cdof_dot of the rod's dofs (patch point 4; set at load): a body with
-  // mass below the rod (mj_rne accelerates it with them), another rod hanging below it (its base
-  // acceleration), or a sensor of the acceleration stage. Otherwise the step does not patch
+  // mass or a joint below the rod (mj_rne accelerates it with them), another rod hanging below it
+  // (its base acceleration), a sensor of the acceleration stage, or a connect or weld on a body of
+  // the rod or below it (its rows' velocity product: patch_equality_references). Otherwise the step does not patch
   // d->cdof_dot of the rod's dofs: mj_rne would multiply them by the massless proxies' zero
   // inertias only (and Scene::velocity_skip may skip the rod's bodies in those passes altogether).
   // A mass given at run time to a body below the rod that had none sets it again at the next
@@ -86,7 +87,8 @@ struct RodBinding {
   mutable bool massless_below = false;
   // Whether the bodies below the rod (RodBinding::below_begin..below_end) are a rigid payload whose
   // inertia and weight the rod's solver carries (set with cdof_dot_read): they have mass but no
-  // dofs, no rod hangs below, and no sensor reads velocities or accelerations. Their composite
+  // dofs, no rod hangs below, no sensor reads velocities or accelerations, and no connect or weld
+  // names a body of the rod or below it. Their composite
   // inertia, taken each evaluation from MuJoCo's body masses, inertias and poses, is hung on the
   // rod's node payload_node (cosserat::Data::attached_inertia), and MuJoCo's composite-inertia and
   // bias passes leave them out (Scene::payload_body, velocity_skip): a tip weight then costs a 6 x 6
@@ -123,6 +125,10 @@ struct Scene {
   // section's proxy, or a body below a rod's last proxy (the innermost rod for nested rods); -1 for
   // the rest. Set at load.
   std::vector<int> riding_rod, riding_section;
+  // per MuJoCo body below a rod: the last dof between the rod's last proxy and it (its own or its
+  // nearest ancestor's, as first_ancestor_dof), where it turns or slides on joints of its own
+  // relative to the rod's tip; -1 for a body fixed to the tip, and for the rest. Set at load.
+  std::vector<int> riding_dof;
   // explicit <pair> of each geom pair that has one (key geom1 * ngeom + geom2, both orders; sorted
   // by key for a binary search): patch_contact_distances reads the pair's margin
   std::vector<std::pair<long long, int>> pair_by_geoms;
@@ -508,8 +514,8 @@ bool tendons_of_sites_only(const mjModel* m);
 // the state): a forward between steps (to log) can change the next steps of a scene with contacts
 // by the solver's tolerance, which chaotic contact motion then amplifies (outside probe BE).
 // Velocities of rod points: MuJoCo's mj_objectVelocity on a rod site reads its section's proxy
-// body, whose d->cvel the step leaves uncomputed where nothing reads it (zero); a velocimeter or
-// framelinvel/frameangvel sensor on the site gives the material point's velocity.
+// body, whose d->cvel the step leaves uncomputed where nothing reads it (zero); rod_frame_velocity,
+// or a velocimeter or framelinvel/frameangvel sensor on the site, gives the material point's.
 void forward(const Scene& s, SceneData& sd, Need need = Need::Acceleration);
 // One time step with s.integrator (or `method`). Returns Diverged (and restores the state) when
 // the state goes non-finite. Euler and Implicit treat the fluid's damping implicitly (as joint
@@ -557,6 +563,11 @@ bool generated_body(const Scene& s, int b);
 std::vector<Vec3> rod_centerline(const Scene& s, const SceneData& sd, int rod, int n);
 // world pose of the cross-section at abscissa X (x axis: the tangent)
 SE3 rod_frame(const Scene& s, const SceneData& sd, int rod, double X);
+// velocity of that cross-section, world axes, in mj_objectVelocity's layout (flg_local = 0):
+// [angular velocity; linear velocity of the frame's origin on the centre line]. After forward
+// (the velocities of the state forward evaluated). mj_objectVelocity on a rod's proxy body or site
+// reads MuJoCo's d->cvel, which the step leaves uncomputed there; this is the material point's.
+Vec6 rod_frame_velocity(const Scene& s, const SceneData& sd, int rod, double X);
 // strain xi(X) = [kx ky kz px py pz] in the cross-section frame
 Vec6 rod_strain(const Scene& s, const SceneData& sd, int rod, double X);
 

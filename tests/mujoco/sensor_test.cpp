@@ -136,6 +136,35 @@ TEST(Sensors, VelocitySensorsOnRodSitesReadTheMaterialPointsVelocity) {
   });
 }
 
+// rod_frame_velocity: the world-frame twist of a cross-section, at its base, inside and at the
+// ends of sections and at its tip, is the rate of change of rod_frame (central differences), the
+// hub's rotation and the strain rates both moving it; X beyond [0, L] reads the tip's.
+TEST(Sensors, RodFrameVelocityIsTheRateOfChangeOfRodFrame) {
+  on_pcs_and_gvs(kXml, [](const Scene& s, SceneData& sd, const cosserat::testing::BentMotion& motion) {
+    const int r = rod_index(s, "arm");
+    const double eps = 1e-6;
+    for (double X : {0.0, 0.04, 0.1, 0.15, 0.2, 0.27, 0.3}) {
+      SCOPED_TRACE(X);
+      motion.at(s, sd, eps);
+      const SE3 gp = rod_frame(s, sd, r, X);
+      motion.at(s, sd, -eps);
+      const SE3 gm = rod_frame(s, sd, r, X);
+      motion.at(s, sd, 0.0);
+      const SE3 g0 = rod_frame(s, sd, r, X);
+      const Vec6 got = rod_frame_velocity(s, sd, r, X);
+      const Vec3 w = cosserat::testing::spin_of(((gp.R - gm.R) / (2 * eps)) * g0.R.transpose());
+      const Vec3 v = (gp.u - gm.u) / (2 * eps);
+      EXPECT_GT(w.norm(), 1e-2);
+      EXPECT_GT(v.norm(), X > 0 ? 1e-2 : 1e-3);
+      EXPECT_LT((got.head<3>() - w).norm(), 1e-7 * w.norm()) << got.head<3>().transpose() << " against " << w.transpose();
+      EXPECT_LT((got.tail<3>() - v).norm(), 1e-7 * v.norm()) << got.tail<3>().transpose() << " against " << v.transpose();
+    }
+    motion.at(s, sd, 0.0);
+    EXPECT_EQ(rod_frame_velocity(s, sd, r, 0.5), rod_frame_velocity(s, sd, r, 0.3));
+    EXPECT_THROW(rod_frame_velocity(s, sd, 1, 0.1), std::out_of_range);
+  });
+}
+
 // framequat of rod sites and capsules (alone and relative to a rod site, to a hub site, and the
 // hub site relative to a rod site) reads the frame the rod gives them, not their proxy's.
 TEST(Sensors, FrameQuaternionsOfRodSitesAndCapsulesReadTheirOwnFrames) {

@@ -339,6 +339,130 @@ TEST(Transmission, BodiesBelowNestedRodsRideWithTheInnermostRod) {
   }
 }
 
+// Bodies hanging below a soft rod's tip on joints of their own (a hinge; a slide and a hinge below
+// it), constrained to a rigid body on a hinge of its own: their equality rows (a connect, a weld)
+// get the whole velocity product of the row, both anchors' accelerations at qacc = 0, the tip's
+// carried down their joints, and a tendon equality through a site on them the site's (outside
+// probe BG: a four-bar's loop drifted 15 mm where MuJoCo's held it to 0.6, with the tip's
+// centripetal term over the coupler's 0.4 m offset on one side and nothing on the other). Against
+// second differences of the frames along q0 + t v.
+TEST(Transmission, RowsOnBodiesJointedBelowASoftRodReferenceTheirOwnAcceleration) {
+  Motion mo(R"(<mujoco><option gravity="0 0 -9.81"/><worldbody>
+    <body name="hub" pos="0 0 1"><joint name="yaw" type="hinge" axis="0 0.3 1"/><geom type="sphere" size="0.02"/>
+      <site name="h" pos="0.01 0.02 0"/>
+      <cosserat name="arm" length="0.3" sections="3" strain="kl" radius="0.01" contype="0" conaffinity="0">
+        <body name="cp" pos="0.01 0 0"><joint name="jc" type="hinge" axis="0.2 1 0.1"/>
+          <geom type="capsule" fromto="0 0 0 0.2 0 0" size="0.005" mass="0.02" contype="0" conaffinity="0"/>
+          <body name="cq" pos="0.2 0 0"><joint name="sq" type="slide" axis="1 0 0"/><joint name="hq" type="hinge" axis="0 0 1"/>
+            <geom type="sphere" size="0.01" mass="0.01" contype="0" conaffinity="0"/><site name="q" pos="0.03 0.01 0"/></body>
+        </body>
+      </cosserat></body>
+    <body name="R" pos="0.3 0.1 0.8"><joint name="jr" type="hinge" axis="1 0.2 0.3"/>
+      <geom type="box" size="0.05 0.02 0.01" pos="0.04 0 0" contype="0" conaffinity="0"/></body></worldbody>
+    <tendon><spatial name="t"><site site="h"/><site site="q"/></spatial></tendon>
+    <equality><connect body1="cq" body2="R" anchor="0.02 0.01 -0.01"/>
+      <weld body1="cp" body2="R" anchor="0.1 0.005 0" torquescale="2"/><tendon tendon1="t"/></equality>
+  </mujoco>)");
+  const mjModel* m = mo.s->m;
+  const int bp = mj_name2id(m, mjOBJ_BODY, "cp"), bq = mj_name2id(m, mjOBJ_BODY, "cq"), br = mj_name2id(m, mjOBJ_BODY, "R");
+  const int sq = mj_name2id(m, mjOBJ_SITE, "q"), sh = mj_name2id(m, mjOBJ_SITE, "h");
+  const double e = 1e-4;
+  auto point = [&](int b, const Vec3& offset, double t) {
+    const mjData* d = mo.at(t);
+    return Vec3(Eigen::Map<const Vec3>(d->xpos + 3 * b) + Eigen::Map<const Mat3>(d->xmat + 9 * b) * offset);
+  };
+  auto accel = [&](int b, const Vec3& offset) {
+    return Vec3((point(b, offset, e) - 2.0 * point(b, offset, 0.0) + point(b, offset, -e)) / (e * e));
+  };
+  auto spin = [&](int b, double t) {
+    const Mat3 Rp = Eigen::Map<const Mat3>(mo.at(t + e)->xmat + 9 * b), Rm = Eigen::Map<const Mat3>(mo.at(t - e)->xmat + 9 * b);
+    const Mat3 R0 = Eigen::Map<const Mat3>(mo.at(t)->xmat + 9 * b);
+    return cosserat::testing::spin_of(Mat3((Rp - Rm) / (2 * e) * R0.transpose()));
+  };
+  // connect: body1's anchor at data[0:3], body2's at data[3:6]; weld: body1's anchor at data[3:6],
+  // body2's at data[0:3], relpose quat at data[6:10]
+  const mjtNum* cdata = m->eq_data;
+  const mjtNum* wdata = m->eq_data + mjNEQDATA;
+  const Vec3 a_connect = accel(bq, Vec3(cdata[0], cdata[1], cdata[2])) - accel(br, Vec3(cdata[3], cdata[4], cdata[5]));
+  const Vec3 a_weld = accel(bp, Vec3(wdata[3], wdata[4], wdata[5])) - accel(br, Vec3(wdata[0], wdata[1], wdata[2]));
+  const Vec3 alpha = (spin(bp, e) - spin(bp, -e) - spin(br, e) + spin(br, -e)) / (2 * e);
+  const Vec3 a_site = (Vec3(Eigen::Map<const Vec3>(mo.at(e)->site_xpos + 3 * sq)) -
+                       2.0 * Vec3(Eigen::Map<const Vec3>(mo.at(0.0)->site_xpos + 3 * sq)) +
+                       Vec3(Eigen::Map<const Vec3>(mo.at(-e)->site_xpos + 3 * sq))) /
+                      (e * e);
+  const mjData* d = mo.at(0.0);
+  ASSERT_EQ(d->nefc, 10);  // connect: 3 rows, weld: 6, tendon: 1
+  // the tendon h -> q: dL/dp at q is the unit segment (h is on the rigid hub: MuJoCo's own)
+  const Vec3 u = (Vec3(Eigen::Map<const Vec3>(d->site_xpos + 3 * sq)) - Vec3(Eigen::Map<const Vec3>(d->site_xpos + 3 * sh))).normalized();
+  const double c_tendon = u.dot(a_site);
+  mjtNum q[4], q1[4], q2[4], q3[4];  // the weld's rotation rows of alpha (MuJoCo 2.2.2's)
+  mju_mulQuat(q, d->xquat + 4 * bp, wdata + 6);
+  mju_negQuat(q1, d->xquat + 4 * br);
+  const mjtNum axis[3] = {alpha(0), alpha(1), alpha(2)};
+  mju_mulQuatAxis(q2, q1, axis);
+  mju_mulQuat(q3, q2, q);
+  const Vec3 rot(wdata[10] * 0.5 * q3[1], wdata[10] * 0.5 * q3[2], wdata[10] * 0.5 * q3[3]);
+  const std::vector<mjtNum> aref(d->efc_aref, d->efc_aref + d->nefc);
+  mj_referenceConstraint(m, mo.sd->d);  // MuJoCo's own reference accelerations
+  for (int k = 0; k < 3; ++k) {
+    EXPECT_NEAR(aref[k] - d->efc_aref[k], -a_connect(k), 1e-6 * (1 + a_connect.norm())) << "connect row " << k;
+    EXPECT_NEAR(aref[3 + k] - d->efc_aref[3 + k], -a_weld(k), 1e-6 * (1 + a_weld.norm())) << "weld row " << k;
+    EXPECT_NEAR(aref[6 + k] - d->efc_aref[6 + k], -rot(k), 1e-6 * (1 + rot.norm())) << "weld rotation row " << k;
+  }
+  EXPECT_NEAR(d->efc_aref[9] - aref[9], c_tendon, 1e-6 * (1 + std::abs(c_tendon))) << "tendon row";
+  EXPECT_GT(a_connect.norm(), 0.1);  // m/s^2: not vacuous
+  EXPECT_GT(a_weld.norm(), 0.1);
+  EXPECT_GT(rot.norm(), 0.1);
+  EXPECT_GT(std::abs(c_tendon), 0.1);
+}
+
+// The four-bar of that finding: a motor turns a crank (a rod) whose coupler hangs on a hinge below
+// its tip and is connected to a rigid rocker. A stiff soft crank (E = 1e9, 1e11) moves as the rigid
+// one (strain="rigid", MuJoCo's own rows bit for bit) and holds the loop as well: over 1.2 s the
+// crank angle agrees to 0.01 rad and the loop's gap stays under 1 mm (0.56 mm rigid, MuJoCo's
+// soft constraint; 15 mm before the fix).
+TEST(Transmission, AFourBarWithAStiffSoftCrankMovesAsTheRigidOne) {
+  auto run = [](const std::string& strain, double young) {
+    const std::string xml = R"(<mujoco><option timestep="0.0005"/><worldbody>
+      <body name="A" pos="0 0 0.5"><joint name="ja" axis="0 1 0" damping="0.01"/>
+        <inertial pos="0 0 0" mass="0.01" diaginertia="1e-5 1e-5 1e-5"/>
+        <cosserat name="arm" axisangle="0 1 0 -90" length="0.3" sections="4" strain=")" + strain +
+                            R"(" radius="0.008" density="1000" young=")" + std::to_string(young) +
+                            R"(" contype="0" conaffinity="0">
+          <body name="cp" axisangle="0 1 0 90"><joint name="jc" axis="0 1 0"/>
+            <geom type="capsule" fromto="0 0 0 0.4 0 0" size="0.008" mass="0.05" contype="0" conaffinity="0"/>
+            <site name="ce" pos="0.4 0 0"/></body></cosserat></body>
+      <body name="B" pos="0.4 0 0.5"><joint name="jb" axis="0 1 0"/>
+        <geom type="capsule" fromto="0 0 0 0 0 0.3" size="0.008" mass="0.05" contype="0" conaffinity="0"/></body></worldbody>
+      <equality><connect body1="cp" body2="B" anchor="0.4 0 0"/></equality>
+      <actuator><motor name="m" joint="ja"/></actuator></mujoco>)";
+    auto s = load_scene_string(xml, "/tmp/cosserat_transmission_test.xml");
+    SceneData sd(*s);
+    const mjModel* m = s->m;
+    mjData* d = sd.d;
+    d->ctrl[0] = 0.05;
+    const int ce = mj_name2id(m, mjOBJ_SITE, "ce"), qa = m->jnt_qposadr[mj_name2id(m, mjOBJ_JOINT, "ja")],
+              qb = m->jnt_qposadr[mj_name2id(m, mjOBJ_JOINT, "jb")];
+    double gap = 0.0;
+    for (int k = 0; k < 2400; ++k) {
+      EXPECT_EQ(step(*s, sd), Status::Ok);
+      forward(*s, sd);
+      const Vec3 top(0.4 + 0.3 * std::sin(d->qpos[qb]), 0.0, 0.5 + 0.3 * std::cos(d->qpos[qb]));
+      gap = std::max(gap, (Vec3(d->site_xpos + 3 * ce) - top).norm());
+    }
+    return std::make_pair(d->qpos[qa], gap);
+  };
+  const auto [angle_rigid, gap_rigid] = run("rigid", 1e9);
+  EXPECT_GT(std::abs(angle_rigid), 4.0);  // the crank turned most of a turn
+  for (double young : {1e9, 1e11}) {
+    SCOPED_TRACE(young);
+    const auto [angle, gap] = run("kl", young);
+    EXPECT_NEAR(angle, angle_rigid, 0.01);
+    EXPECT_LT(gap, 1e-3);
+    EXPECT_LT(gap_rigid, 1e-3);
+  }
+}
+
 // Tendon limits and tendon equalities through rod sites (patch_tendon_references): MuJoCo's aref
 // minus the rows' share of the tendon's velocity product, sum over the path's rod sites of dL/dp .
 // (the site's acceleration at qacc = 0), against second differences of the sites' positions along
