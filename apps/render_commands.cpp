@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cctype>
+#include <climits>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -163,6 +164,33 @@ struct Simulation {
 };
 
 
+// The renderer's warnings on stderr (what the pictures do not show as the model asks).
+void warn_renderer(const rd::Renderer& r) {
+  for (const auto& w : r.warnings()) std::fprintf(stderr, "warning: %s\n", w.c_str());
+}
+
+// Frame k of `render` shows the step nearest to k/fps (Simulation::advance_to). Where 1/fps is not
+// a whole number of steps the frames are one step unevenly spaced; a warning when one step is
+// more than 5% of 1/fps (outside probe BF: 30 fps at h = 0.02 s showed t = 0, 0.04, 0.06, 0.10, ...
+// without a word), which 1 ms steps at up to 50 fps are not.
+std::string uneven_frames_warning(double fps, double h, long frames) {
+  const double per_frame = 1.0 / (fps * h);  // steps per frame interval
+  if (frames < 2 || std::abs(per_frame - std::round(per_frame)) <= 1e-9 * per_frame) return "";
+  long lo = LONG_MAX, hi = 0, prev = 0;
+  for (long k = 1; k < std::min(frames, 100000L); ++k) {
+    const long n = std::lround(k * per_frame);
+    lo = std::min(lo, n - prev), hi = std::max(hi, n - prev);
+    prev = n;
+  }
+  const double worst = std::max(hi - per_frame, per_frame - lo) / per_frame;
+  if (worst <= 0.05) return "";
+  return "--fps " + format(fps) + " puts frames " + format(1.0 / fps) + " s apart, " + format(per_frame) +
+         " time steps of " + format(h) + " s: each frame shows the step nearest its time k/fps, so frames are " +
+         (lo == hi ? format(lo * h) : format(lo * h) + " to " + format(hi * h)) + " s apart (up to " +
+         format(std::round(100 * worst)) + "% off) and motion plays unevenly; an --fps of " + format(1.0 / h) +
+         " divided by a whole number, or a --timestep dividing " + format(1.0 / fps) + " s, spaces them evenly";
+}
+
 // Runs a command body and turns every failure into a one-line message and status 1.
 int guarded(const std::function<int()>& body) {
   auto one_line = [](std::string s) {
@@ -182,7 +210,8 @@ int guarded(const std::function<int()>& body) {
 // `render --mode K`: the frames of one cycle of mode K at the static equilibrium of the scene's
 // initial state (the physics, equilibrium, linearisation and mode shape, is the coupling's; the
 // frames only pose the scene along the mode and draw it).
-int render_mode(Simulation& sim, const PictureOptions& o, int mode, double amplitude, long frames, const std::string& video) {
+int render_mode(Simulation& sim, const PictureOptions& o, int mode, double amplitude, long frames, double fps,
+                const std::string& video) {
   const mj::Scene& s = *sim.scene;
   mj::SceneData& sd = *sim.data;
   const mjModel* m = s.m;
@@ -204,6 +233,7 @@ int render_mode(Simulation& sim, const PictureOptions& o, int mode, double ampli
     mj::fwd_position(s, sd);
   };
   rd::Renderer renderer(s, o.render);  // (--out's directory: render_command made it)
+  warn_renderer(renderer);
   if (renderer.free_camera() && o.render.camera.track.empty()) {  // framed on the cycle's extremes
     rd::Extent e;
     for (const double phase : {0.0, M_PI / 2, -M_PI / 2}) {
@@ -220,7 +250,7 @@ int render_mode(Simulation& sim, const PictureOptions& o, int mode, double ampli
     progress.update(k + 1, 0.0);
   }
   progress.clear();
-  if (!video.empty()) rd::encode_video(o.out, 30.0, video);
+  if (!video.empty()) rd::encode_video(o.out, fps, video);  // the cycle plays in --duration (outside probe BF: at 30 fps)
   std::printf("render: mode %d (%s) at the equilibrium, amplitude %g %s: %ld frames %dx%d in %s%s\n", mode,
               shape.omega2 < 0 ? ("unstable, omega^2 = " + format(shape.omega2) + " 1/s^2").c_str()
                                : (format(shape.frequency_hz) + " Hz").c_str(),
@@ -238,18 +268,22 @@ int render_command(int argc, char** argv) {
     int mode = 0;
     std::string video;
     CommandLine cl{"render",
-                   "simulate and write frames DIR/frame_00000.png ... at t = k/fps, k = 0 .. duration*fps - 1",
+                   "simulate and write frames DIR/frame_00000.png ... at t = k/fps (the nearest time step), k = 0 .. duration*fps - 1",
                    {"MODEL.xml"},
                    {},
                    "Frames left in DIR by an earlier render are removed first. Rendering is headless (OSMesa):\n"
                    "no display is needed. A progress bar is shown when stderr is a terminal.\n"
+                   "Frame k shows the state at the time step nearest to k/fps: where 1/fps is not a whole number\n"
+                   "of steps the frames are unevenly spaced by one step (a warning says so when a step is more than\n"
+                   "5% of 1/fps); --video plays them at --fps.\n"
                    "With --mode K the frames animate mode K of the linearisation at the static equilibrium\n"
                    "(`cosserat linearize`) instead: one cycle, q = q_eq + A sin(2 pi k / frames) x_K, over the\n"
-                   "duration * fps frames (the time step and integrator serve the equilibrium's relaxation).\n",
+                   "duration * fps frames, a --video cycle lasting --duration (the time step and integrator serve\n"
+                   "the equilibrium's relaxation).\n",
                    "MODEL.xml --out DIR [options]"};
     cl.options.push_back(text_option("--out", "DIR", "directory of the frames (created)", o.out));
     cl.options.push_back(positive_option("--duration", "T", "simulated time [s] (default 1)", duration));
-    cl.options.push_back(positive_option("--fps", "F", "frames per simulated second (default 30)", fps));
+    cl.options.push_back(positive_option("--fps", "F", "frames per simulated second, and the video's frame rate (default 30)", fps));
     cl.options.push_back(int_option("--mode", "K", "animate mode K (1: the lowest) at the static equilibrium instead of simulating", mode, 1));
     cl.options.push_back(positive_option("--amplitude", "A", "--mode: the largest displacement [m] (default: the larger of 0.05 and a tenth of the longest rod)", amplitude));
     cl.options.push_back(text_option("--video", "F.mp4", "also encode the frames into a video with ffmpeg (must be installed)", video));
@@ -285,13 +319,15 @@ int render_command(int argc, char** argv) {
     if (!fs::is_directory(o.out)) fail("--out: cannot create directory " + o.out + (ec ? " (" + ec.message() + ")" : ""));
     check_writable("--out", rd::frame_path(o.out, 0));
     Simulation sim((*pos)[0], o);
-    if (mode > 0) return render_mode(sim, o, mode, amplitude, frames, video);
+    if (mode > 0) return render_mode(sim, o, mode, amplitude, frames, fps, video);
     const double h = sim.scene->m->opt.timestep;
     step_count((frames - 1) / fps, h, "--duration");  // before any frame is written
     if (frames > 1 && fps * h > 1.0 + 1e-9)  // frames closer than a step: repeated pictures, or none at all
       fail("--fps " + format(fps) + " puts frames " + format(1.0 / fps) + " s apart, closer than the time step " +
            format(h) + " s: use --fps " + format(1.0 / h) + " or less, or a smaller --timestep");
+    if (const std::string w = uneven_frames_warning(fps, h, frames); !w.empty()) std::fprintf(stderr, "warning: %s\n", w.c_str());
     rd::Renderer renderer(*sim.scene, o.render);
+    warn_renderer(renderer);
     if (renderer.free_camera() && o.render.camera.track.empty()) {
       // the free camera frames the whole run: a first pass simulates it (up to a divergence, which
       // the second pass then reports after writing the frames before it) and merges the extents
@@ -350,6 +386,7 @@ int snapshot_command(int argc, char** argv) {
 
     Simulation sim((*pos)[0], o);
     rd::Renderer renderer(*sim.scene, o.render);
+    warn_renderer(renderer);
     sim.advance_to(time);  // the picture's directory: check_writable's
     rd::write_png(o.out, renderer.render(*sim.data));
     std::printf("snapshot: %s %dx%d at t = %g s\n", o.out.c_str(), renderer.width(), renderer.height(), sim.time());

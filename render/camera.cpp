@@ -70,8 +70,9 @@ Extent scene_extent(const mj::Scene& s, const mj::SceneData& sd, const mjvOption
 }
 
 void frame_extent(const mjModel* m, const Extent& e, double aspect, double azimuth, double elevation, double margin,
-                  mjvCamera* cam) {
+                  mjvCamera* cam, double depth[2]) {
   mjv_defaultCamera(cam);
+  if (depth) depth[0] = depth[1] = 0;
   cam->type = mjCAMERA_FREE;
   cam->azimuth = azimuth;
   cam->elevation = elevation;
@@ -113,6 +114,34 @@ void frame_extent(const mjModel* m, const Extent& e, double aspect, double azimu
   distance = std::max(distance, 1e-6);
   for (int k = 0; k < 3; ++k) cam->lookat[k] = lookat[k];
   cam->distance = distance;
+  if (depth) {
+    const Vec3 eye = lookat - distance * fwd;
+    depth[0] = 1e300, depth[1] = 0;
+    for (size_t i = 0; i < e.centres.size(); ++i) {
+      const double z = (e.centres[i] - eye).dot(fwd);
+      depth[0] = std::min(depth[0], z - e.radii[i]), depth[1] = std::max(depth[1], z + e.radii[i]);
+    }
+    depth[0] = std::max(depth[0], 0.0);
+  }
+}
+
+void widen_clipping(double lo, double hi, mjvScene* scn) {
+  if (!(hi > 0)) return;
+  for (mjvGLCamera& c : scn->camera) {
+    const double near = c.frustum_near, far = c.frustum_far;
+    // the near plane no closer than 1e-6 of the far one: the depth buffer's resolution
+    double new_near = std::min(near, std::max(0.5 * lo, 1e-6 * std::max(far, 2 * hi)));
+    const double new_far = std::max(far, 2 * hi);
+    new_near = std::max(new_near, 1e-12);  // mjr_render refuses a near plane below mjMINVAL (1e-15)
+    if (new_near != near && near > 0) {  // the frustum's sides are given at the near plane
+      const double s = new_near / near;
+      c.frustum_bottom = static_cast<float>(c.frustum_bottom * s);
+      c.frustum_top = static_cast<float>(c.frustum_top * s);
+      c.frustum_center = static_cast<float>(c.frustum_center * s);
+      c.frustum_near = static_cast<float>(new_near);
+    }
+    c.frustum_far = static_cast<float>(new_far);
+  }
 }
 
 CameraRig::CameraRig(const mj::Scene& s, const CameraOptions& o) : options_(o) {
@@ -146,9 +175,13 @@ void CameraRig::update(const mj::Scene& s, const mj::SceneData& sd, const mjvOpt
 
 void CameraRig::frame(const mjModel* m, const Extent& e, double aspect, const Vec3& body) {
   if (camera_id_ >= 0) return;
-  frame_extent(m, e, aspect, options_.azimuth, options_.elevation, options_.margin, &free_);
+  frame_extent(m, e, aspect, options_.azimuth, options_.elevation, options_.margin, &free_, depth_);
   offset_ = Eigen::Map<const Vec3>(free_.lookat) - body;
   framed_ = true;
+}
+
+void CameraRig::clip(mjvScene* scn) const {
+  if (camera_id_ < 0 && framed_) widen_clipping(depth_[0], depth_[1], scn);
 }
 
 }  // namespace cosserat::render

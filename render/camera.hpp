@@ -35,9 +35,17 @@ struct Extent {
 Extent scene_extent(const mj::Scene& s, const mj::SceneData& sd, const mjvOption& opt);
 
 // Free camera looking along (azimuth, elevation) at `e` so that it fills the picture of aspect
-// width/height up to `margin` on each side (MuJoCo's perspective with vis.global.fovy).
+// width/height up to `margin` on each side (MuJoCo's perspective with vis.global.fovy). `depth`,
+// when given, receives the nearest and farthest depth of `e` in front of that camera (0 0 when `e`
+// is empty).
 void frame_extent(const mjModel* m, const Extent& e, double aspect, double azimuth, double elevation, double margin,
-                  mjvCamera* cam);
+                  mjvCamera* cam, double depth[2] = nullptr);
+
+// Moves the near and far clipping planes of `scn`'s cameras (set by mjv_updateScene to MuJoCo's
+// <visual><map znear zfar> times stat.extent) out so that the depths [lo, hi] in front of the camera
+// are drawn: the near plane to lo / 2 where it was beyond that, the far plane to 2 hi where it was
+// nearer; the field of view stays. A scene within MuJoCo's planes keeps them.
+void widen_clipping(double lo, double hi, mjvScene* scn);
 
 // Resolves CameraOptions against a scene and poses an mjvCamera for each picture.
 class CameraRig {
@@ -52,6 +60,11 @@ class CameraRig {
   // come; for a tracked body, keeps the offset to its position `body`. No effect on a model camera.
   void frame(const mjModel* m, const Extent& e, double aspect, const Vec3& body = Vec3::Zero());
   bool free() const { return camera_id_ < 0; }
+  // The free camera: widens `scn`'s clipping planes (after mjv_updateScene) to hold what it framed
+  // (outside probe BF: a 5 cm rod framed 7 cm away lay before MuJoCo's near plane, 0.01 x the extent
+  // of its 50 m floor, and a rod fallen 43 m beyond the far plane: blank pictures). No effect on a
+  // model camera, whose planes are the model's.
+  void clip(mjvScene* scn) const;
 
  private:
   CameraOptions options_;
@@ -59,6 +72,7 @@ class CameraRig {
   bool framed_ = false;
   mjvCamera free_{};
   Vec3 offset_ = Vec3::Zero();  // lookat minus the tracked body's position
+  double depth_[2] = {0, 0};    // nearest and farthest depth of the framed extent
 };
 
 }  // namespace cosserat::render

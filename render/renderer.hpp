@@ -12,6 +12,7 @@
 #pragma once
 
 #include <memory>
+#include <string>
 #include <vector>
 
 #include <mujoco/mujoco.h>
@@ -28,9 +29,12 @@ struct RenderOptions {
   int width = 0, height = 0;  // pixels; 0: the model's <visual><global offwidth/offheight>
   CameraOptions camera;
   RodVisualOptions rods;
-  float background[3] = {0.86f, 0.89f, 0.93f};  // where nothing is drawn (a model's skybox covers it)
+  // where nothing is drawn, and seen through translucent geoms (a model's skybox covers it)
+  float background[3] = {0.86f, 0.89f, 0.93f};
   bool shadows = true;
-  int samples = -1;  // multisampling per pixel; < 0: the model's <quality offsamples>
+  // multisampling per pixel; < 0: the model's <quality offsamples>, at most OpenGL's GL_MAX_SAMPLES
+  // (more is refused here, and a model's larger value is lowered to it with a warning)
+  int samples = -1;
 };
 
 class OSMesaGLContext;
@@ -39,7 +43,7 @@ class Renderer {
  public:
   // Creates the OpenGL context and MuJoCo's rendering context (larger than the model's off-screen
   // buffer when asked). Throws std::invalid_argument on bad options (unknown camera or body, size
-  // beyond what OpenGL allows) and std::runtime_error when no context can be made.
+  // or samples beyond what OpenGL allows) and std::runtime_error when no context can be made.
   Renderer(const mj::Scene& s, const RenderOptions& o);
   ~Renderer();
   Renderer(const Renderer&) = delete;
@@ -53,6 +57,12 @@ class Renderer {
   bool free_camera() const { return rig_.free(); }
   void frame(const Extent& e) { rig_.frame(s_.m, e, static_cast<double>(width_) / height_); }
 
+  // What the pictures will not show as the model asks (a model's offsamples beyond OpenGL's, a
+  // texture on a rod's material), one sentence each, for the caller to report.
+  const std::vector<std::string>& warnings() const { return warnings_; }
+  // Multisamples per pixel of the pictures (0: none).
+  int samples() const { return samples_; }
+
   int width() const { return width_; }
   int height() const { return height_; }
   // The abstract scene of the last picture: its geoms and cameras (scene().camera[0..1]).
@@ -62,7 +72,8 @@ class Renderer {
  private:
   const mj::Scene& s_;
   RenderOptions options_;
-  int width_ = 0, height_ = 0;
+  int width_ = 0, height_ = 0, samples_ = 0;
+  std::vector<std::string> warnings_;
   std::unique_ptr<OSMesaGLContext> gl_;
   CameraRig rig_;
   mjvScene scn_{};
@@ -70,8 +81,7 @@ class Renderer {
   mjvOption opt_{};
   mjrContext con_{};
   std::unique_ptr<TubeMeshes> tubes_;
-  std::vector<unsigned char> buffer_, alpha_;  // bottom-up rows from OpenGL: rgb and coverage
-  int background_[3] = {0, 0, 0};
+  std::vector<unsigned char> buffer_;  // bottom-up rgb rows from OpenGL
 };
 
 }  // namespace cosserat::render

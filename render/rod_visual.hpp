@@ -14,7 +14,7 @@
 namespace cosserat::render {
 
 enum class RodColoring {
-  Model,   // the rgba (and material) of the rod's capsules
+  Model,   // the rgba (and material, but for a texture: the tubes have no texture coordinates) of the rod's capsules
   Strain,  // surface strain magnitude (dimensionless), see rod_strain_magnitude
   Stress,  // surface stress magnitude [Pa], see rod_stress_magnitude
 };
@@ -53,7 +53,8 @@ struct TubeRing {
   float rgba[4] = {1, 1, 1, 1};
 };
 
-// A run of tube along one rod, drawn with the look (material, colour) of a rod capsule.
+// A run of tube along one rod, drawn with the look (colour, specular, shininess, emission) of a rod
+// capsule; not its material's texture (Renderer warns).
 struct Tube {
   int rod = -1;
   std::vector<TubeRing> rings;  // base to tip, round ends included

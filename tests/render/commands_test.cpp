@@ -165,6 +165,75 @@ TEST_F(CommandsTest, VideoIsEncodedWithFfmpeg) {
   }
 }
 
+// render --mode K --video plays the cycle at --fps, in --duration (outside probe BF: always at 30
+// fps, a 2 s cycle of 20 frames in 0.67 s).
+TEST_F(CommandsTest, ModeVideoPlaysAtTheFps) {
+  if (cosserat::render::find_program("ffprobe").empty()) GTEST_SKIP() << "ffprobe is not installed";
+  const fs::path video = dir / "mode.mp4";
+  testing::internal::CaptureStdout();
+  ASSERT_EQ(run(render_command, {"render", kModels + "cantilever.xml", "--out", (dir / "m").string(), "--mode", "1",
+                                 "--duration", "2", "--fps", "10", "--width", "160", "--height", "120", "--video",
+                                 video.string()}),
+            0);
+  testing::internal::GetCapturedStdout();
+  const std::string probe = "ffprobe -v error -select_streams v:0 -show_entries stream=r_frame_rate,nb_frames -of "
+                            "csv=p=0 '" + video.string() + "' > '" + (dir / "p.txt").string() + "'";
+  ASSERT_EQ(std::system(probe.c_str()), 0);
+  EXPECT_EQ(bytes(dir / "p.txt"), "10/1,20\n");
+}
+
+// Frame k shows the step nearest to k/fps: where a step is a sizeable part of 1/fps the frames are
+// unevenly spaced, and render says so (outside probe BF: 30 fps at 0.02 s steps showed t = 0, 0.04,
+// 0.06, 0.10, ... without a word); 1 ms steps at 30 fps (33 or 34 steps a frame) are not worth a word.
+TEST_F(CommandsTest, UnevenlySpacedFramesAreWarnedAbout) {
+  auto warnings = [&](const std::string& fps, const std::string& timestep) {
+    testing::internal::CaptureStderr();
+    testing::internal::CaptureStdout();
+    EXPECT_EQ(run(render_command, {"render", kModels + "cantilever.xml", "--out", (dir / "f").string(), "--duration",
+                                   "0.2", "--fps", fps, "--timestep", timestep, "--width", "32", "--height", "24"}),
+              0);
+    testing::internal::GetCapturedStdout();
+    return testing::internal::GetCapturedStderr();
+  };
+  const std::string uneven = warnings("30", "0.02");
+  EXPECT_NE(uneven.find("warning: --fps 30 puts frames 0.0333333 s apart, 1.66667 time steps of 0.02 s: each frame "
+                        "shows the step nearest its time k/fps, so frames are 0.02 to 0.04 s apart (up to 40% off)"),
+            std::string::npos)
+      << uneven;
+  EXPECT_EQ(warnings("25", "0.02").find("warning:"), std::string::npos);   // 2 steps a frame
+  EXPECT_EQ(warnings("30", "0.001").find("warning:"), std::string::npos);  // 33 or 34 steps: 2% off
+  EXPECT_NE(warnings("30", "0.005").find("warning: --fps 30"), std::string::npos);  // 6 or 7 steps: 10% off
+}
+
+// A rod falling far stays in render's pictures: the free camera framing 44 m of fall stands beyond
+// MuJoCo's far plane (50 x the model's extent, from its initial pose), which had left the last
+// frames blank (outside probe BF).
+TEST_F(CommandsTest, AFallingRodStaysInTheFrames) {
+  const fs::path model = dir / "fall.xml";
+  fs::create_directories(dir);
+  std::ofstream(model) << R"(<mujoco><option timestep="0.002"/>
+  <worldbody><light pos="0 -1 3" dir="0 0.3 -1" directional="true"/>
+    <body name="hub" pos="0 0 1"><freejoint/>
+      <geom type="sphere" size="0.1" mass="0.05" rgba="0 0 1 1" contype="0" conaffinity="0"/>
+      <cosserat name="rod" pos="0.1 0 0" length="0.6" sections="2" radius="0.06" young="1e7" rgba="1 0 0 1"
+                contype="0" conaffinity="0"/>
+    </body></worldbody></mujoco>)";
+  testing::internal::CaptureStdout();
+  ASSERT_EQ(run(render_command, {"render", model.string(), "--out", (dir / "f").string(), "--duration", "3", "--fps", "2",
+                                 "--width", "320", "--height", "240", "--no-shadows"}),
+            0);
+  testing::internal::GetCapturedStdout();
+  const auto names = frames_in(dir / "f");
+  ASSERT_EQ(names.size(), 6u);
+  for (const auto& n : names) {
+    const rd::Image img = rd::read_png((dir / "f" / n).string());
+    int drawn = 0;
+    for (int y = 0; y < img.height; ++y)
+      for (int x = 0; x < img.width; ++x) drawn += img.pixel(x, y)[0] != img.pixel(0, 0)[0] || img.pixel(x, y)[2] != img.pixel(0, 0)[2];
+    EXPECT_GE(drawn, 8) << n;
+  }
+}
+
 TEST_F(CommandsTest, VideoWithoutFfmpegSaysSo) {
   const std::string path = std::getenv("PATH") ? std::getenv("PATH") : "";
   setenv("PATH", "/nonexistent", 1);
