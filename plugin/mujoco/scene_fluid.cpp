@@ -156,6 +156,11 @@ void setup_fluid(Scene& s) {
   if (!f.active) {
     if (coefficients && f.viscosity <= 0)
       f.warnings.push_back("drag coefficients are given but <option viscosity> is 0: no fluid force at all");
+    // (outside probe BG: 4.5 N of buoyancy on a rigid hub, and nothing on the rod, without a word)
+    if (!mujoco && !s.rods.empty() && f.viscosity <= 0 && f.density > 0)
+      f.warnings.push_back("<option density> without <option viscosity>: MuJoCo's own fluid model (buoyancy, quadratic "
+                           "drag) acts on the rigid bodies only; the rods feel no fluid force (give <option viscosity> "
+                           "for the plugin's Stokes fluid on rods and bodies)");
     return;
   }
   m->opt.viscosity = 0.0;  // the plugin owns the fluid: MuJoCo's own model must not act as well

@@ -101,6 +101,16 @@ TEST(SceneFluid, OwnershipRules) {
     auto s = load_scene_string(rod_scene("0"), kPath);
     EXPECT_FALSE(s->fluid.active);
     EXPECT_FALSE(has_drag(s->rods[0].model));
+    EXPECT_TRUE(s->fluid.warnings.empty());
+  }
+  {  // density without viscosity: MuJoCo's own model on the rigid bodies, nothing on the rod, said
+    std::string x = rod_scene("0");
+    x.replace(x.find("viscosity=\"0\""), 13, "density=\"1000\"");
+    auto s = load_scene_string(x, kPath);
+    EXPECT_FALSE(s->fluid.active);
+    EXPECT_EQ(s->m->opt.density, 1000.0);
+    ASSERT_EQ(s->fluid.warnings.size(), 1u);
+    EXPECT_NE(s->fluid.warnings[0].find("<option density> without <option viscosity>"), std::string::npos);
   }
   {
     auto s = load_scene_string(rod_scene("2", "drag=\"0\""), kPath);  // this rod is not in the fluid
