@@ -441,7 +441,10 @@ def stage_section(path, plots, outdir):
         cells = []
         for m in j["models"]:
             v = next((v for v in m["features_off"] if v["variant"] == n), None)
-            cells.append("n/a" if v is None else f"{v['step_us']:.1f} ({100 * v['change']:+.0f}%)")
+            # the change against the shipped row's own best round (the first row), whatever the JSON's
+            # 'change' holds: runs before the forty-sixth session divided by the shipped row's median
+            base = m["features_off"][0]["step_us"]
+            cells.append("n/a" if v is None else f"{v['step_us']:.1f} ({100 * (v['step_us'] / base - 1):+.0f}%)")
         out.append(f"| {n} | " + " | ".join(cells) + " |")
     out.append("")
     out += ["Coupling overhead: our step against MuJoCo's mj_step on (a) the same compiled model (proxies as rigid "
@@ -506,13 +509,16 @@ def kernels_section(path):
 # the README's label for each work-precision problem (its error measure and simulated time)
 PROBLEM_LABELS = {
     "cantilever": "cantilever released under gravity (RMS tip and mid-point / L, 2 s)",
+    "cantilever_planar": "the same cantilever, planar on both sides: one bending dof per section, one hinge per "
+                         "link (RMS tip and mid-point / L, 2 s)",
     "circle": "rod rolled into a circle (max point error / L)",
+    "circle_planar": "the same circle, planar on both sides (max point error / L)",
     "flagellate_rigid": "rigid flagellate (mean swimming speed, 4 s)",
     "flagellate": "soft flagellate (mean swimming speed, 4 s)",
     "octopus": "octopus arm curling under cable tension (RMS tip and mid-site / L, 0.2 s)",
 }
 # the goal's problems: at equal error at least 10x faster than the best native chain
-GOAL_PROBLEMS = ("cantilever", "circle", "flagellate_rigid", "flagellate")
+GOAL_PROBLEMS = ("cantilever", "cantilever_planar", "circle", "circle_planar", "flagellate_rigid", "flagellate")
 
 
 def fmt_us(x):
@@ -588,15 +594,20 @@ def block_goal(outdir):
         spread = round_ratios(j, [e for e, _, _, _ in rows])
         cold = cold_ratios(j, [e for e, _, _, _ in rows])
 
-        def entry(e, sp):  # the per-round range too where some round falls on the other side of 10x,
-            rs = spread.get(e, [])  # and the ratio timed cold where that falls there
-            straddles = rs and min(rs) < 10 <= max(rs)
+        def straddles(e):  # some round on either side of 10x: the machine does not resolve the row
+            rs = spread.get(e, [])
+            return bool(rs) and min(rs) < 10 <= max(rs)
+
+        def entry(e, sp):  # the per-round range where it straddles 10x, and the ratio timed cold
+            rs = spread.get(e, [])  # where that falls on the other side
             c = cold.get(e)
             flips = c is not None and (c < 10) != (sp < 10)
-            return (f"{e:.0e} ({fmt_ratio(sp)}{'; rounds ' + fmt_range(rs)[2:-1] if straddles else ''}"
+            return (f"{e:.0e} ({fmt_ratio(sp)}{'; rounds ' + fmt_range(rs)[2:-1] if straddles(e) else ''}"
                     f"{'; timed cold ' + fmt_ratio(c) if flips else ''})")
-        met = [entry(e, sp) for e, to, tn, sp in rows if sp is not None and sp >= 10]
-        missed = [entry(e, sp) for e, to, tn, sp in rows if sp is not None and sp < 10]
+        # (outside probe BH: a row whose rounds straddle 10x had been counted met, and a rerun read 7.2x)
+        met = [entry(e, sp) for e, to, tn, sp in rows if sp is not None and sp >= 10 and not straddles(e)]
+        unresolved = [entry(e, sp) for e, to, tn, sp in rows if sp is not None and straddles(e)]
+        missed = [entry(e, sp) for e, to, tn, sp in rows if sp is not None and sp < 10 and not straddles(e)]
         never = [e for e, to, tn, sp in rows if to is not None and tn is None]
         # the native side's least credited error (what the rows use: a run is credited with the
         # largest error of its own and of its finer steps)
@@ -610,6 +621,8 @@ def block_goal(outdir):
                          f"there (the native chain's least credited error {fmt_e(nat_least)})")
         if missed:
             parts.append("missed at " + ", ".join(missed))
+        if unresolved:
+            parts.append("not resolved (rounds on both sides of 10x) at " + ", ".join(unresolved))
         out.append(f"- {PROBLEM_LABELS.get(j['problem'], j['problem']).split(' (')[0]}: " + "; ".join(parts) + ".")
     return out
 
@@ -680,9 +693,9 @@ def readme_blocks(readme_text, outdir):
 
 
 def main():
-    if len(sys.argv) < 2:
+    if len(sys.argv) < 2 or sys.argv[1] in ("-h", "--help"):
         print(__doc__)
-        return 1
+        return 0 if len(sys.argv) >= 2 else 1
     outdir = sys.argv[1]
     for flag in ("--readme", "--check-readme"):
         if flag in sys.argv:
