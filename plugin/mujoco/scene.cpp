@@ -1459,14 +1459,113 @@ void patch_tendons(const Scene& s, SceneData& sd) {
   }
 }
 
-// The velocity product of tendon t's length from its site path points riding with soft rods: sum of
-// dL/dp . (the point's acceleration at qacc = 0, riding with its cross-section, centripetal term
-// included). The points on rigid bodies and rigid sections, and the turning of the segments'
-// directions, are left to the reference's feedback, as MuJoCo leaves them. After patch_bias.
-double tendon_velocity_product(const Scene& s, const SceneData& sd, int t) {
+// Whether body b is moved by a rod's strain dofs: a rod's proxy or helper, or a body below a rod.
+bool moved_by_rod(const Scene& s, int b) {
+  for (const RodBinding& rb : s.rods)
+    if (b > rb.base_body && b < rb.below_end) return true;
+  return false;
+}
+
+// A site's world velocity and velocity product (acceleration at qacc = 0, gravity out) where the
+// coupling knows both exactly: a rod site on a soft section or a site on a body riding with a soft
+// rod (their material points: `riding`), a site on a body no rod moves (MuJoCo's cvel and the sum
+// of cdof_dot qvel), the world's. False for the rest (sites on rigid sections of soft rods and
+// below them, whose MuJoCo's d->cdof_dot the step may leave unpatched).
+struct SiteMotion {
+  Vec3 v = Vec3::Zero(), a = Vec3::Zero();
+  bool riding = false;
+};
+bool site_motion(const Scene& s, const SceneData& sd, int site, const Vec3& p, SiteMotion& k) {
   const mjModel* m = s.m;
+  const mjData* d = sd.d;
+  int r = s.site_rod[site], si = -1;
+  double X = 0.0;
+  const int b = m->site_bodyid[site];
+  if (r >= 0) {
+    si = s.site_section[site];
+    if (s.rods[r].model.sections[si].ndof == 0) return false;
+    X = s.rods[r].decl.sites[s.site_index[site]].X;
+    k.a = riding_point_velocity_product(s, sd, r, si, X, p, true).tail<3>();
+  } else if (b == 0) {
+    k = SiteMotion{};
+    return true;
+  } else if (s.riding_rod[b] >= 0) {
+    Vec6 c;
+    if (!riding_body_velocity_product(s, sd, b, p, true, c)) return false;
+    k.a = c.tail<3>();
+    if (s.riding_dof[b] >= 0) {  // turning on joints of its own: MuJoCo's cvel (cdof_dot_read keeps it)
+      const Vec3 com(d->subtree_com + 3 * m->body_rootid[b]);
+      k.v = Vec3(d->cvel + 6 * b + 3) + Vec3(d->cvel + 6 * b).cross(p - com);
+      k.riding = true;
+      return true;
+    }
+    riding_frame(s, b, r, si, X);
+  } else {
+    if (moved_by_rod(s, b)) return false;
+    const Vec3 com(d->subtree_com + 3 * m->body_rootid[b]);
+    k.v = Vec3(d->cvel + 6 * b + 3) + Vec3(d->cvel + 6 * b).cross(p - com);
+    k.a = point_acceleration(m, d, b, velocity_product_acceleration(m, d, b), p).tail<3>();
+    k.riding = false;
+    return true;
+  }
+  // riding with the cross-section at X: its twist, carried to p
+  const cosserat::PointMotion pm = cosserat::point_motion_at_rest_acceleration(s.rods[r].model, sd.rod[r], 0, X, si);
+  const Mat3& R = pm.pose.R;
+  k.v = R * (pm.eta.tail<3>() + pm.eta.head<3>().cross(R.transpose() * (p - pm.pose.u)));
+  k.riding = true;
+  return true;
+}
+
+// The velocity product of tendon t's length (d^2 L / dt^2 at qacc = 0), and whether some site of its
+// path rides with a soft rod (else MuJoCo's rows stay as they are: `riding` false). For a tendon of
+// sites and pulleys whose every site has a known motion (site_motion) it is exact: over each
+// segment, u . (a1 - a0) + (|v1 - v0|^2 - (u . (v1 - v0))^2) / l, divided by the pulleys' divisor
+// (the turning of the segment's direction included). Until the forty-sixth session it was the
+// riding sites' dL/dp . a alone, the rigid sites' accelerations and the turning left out: a
+// segment from a site on a spinning hub to a rod site turning with it (a constant length) was told
+// to accelerate by the rod site's centripetal term (as outside probe BG found for equality rows).
+// A tendon that wraps a geom, or runs through a site on a rigid section of a soft rod, keeps that
+// rule. After patch_bias.
+struct TendonProduct {
   double c = 0.0;
-  tendon_site_points(m, sd.d, t, [&](int site, const Vec3& p, const Vec3& grad) {
+  bool riding = false;
+};
+TendonProduct tendon_velocity_product(const Scene& s, const SceneData& sd, int t) {
+  const mjModel* m = s.m;
+  const mjData* d = sd.d;
+  TendonProduct out;
+  bool exact = true;
+  for (int w = m->tendon_adr[t]; w < m->tendon_adr[t] + m->tendon_num[t]; ++w)
+    exact = exact && (m->wrap_type[w] == mjWRAP_SITE || m->wrap_type[w] == mjWRAP_PULLEY);
+  if (exact) {
+    const int adr = d->ten_wrapadr[t], num = d->ten_wrapnum[t];
+    double divisor = 1.0;
+    int w = m->tendon_adr[t];
+    SiteMotion prev, cur;
+    Vec3 p_prev = Vec3::Zero();
+    for (int k = 0; k < num && exact; ++k, ++w) {  // path point k is wrap object w (sites and pulleys only)
+      if (d->wrap_obj[adr + k] == -2) {
+        divisor = m->wrap_prm[w];
+        continue;
+      }
+      const Vec3 p(d->wrap_xpos + 3 * (adr + k));
+      exact = site_motion(s, sd, m->wrap_objid[w], p, cur);
+      out.riding = out.riding || cur.riding;
+      if (exact && k > 0 && d->wrap_obj[adr + k - 1] != -2) {
+        const Vec3 dp = p - p_prev, dv = cur.v - prev.v;
+        const double l = dp.norm();
+        if (l > 0) {
+          const Vec3 u = dp / l;
+          out.c += (u.dot(cur.a - prev.a) + (dv.squaredNorm() - u.dot(dv) * u.dot(dv)) / l) / divisor;
+        }
+      }
+      prev = cur;
+      p_prev = p;
+    }
+    if (exact) return out;
+  }
+  out = TendonProduct{};  // the riding sites' dL/dp . a only
+  tendon_site_points(m, d, t, [&](int site, const Vec3& p, const Vec3& grad) {
     const int r = s.site_rod[site];
     Vec6 cp;
     if (r >= 0) {  // a rod site: its cross-section
@@ -1476,38 +1575,44 @@ double tendon_velocity_product(const Scene& s, const SceneData& sd, int t) {
     } else if (!riding_body_velocity_product(s, sd, m->site_bodyid[site], p, true, cp)) {  // a site riding with a soft rod
       return;
     }
-    c += grad.dot(cp.tail<3>());
+    out.c += grad.dot(cp.tail<3>());
+    out.riding = true;
   });
-  return c;
+  return out;
 }
 
 // Patch point 5d: tendon limits and tendon equalities through sites on soft rods get their
 // tendons' velocity products (tendon_velocity_product) in their reference accelerations, as the
 // contact and equality rows do. A limit row is -side dL/dq (mj_instantiateLimit): the side from
-// the row's distance; an equality row couples tendon 1 to a polynomial of tendon 2 (dL1 - deriv
-// dL2). After patch_bias.
+// the row's distance; an equality row couples tendon 1 to a polynomial of tendon 2, L1 - f(L2)
+// (row dL1 - f' dL2, velocity product c1 - f' c2 - f'' (dL2/dt)^2). After patch_bias.
 void patch_tendon_references(const Scene& s, SceneData& sd) {
   const mjModel* m = s.m;
   mjData* d = sd.d;
   for (int row = 0; row < d->nefc; ++row) {
     const int type = d->efc_type[row], id = d->efc_id[row];
     if (type == mjCNSTR_LIMIT_TENDON) {
-      const double c = tendon_velocity_product(s, sd, id);
-      if (c == 0.0) continue;
+      const TendonProduct tp = tendon_velocity_product(s, sd, id);
+      if (!tp.riding) continue;
       const double L = d->ten_length[id];
       const double lower = L - m->tendon_range[2 * id], upper = m->tendon_range[2 * id + 1] - L;
       const double side = std::abs(d->efc_pos[row] - lower) <= std::abs(d->efc_pos[row] - upper) ? -1.0 : 1.0;
-      d->efc_aref[row] -= -side * c;
+      d->efc_aref[row] -= -side * tp.c;
     } else if (type == mjCNSTR_EQUALITY && m->eq_type[id] == mjEQ_TENDON) {
       const int t1 = m->eq_obj1id[id], t2 = m->eq_obj2id[id];
-      double c = tendon_velocity_product(s, sd, t1);
+      const TendonProduct tp1 = tendon_velocity_product(s, sd, t1);
+      double c = tp1.c;
+      bool riding = tp1.riding;
       if (t2 >= 0) {
         const mjtNum* poly = m->eq_data + mjNEQDATA * id;
         const double dif = d->ten_length[t2] - m->tendon_length0[t2];
         const double deriv = poly[1] + 2 * poly[2] * dif + 3 * poly[3] * dif * dif + 4 * poly[4] * dif * dif * dif;
-        c -= deriv * tendon_velocity_product(s, sd, t2);
+        const double curv = 2 * poly[2] + 6 * poly[3] * dif + 12 * poly[4] * dif * dif;
+        const TendonProduct tp2 = tendon_velocity_product(s, sd, t2);
+        c -= deriv * tp2.c + curv * d->ten_velocity[t2] * d->ten_velocity[t2];
+        riding = riding || tp2.riding;
       }
-      d->efc_aref[row] -= c;
+      if (riding) d->efc_aref[row] -= c;
     }
   }
 }

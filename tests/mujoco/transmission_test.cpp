@@ -342,7 +342,7 @@ TEST(Transmission, BodiesBelowNestedRodsRideWithTheInnermostRod) {
 // Bodies hanging below a soft rod's tip on joints of their own (a hinge; a slide and a hinge below
 // it), constrained to a rigid body on a hinge of its own: their equality rows (a connect, a weld)
 // get the whole velocity product of the row, both anchors' accelerations at qacc = 0, the tip's
-// carried down their joints, and a tendon equality through a site on them the site's (outside
+// carried down their joints, and a tendon equality through a site on them its length's (outside
 // probe BG: a four-bar's loop drifted 15 mm where MuJoCo's held it to 0.6, with the tip's
 // centripetal term over the coupler's 0.4 m offset on one side and nothing on the other). Against
 // second differences of the frames along q0 + t v.
@@ -365,7 +365,6 @@ TEST(Transmission, RowsOnBodiesJointedBelowASoftRodReferenceTheirOwnAcceleration
   </mujoco>)");
   const mjModel* m = mo.s->m;
   const int bp = mj_name2id(m, mjOBJ_BODY, "cp"), bq = mj_name2id(m, mjOBJ_BODY, "cq"), br = mj_name2id(m, mjOBJ_BODY, "R");
-  const int sq = mj_name2id(m, mjOBJ_SITE, "q"), sh = mj_name2id(m, mjOBJ_SITE, "h");
   const double e = 1e-4;
   auto point = [&](int b, const Vec3& offset, double t) {
     const mjData* d = mo.at(t);
@@ -386,15 +385,12 @@ TEST(Transmission, RowsOnBodiesJointedBelowASoftRodReferenceTheirOwnAcceleration
   const Vec3 a_connect = accel(bq, Vec3(cdata[0], cdata[1], cdata[2])) - accel(br, Vec3(cdata[3], cdata[4], cdata[5]));
   const Vec3 a_weld = accel(bp, Vec3(wdata[3], wdata[4], wdata[5])) - accel(br, Vec3(wdata[0], wdata[1], wdata[2]));
   const Vec3 alpha = (spin(bp, e) - spin(bp, -e) - spin(br, e) + spin(br, -e)) / (2 * e);
-  const Vec3 a_site = (Vec3(Eigen::Map<const Vec3>(mo.at(e)->site_xpos + 3 * sq)) -
-                       2.0 * Vec3(Eigen::Map<const Vec3>(mo.at(0.0)->site_xpos + 3 * sq)) +
-                       Vec3(Eigen::Map<const Vec3>(mo.at(-e)->site_xpos + 3 * sq))) /
-                      (e * e);
+  auto length_second = [&](double h) {  // the tendon h -> q: its length's second derivative
+    return (mo.at(h)->ten_length[0] - 2.0 * mo.at(0.0)->ten_length[0] + mo.at(-h)->ten_length[0]) / (h * h);
+  };
+  const double c_tendon = (4 * length_second(5e-4) - length_second(1e-3)) / 3;  // (Richardson)
   const mjData* d = mo.at(0.0);
   ASSERT_EQ(d->nefc, 10);  // connect: 3 rows, weld: 6, tendon: 1
-  // the tendon h -> q: dL/dp at q is the unit segment (h is on the rigid hub: MuJoCo's own)
-  const Vec3 u = (Vec3(Eigen::Map<const Vec3>(d->site_xpos + 3 * sq)) - Vec3(Eigen::Map<const Vec3>(d->site_xpos + 3 * sh))).normalized();
-  const double c_tendon = u.dot(a_site);
   mjtNum q[4], q1[4], q2[4], q3[4];  // the weld's rotation rows of alpha (MuJoCo 2.2.2's)
   mju_mulQuat(q, d->xquat + 4 * bp, wdata + 6);
   mju_negQuat(q1, d->xquat + 4 * br);
@@ -464,45 +460,59 @@ TEST(Transmission, AFourBarWithAStiffSoftCrankMovesAsTheRigidOne) {
 }
 
 // Tendon limits and tendon equalities through rod sites (patch_tendon_references): MuJoCo's aref
-// minus the rows' share of the tendon's velocity product, sum over the path's rod sites of dL/dp .
-// (the site's acceleration at qacc = 0), against second differences of the sites' positions along
-// q0 + t v (the hub's site, on a rigid body, and the segments' turning stay MuJoCo's).
+// minus the rows' velocity product, the tendon length's second derivative at qacc = 0 (the rod
+// sites', the rigid hub site's accelerations and the segments' turning; before the forty-sixth
+// session the rod sites' dL/dp . a alone), against second differences of ten_length along q0 + t v;
+// an equality with a quadratic polynomial of a second tendon takes f'' (dL2/dt)^2 as well.
 TEST(Transmission, TendonRowsThroughRodSitesReferenceTheSitesAcceleration) {
   Motion mo(R"(<mujoco><option gravity="0 0 -9.81"/><worldbody>
     <body name="hub" pos="0 0 1"><joint name="yaw" type="hinge" axis="0 0.3 1"/><geom type="sphere" size="0.02"/>
       <site name="h" pos="0.01 0.02 0"/>
       <cosserat name="arm" length="0.3" sections="3" strain="kl" radius="0.01" contype="0" conaffinity="0">
         <site name="m" at="0.15" pos="0 0.006 0.002"/><site name="s" at="0.25" pos="0.001 -0.004 0.003"/>
-      </cosserat></body></worldbody>
+      </cosserat></body>
+    <body name="R" pos="0.3 0.1 0.8"><joint name="jr" type="hinge" axis="1 0.2 0.3"/>
+      <geom type="box" size="0.05 0.02 0.01" pos="0.04 0 0" contype="0" conaffinity="0"/><site name="w" pos="0.05 0.01 0"/></body>
+    </worldbody>
     <tendon><spatial name="lim" limited="true" range="0 0.01"><site site="h"/><site site="m"/><site site="s"/></spatial>
-      <spatial name="eq"><site site="m"/><site site="s"/></spatial></tendon>
-    <equality><tendon tendon1="eq"/></equality>
+      <spatial name="eq"><site site="m"/><site site="s"/></spatial>
+      <spatial name="eq2"><site site="w"/><site site="s"/><pulley divisor="2"/><site site="w"/><site site="h"/></spatial></tendon>
+    <equality><tendon tendon1="eq"/><tendon tendon1="eq2" tendon2="eq" polycoef="0 0.5 3 0 0"/></equality>
   </mujoco>)");
   const mjModel* m = mo.s->m;
-  const int sm = mj_name2id(m, mjOBJ_SITE, "m"), ss = mj_name2id(m, mjOBJ_SITE, "s"), sh = mj_name2id(m, mjOBJ_SITE, "h");
-  const double e = 1e-4;
-  auto site_at = [&](int site, double t) { return Vec3(Eigen::Map<const Vec3>(mo.at(t)->site_xpos + 3 * site)); };
-  auto accel = [&](int site) { return Vec3((site_at(site, e) - 2.0 * site_at(site, 0.0) + site_at(site, -e)) / (e * e)); };
-  const Vec3 am = accel(sm), as = accel(ss);
+  // 30x the bent motion's speeds: at its own the strain rates change the segments' lengths by
+  // 1e-5 m/s^2, where the hub's turning accelerates the sites by 0.1 m/s^2 without changing them
+  // (which the one-sided rule took for the tendons', and a check of it against the sites'
+  // accelerations passed)
+  for (double& vi : mo.motion->v) vi *= 30;
+  auto length_at = [&](int t, double tt) { return mo.at(tt)->ten_length[t]; };
+  auto second_at = [&](int t, double e) {
+    return (length_at(t, e) - 2.0 * length_at(t, 0.0) + length_at(t, -e)) / (e * e);
+  };
+  auto second = [&](int t) { return (4 * second_at(t, 5e-4) - second_at(t, 1e-3)) / 3; };  // (Richardson)
+  const int t_lim = mj_name2id(m, mjOBJ_TENDON, "lim"), t_eq = mj_name2id(m, mjOBJ_TENDON, "eq"),
+            t_eq2 = mj_name2id(m, mjOBJ_TENDON, "eq2");
+  const double c_lim = second(t_lim), c_eq = second(t_eq), c_eq2 = second(t_eq2);
   const mjData* d = mo.at(0.0);
-  const Vec3 pm(Eigen::Map<const Vec3>(d->site_xpos + 3 * sm)), ps(Eigen::Map<const Vec3>(d->site_xpos + 3 * ss)),
-      ph(Eigen::Map<const Vec3>(d->site_xpos + 3 * sh));
-  // dL/dp at the rod sites: lim = |m - h| + |s - m|, eq = |s - m|
-  const Vec3 u1 = (pm - ph).normalized(), u2 = (ps - pm).normalized();
-  const double c_lim = (u1 - u2).dot(am) + u2.dot(as), c_eq = -u2.dot(am) + u2.dot(as);
-  int lim_row = -1, eq_row = -1;
+  // eq2 - f(eq), f(x) = 0.5 x + 3 x^2 with x = L_eq - L_eq0: its row's velocity product
+  const double x = d->ten_length[t_eq] - m->tendon_length0[t_eq];
+  const double c_poly = c_eq2 - (0.5 + 6 * x) * c_eq - 6 * d->ten_velocity[t_eq] * d->ten_velocity[t_eq];
+  int lim_row = -1, eq_row = -1, poly_row = -1;
   for (int r = 0; r < d->nefc; ++r) {
     if (d->efc_type[r] == mjCNSTR_LIMIT_TENDON) lim_row = r;
-    if (d->efc_type[r] == mjCNSTR_EQUALITY) eq_row = r;
+    if (d->efc_type[r] == mjCNSTR_EQUALITY) (d->efc_id[r] == 0 ? eq_row : poly_row) = r;
   }
   ASSERT_GE(lim_row, 0);  // the upper limit: the row is -dL/dq
   ASSERT_GE(eq_row, 0);
+  ASSERT_GE(poly_row, 0);
   const std::vector<mjtNum> aref(d->efc_aref, d->efc_aref + d->nefc);
   mj_referenceConstraint(m, mo.sd->d);
   EXPECT_NEAR(d->efc_aref[lim_row] - aref[lim_row], -c_lim, 1e-6 * (1 + std::abs(c_lim)));
   EXPECT_NEAR(d->efc_aref[eq_row] - aref[eq_row], c_eq, 1e-6 * (1 + std::abs(c_eq)));
-  EXPECT_GT(std::abs(c_lim), 0.1);
-  EXPECT_GT(std::abs(c_eq), 0.1);
+  EXPECT_NEAR(d->efc_aref[poly_row] - aref[poly_row], c_poly, 1e-6 * (1 + std::abs(c_poly)));
+  EXPECT_GT(std::abs(c_lim), 1e-3);  // m/s^2: not vacuous
+  EXPECT_GT(std::abs(c_eq), 1e-3);
+  EXPECT_GT(std::abs(c_poly), 1e-3);
 }
 
 // An adhesion actuator (MuJoCo's body transmission) on a ball near rod capsules, inside their
