@@ -879,13 +879,12 @@ bool rod_contacts(const Scene& s, const mjData* d) {
   return false;
 }
 
-// The velocity product of a point p (world) riding with the cross-section at X of rod r's section
-// si: the centre line's classical acceleration at qacc = 0 plus the cross-section's angular one
-// crossed with the offset to p, and with `centripetal` the offset's own centripetal term (a
-// material anchor's; a contact on a round capsule leaves it out, as MuJoCo leaves it out for any
-// rigid body). World axes: angular, then linear. After patch_bias.
-Vec6 riding_point_velocity_product(const Scene& s, const SceneData& sd, int r, int si, double X, const Vec3& p,
-                                   bool centripetal) {
+// The velocity product of a material point p (world) riding with the cross-section at X of rod r's
+// section si: the centre line's classical acceleration at qacc = 0 plus the cross-section's angular
+// one crossed with the offset to p and the offset's centripetal term (a contact takes the
+// centre-line point itself, p on the centre line: contact_anchor). World axes: angular, then
+// linear. After patch_bias.
+Vec6 riding_point_velocity_product(const Scene& s, const SceneData& sd, int r, int si, double X, const Vec3& p) {
   const mjModel* m = s.m;
   const cosserat::PointMotion pm = cosserat::point_motion_at_rest_acceleration(s.rods[r].model, sd.rod[r], 0, X, si);
   const Mat3& R = pm.pose.R;
@@ -894,11 +893,8 @@ Vec6 riding_point_velocity_product(const Scene& s, const SceneData& sd, int r, i
   c.head<3>() = R * pm.acc.head<3>();
   // the base's acceleration carried gravity as an upward acceleration (rod_velocity): take it out
   const Vec3 offset = p - pm.pose.u;
-  c.tail<3>() = R * (pm.acc.tail<3>() + w.cross(v)) + c.head<3>().cross(offset);
-  if (centripetal) {
-    const Vec3 ww = R * w;
-    c.tail<3>() += ww.cross(ww.cross(offset));
-  }
+  const Vec3 ww = R * w;
+  c.tail<3>() = R * (pm.acc.tail<3>() + w.cross(v)) + c.head<3>().cross(offset) + ww.cross(ww.cross(offset));
   if (!(m->opt.disableflags & mjDSBL_GRAVITY)) c.tail<3>() += Vec3(m->opt.gravity[0], m->opt.gravity[1], m->opt.gravity[2]);
   return c;
 }
@@ -914,6 +910,13 @@ bool riding_frame(const Scene& s, int b, int& rod, int& section, double& X) {
   const Section& sec = s.rods[rod].model.sections[section];
   X = sec.X0 + sec.length;
   return sec.ndof > 0;
+}
+
+// Whether body b is moved by a rod's strain dofs: a rod's proxy or helper, or a body below a rod.
+bool moved_by_rod(const Scene& s, int b) {
+  for (const RodBinding& rb : s.rods)
+    if (b > rb.base_body && b < rb.below_end) return true;
+  return false;
 }
 
 // The classical acceleration of a point p (world) fixed to body b, and b's angular acceleration
@@ -936,16 +939,13 @@ Vec6 point_acceleration(const mjModel* m, const mjData* d, int b, const Vec6& A,
 // hanging on a hinge below a soft crank had been given the tip's centripetal term over its 0.4 m
 // anchor) has the tip's velocity product carried down its chain of joints: MuJoCo's com-based cacc
 // recursion, the tip's spatial acceleration plus cdof_dot qvel of the joints below it, then the
-// point's classical acceleration with b's own spin (a contact leaves out the centripetal term of
-// p's offset from b's origin, as riding_point_velocity_product leaves out the offset from the
-// centre line). After patch_bias.
-bool riding_body_velocity_product(const Scene& s, const SceneData& sd, int b, const Vec3& p, bool centripetal,
-                                  Vec6& c) {
+// point's classical acceleration with b's own spin. After patch_bias.
+bool riding_body_velocity_product(const Scene& s, const SceneData& sd, int b, const Vec3& p, Vec6& c) {
   int r = -1, si = -1;
   double X = 0.0;
   if (!riding_frame(s, b, r, si, X)) return false;
   if (s.riding_dof[b] < 0) {
-    c = riding_point_velocity_product(s, sd, r, si, X, p, centripetal);
+    c = riding_point_velocity_product(s, sd, r, si, X, p);
     return true;
   }
   const mjModel* m = s.m;
@@ -963,10 +963,6 @@ bool riding_body_velocity_product(const Scene& s, const SceneData& sd, int b, co
   for (int j = s.riding_dof[b]; j >= 0 && m->dof_bodyid[j] > proxy; j = m->dof_parentid[j])
     A += Eigen::Map<const Vec6>(d->cdof_dot + 6 * j) * d->qvel[j];
   c = point_acceleration(m, d, b, A, p);
-  if (!centripetal) {
-    const Vec3 wb(d->cvel + 6 * b);
-    c.tail<3>() -= wb.cross(wb.cross(p - Vec3(d->xpos + 3 * b)));
-  }
   // the tip's acceleration carried gravity as an upward acceleration (rod_velocity): take it out
   if (!(m->opt.disableflags & mjDSBL_GRAVITY)) c.tail<3>() += Vec3(m->opt.gravity[0], m->opt.gravity[1], m->opt.gravity[2]);
   return true;
@@ -1140,46 +1136,173 @@ void setup_riding_frames(Scene& s) {
   }
 }
 
+// The motion of a material point x (world) at qacc = 0, gravity out: its velocity v and velocity
+// product a, its frame's spin w and angular velocity product alpha (world axes), where the coupling
+// knows them exactly; `riding`: x rides with a soft rod.
+struct MaterialMotion {
+  Vec3 x = Vec3::Zero(), v = Vec3::Zero(), a = Vec3::Zero(), w = Vec3::Zero(), alpha = Vec3::Zero();
+  bool riding = false;
+};
+
+// The point of rod r's soft section si on the cross-section at X, at x (the centre-line point when
+// x is null). False on a section without strain dofs.
+bool section_point_motion(const Scene& s, const SceneData& sd, int r, int si, double X, const Vec3* x,
+                          MaterialMotion& k) {
+  if (s.rods[r].model.sections[si].ndof == 0) return false;
+  const cosserat::PointMotion pm = cosserat::point_motion_at_rest_acceleration(s.rods[r].model, sd.rod[r], 0, X, si);
+  const Mat3& R = pm.pose.R;
+  k.x = x ? *x : pm.pose.u;
+  const Vec6 c = riding_point_velocity_product(s, sd, r, si, X, k.x);
+  k.a = c.tail<3>();
+  k.alpha = c.head<3>();
+  k.w = R * pm.eta.head<3>();
+  k.v = R * (pm.eta.tail<3>() + pm.eta.head<3>().cross(R.transpose() * (k.x - pm.pose.u)));
+  k.riding = true;
+  return true;
+}
+
+// The point x fixed to body b: the world's (at rest), a body riding with a soft rod
+// (riding_body_velocity_product; its velocity from the rod's cross-section, or from MuJoCo's cvel
+// for a body on joints of its own below the tip, which cdof_dot_read keeps computed), a body no rod
+// moves (MuJoCo's cvel and the sum of cdof_dot qvel). False for the rest (rigid sections of soft
+// rods and the bodies below them, whose d->cdof_dot the step may leave unpatched).
+bool body_point_motion(const Scene& s, const SceneData& sd, int b, const Vec3& x, MaterialMotion& k) {
+  const mjModel* m = s.m;
+  const mjData* d = sd.d;
+  k = MaterialMotion{};
+  k.x = x;
+  if (b == 0) return true;
+  auto from_cvel = [&] {
+    const Vec3 com(d->subtree_com + 3 * m->body_rootid[b]);
+    k.w = Vec3(d->cvel + 6 * b);
+    k.v = Vec3(d->cvel + 6 * b + 3) + k.w.cross(x - com);
+  };
+  if (s.riding_rod[b] >= 0) {
+    Vec6 c;
+    if (!riding_body_velocity_product(s, sd, b, x, c)) return false;
+    k.a = c.tail<3>();
+    k.alpha = c.head<3>();
+    k.riding = true;
+    if (s.riding_dof[b] >= 0) {
+      from_cvel();
+      return true;
+    }
+    int r = -1, si = -1;
+    double X = 0.0;
+    riding_frame(s, b, r, si, X);
+    const cosserat::PointMotion pm = cosserat::point_motion_at_rest_acceleration(s.rods[r].model, sd.rod[r], 0, X, si);
+    const Mat3& R = pm.pose.R;
+    k.w = R * pm.eta.head<3>();
+    k.v = R * (pm.eta.tail<3>() + pm.eta.head<3>().cross(R.transpose() * (x - pm.pose.u)));
+    return true;
+  }
+  if (moved_by_rod(s, b)) return false;
+  from_cvel();
+  const Vec6 c = point_acceleration(m, d, b, velocity_product_acceleration(m, d, b), x);
+  k.a = c.tail<3>();
+  k.alpha = c.head<3>();
+  return true;
+}
+
+// A site's material point (site_motion's cases: a rod site on a soft section, body_point_motion).
+bool site_motion(const Scene& s, const SceneData& sd, int site, const Vec3& p, MaterialMotion& k) {
+  if (const int r = s.site_rod[site]; r >= 0)
+    return section_point_motion(s, sd, r, s.site_section[site], s.rods[r].decl.sites[s.site_index[site]].X, &p, k);
+  return body_point_motion(s, sd, s.m->site_bodyid[site], p, k);
+}
+
+// The point of a geom that a contact at p is anchored to, for the row's velocity product, and its
+// kind: a sphere's centre (a point, whose distance to the other geom the contact keeps), the point
+// of a capsule's segment nearest p, or of a cylinder's axis when the normal n is across it (a line,
+// along which the contact may slide), else p itself (a face's material point).
+enum class Anchor { Face, Point, Line };
+Vec3 contact_anchor(const mjModel* m, const mjData* d, int g, const Vec3& p, const Vec3& n, Anchor& kind) {
+  const Vec3 c(d->geom_xpos + 3 * g);
+  const Vec3 axis(d->geom_xmat[9 * g + 2], d->geom_xmat[9 * g + 5], d->geom_xmat[9 * g + 8]);
+  const int type = m->geom_type[g];
+  kind = type == mjGEOM_SPHERE ? Anchor::Point
+         : type == mjGEOM_CAPSULE || (type == mjGEOM_CYLINDER && std::abs(n.dot(axis)) < 0.5) ? Anchor::Line
+                                                                                              : Anchor::Face;
+  if (kind == Anchor::Face) return p;
+  if (kind == Anchor::Point) return c;
+  const double h = m->geom_size[3 * g + 1];
+  return c + std::clamp((p - c).dot(axis), -h, h) * axis;
+}
+
 // Patch point 5b: MuJoCo's contact rows constrain J qacc and leave the velocity product dJ/dt qvel
 // to the reference acceleration's feedback (aref = -b J qvel - k r). For a point on a rigid body
 // that term is the centripetal acceleration of its offset, which a round geom's contact does not
 // feel; on a soft section it carries the strain coordinates' own velocity products, which need
 // not be small: a bent rod rolling about its centre line keeps that line still while J qacc
 // reads hundreds of m/s^2, and its contacts, seeing the rod leave, let it sink through the floor.
-// So a contact on a section with strain dofs constrains the acceleration of its point riding
-// with the cross-section: efc_aref -= the rows' velocity product, that of the centre-line point
-// under the contact and the cross-section's angular one (the centripetal term of the offset to
-// the surface left out, as MuJoCo leaves it out for a rigid body); so does a contact on a geom of
-// a body hanging below a rod whose last section has dofs, riding with the rod's tip. Contacts on
-// rigid sections stay MuJoCo's (bit for bit what welded bodies give). After patch_bias, whose rnea leaves the
-// rods' nodes' velocity-product accelerations (with gravity, which the base's carries) in Data::acc.
+// So a contact on a section with strain dofs, or on a geom of a body riding with a soft rod,
+// constrains the second derivative of its gap: efc_aref -= the rows' velocity product, from both
+// sides' anchors (contact_anchor: the centre-line point under the contact, a sphere's centre, a
+// face's material point at the contact), their relative acceleration at qacc = 0 carried to the
+// contact by their angular ones, and on the normal row the turning of the gap's direction. A side
+// whose motion is not known here (a rigid section of a soft rod, a body below one) is taken at rest,
+// MuJoCo's rule; contacts with no soft side stay MuJoCo's (bit for bit what welded bodies give).
+// After patch_bias, whose rnea leaves the rods' nodes' velocity-product accelerations (with
+// gravity, which the base's carries) in Data::acc.
 void patch_contact_references(const Scene& s, SceneData& sd) {
   mjData* d = sd.d;
   for (int i = 0; i < d->ncon; ++i) {
     const mjContact& con = d->contact[i];
     if (con.efc_address < 0) continue;
-    Vec6 c = Vec6::Zero();  // relative (geom2 - geom1): angular, linear; world axes
-    bool any = false;
-    for (int side = 0; side < 2; ++side) {
-      const int g = side == 0 ? con.geom1 : con.geom2;
-      const Vec3 p(con.pos[0], con.pos[1], con.pos[2]);
-      const int r = s.geom_rod[g];
-      Vec6 cg;
-      if (r >= 0) {  // a rod capsule: the cross-section under the contact
-        const int si = s.rods[r].decl.geoms[s.geom_index[g]].section;
-        if (s.rods[r].model.sections[si].ndof == 0) continue;
-        cg = riding_point_velocity_product(s, sd, r, si, capsule_abscissa(s, sd, g, p), p, false);
-      } else if (!riding_body_velocity_product(s, sd, s.m->geom_bodyid[g], p, false, cg)) {  // a geom riding with a soft rod
-        continue;
+    const Vec3 p(con.pos[0], con.pos[1], con.pos[2]);
+    Eigen::Map<const Mat3r> frame(con.frame);  // rows: the normal (geom1 to geom2), the tangents
+    const Vec3 n = frame.row(0).transpose();
+    MaterialMotion side[2];
+    bool known[2] = {false, false};
+    Anchor kind[2] = {Anchor::Face, Anchor::Face};
+    for (int k = 0; k < 2; ++k) {
+      const int g = k == 0 ? con.geom1 : con.geom2;
+      if (const int r = s.geom_rod[g]; r >= 0) {  // a rod capsule: the centre-line point under the contact
+        known[k] = section_point_motion(s, sd, r, s.rods[r].decl.geoms[s.geom_index[g]].section,
+                                        capsule_abscissa(s, sd, g, p), nullptr, side[k]);
+        kind[k] = Anchor::Line;
+      } else {
+        const Vec3 x = contact_anchor(s.m, d, g, p, n, kind[k]);
+        known[k] = body_point_motion(s, sd, s.m->geom_bodyid[g], x, side[k]);
       }
-      c += (side == 0 ? -1.0 : 1.0) * cg;
-      any = true;
+      if (!known[k]) side[k] = MaterialMotion{}, side[k].x = p;  // MuJoCo's rule for that side
     }
-    if (!any) continue;
+    if (!side[0].riding && !side[1].riding) continue;
+    // the relative velocity product (geom2 - geom1), world axes: angular; and linear, of the
+    // material points at the contact (each side's anchor, carried to p by its angular acceleration)
+    Vec6 c;
+    c.head<3>() = side[1].alpha - side[0].alpha;
+    c.tail<3>() = side[1].a + side[1].alpha.cross(p - side[1].x) - side[0].a - side[0].alpha.cross(p - side[0].x);
+    // the normal row: the second derivative of the gap at qacc = 0, n . da plus the turning of the
+    // gap's direction. Two spheres keep the distance of their centres, whose direction u turns by
+    // (|dv|^2 - (u . dv)^2) / l; a sphere, or a line anchor (a rod or capsule along a face), on a
+    // face keeps its anchor's distance from the face, whose normal turns with the face's body f:
+    // 2 (w_f x n) . dv + (alpha_f x n + w_f x (w_f x n)) . dx (none on a face at rest: a floor's rows
+    // as before). A line anchor against a point or a line slides along its line, where its material
+    // point's turning would count the slide (crossed rods): n . da alone there. Until the forty-sixth
+    // session it was the soft side's term alone (outside probe BI: a rod on a turning table pressing
+    // on a wall of the table sank 12.6 mm where the rigid rod sank 0.3 mm, MuJoCo's rows leaving out
+    // both sides' centripetal terms, which cancel; a stiff rod's end passed 283 mm through the wall),
+    // and a rope sliding over a fixed drum was told to keep its centre line from turning with the
+    // drum's surface.
+    double normal = n.dot(c.tail<3>());
+    if (known[0] && known[1]) {
+      const Vec3 dx = side[1].x - side[0].x, dv = side[1].v - side[0].v;
+      if (kind[0] == Anchor::Point && kind[1] == Anchor::Point) {
+        const double l = dx.norm();
+        if (l > 0) {
+          const Vec3 u = dx / l;
+          normal += (dv.squaredNorm() - u.dot(dv) * u.dot(dv)) / l;
+        }
+      } else if ((kind[0] == Anchor::Face) != (kind[1] == Anchor::Face)) {
+        const MaterialMotion& f = kind[0] == Anchor::Face ? side[0] : side[1];  // the face's body
+        normal += 2 * f.w.cross(n).dot(dv) + (f.alpha.cross(n) + f.w.cross(f.w.cross(n))).dot(dx);
+      }
+    }
     // contact-frame components: normal, tangents, then rotations about normal, t1, t2
-    Eigen::Map<const Mat3r> frame(con.frame);
     Eigen::Matrix<double, 6, 1> cf;
     cf.head<3>() = frame * c.tail<3>();
+    cf(0) = normal;
     cf.tail<3>() = frame * c.head<3>();
     const int row0 = con.efc_address;
     if (d->efc_type[row0] == mjCNSTR_CONTACT_PYRAMIDAL) {
@@ -1230,7 +1353,7 @@ void patch_equality_references(const Scene& s, SceneData& sd) {
         const mjtNum* anchor = type == mjEQ_CONNECT ? data + 3 * j : data + 3 * (1 - j);
         mju_rotVecMat(pw[j].data(), anchor, d->xmat + 9 * body[j]);
         pw[j] += Vec3(d->xpos + 3 * body[j]);
-        if (s.riding_rod[body[j]] >= 0) riding[j] = riding_body_velocity_product(s, sd, body[j], pw[j], true, cb[j]);
+        if (s.riding_rod[body[j]] >= 0) riding[j] = riding_body_velocity_product(s, sd, body[j], pw[j], cb[j]);
       }
       const bool any = riding[0] || riding[1];
       if (any) {
@@ -1459,120 +1582,37 @@ void patch_tendons(const Scene& s, SceneData& sd) {
   }
 }
 
-// Whether body b is moved by a rod's strain dofs: a rod's proxy or helper, or a body below a rod.
-bool moved_by_rod(const Scene& s, int b) {
-  for (const RodBinding& rb : s.rods)
-    if (b > rb.base_body && b < rb.below_end) return true;
-  return false;
-}
-
-// A site's world velocity and velocity product (acceleration at qacc = 0, gravity out) where the
-// coupling knows both exactly: a rod site on a soft section or a site on a body riding with a soft
-// rod (their material points: `riding`), a site on a body no rod moves (MuJoCo's cvel and the sum
-// of cdof_dot qvel), the world's. False for the rest (sites on rigid sections of soft rods and
-// below them, whose MuJoCo's d->cdof_dot the step may leave unpatched).
-struct SiteMotion {
-  Vec3 v = Vec3::Zero(), a = Vec3::Zero();
-  bool riding = false;
-};
-bool site_motion(const Scene& s, const SceneData& sd, int site, const Vec3& p, SiteMotion& k) {
-  const mjModel* m = s.m;
-  const mjData* d = sd.d;
-  int r = s.site_rod[site], si = -1;
-  double X = 0.0;
-  const int b = m->site_bodyid[site];
-  if (r >= 0) {
-    si = s.site_section[site];
-    if (s.rods[r].model.sections[si].ndof == 0) return false;
-    X = s.rods[r].decl.sites[s.site_index[site]].X;
-    k.a = riding_point_velocity_product(s, sd, r, si, X, p, true).tail<3>();
-  } else if (b == 0) {
-    k = SiteMotion{};
-    return true;
-  } else if (s.riding_rod[b] >= 0) {
-    Vec6 c;
-    if (!riding_body_velocity_product(s, sd, b, p, true, c)) return false;
-    k.a = c.tail<3>();
-    if (s.riding_dof[b] >= 0) {  // turning on joints of its own: MuJoCo's cvel (cdof_dot_read keeps it)
-      const Vec3 com(d->subtree_com + 3 * m->body_rootid[b]);
-      k.v = Vec3(d->cvel + 6 * b + 3) + Vec3(d->cvel + 6 * b).cross(p - com);
-      k.riding = true;
-      return true;
-    }
-    riding_frame(s, b, r, si, X);
-  } else {
-    if (moved_by_rod(s, b)) return false;
-    const Vec3 com(d->subtree_com + 3 * m->body_rootid[b]);
-    k.v = Vec3(d->cvel + 6 * b + 3) + Vec3(d->cvel + 6 * b).cross(p - com);
-    k.a = point_acceleration(m, d, b, velocity_product_acceleration(m, d, b), p).tail<3>();
-    k.riding = false;
-    return true;
-  }
-  // riding with the cross-section at X: its twist, carried to p
-  const cosserat::PointMotion pm = cosserat::point_motion_at_rest_acceleration(s.rods[r].model, sd.rod[r], 0, X, si);
-  const Mat3& R = pm.pose.R;
-  k.v = R * (pm.eta.tail<3>() + pm.eta.head<3>().cross(R.transpose() * (p - pm.pose.u)));
-  k.riding = true;
-  return true;
-}
-
 // The velocity product of tendon t's length (d^2 L / dt^2 at qacc = 0), and whether some site of its
-// path rides with a soft rod (else MuJoCo's rows stay as they are: `riding` false). For a tendon of
-// sites and pulleys whose every site has a known motion (site_motion) it is exact: over each
+// path rides with a soft rod (else MuJoCo's rows stay as they are: `riding` false). For a spatial
+// tendon whose every path point has a known motion (site_motion, body_point_motion) it is exact: over each
 // segment, u . (a1 - a0) + (|v1 - v0|^2 - (u . (v1 - v0))^2) / l, divided by the pulleys' divisor
 // (the turning of the segment's direction included). Until the forty-sixth session it was the
 // riding sites' dL/dp . a alone, the rigid sites' accelerations and the turning left out: a
 // segment from a site on a spinning hub to a rod site turning with it (a constant length) was told
 // to accelerate by the rod site's centripetal term (as outside probe BG found for equality rows).
-// A tendon that wraps a geom, or runs through a site on a rigid section of a soft rod, keeps that
-// rule. After patch_bias.
+// A wrapped geom's tangent points count as material points of the geom's body (exact while the
+// tendon does not slide on it; outside probe BI: a limit through a geom on a turning hub gave way
+// 11.9 mm under the old rule), the arc between them as turning with it. A tendon through a site on
+// a rigid section of a soft rod keeps the old rule. After patch_bias.
 struct TendonProduct {
   double c = 0.0;
   bool riding = false;
 };
-TendonProduct tendon_velocity_product(const Scene& s, const SceneData& sd, int t) {
+// The riding sites' share of tendon t's velocity product, dL/dp . a (the rule for tendons whose
+// path runs through a site of a rigid section of a soft rod, or a geom on one: their motion is not
+// known exactly here).
+TendonProduct tendon_sites_velocity_product(const Scene& s, const SceneData& sd, int t) {
   const mjModel* m = s.m;
   const mjData* d = sd.d;
   TendonProduct out;
-  bool exact = true;
-  for (int w = m->tendon_adr[t]; w < m->tendon_adr[t] + m->tendon_num[t]; ++w)
-    exact = exact && (m->wrap_type[w] == mjWRAP_SITE || m->wrap_type[w] == mjWRAP_PULLEY);
-  if (exact) {
-    const int adr = d->ten_wrapadr[t], num = d->ten_wrapnum[t];
-    double divisor = 1.0;
-    int w = m->tendon_adr[t];
-    SiteMotion prev, cur;
-    Vec3 p_prev = Vec3::Zero();
-    for (int k = 0; k < num && exact; ++k, ++w) {  // path point k is wrap object w (sites and pulleys only)
-      if (d->wrap_obj[adr + k] == -2) {
-        divisor = m->wrap_prm[w];
-        continue;
-      }
-      const Vec3 p(d->wrap_xpos + 3 * (adr + k));
-      exact = site_motion(s, sd, m->wrap_objid[w], p, cur);
-      out.riding = out.riding || cur.riding;
-      if (exact && k > 0 && d->wrap_obj[adr + k - 1] != -2) {
-        const Vec3 dp = p - p_prev, dv = cur.v - prev.v;
-        const double l = dp.norm();
-        if (l > 0) {
-          const Vec3 u = dp / l;
-          out.c += (u.dot(cur.a - prev.a) + (dv.squaredNorm() - u.dot(dv) * u.dot(dv)) / l) / divisor;
-        }
-      }
-      prev = cur;
-      p_prev = p;
-    }
-    if (exact) return out;
-  }
-  out = TendonProduct{};  // the riding sites' dL/dp . a only
   tendon_site_points(m, d, t, [&](int site, const Vec3& p, const Vec3& grad) {
     const int r = s.site_rod[site];
     Vec6 cp;
     if (r >= 0) {  // a rod site: its cross-section
       const int si = s.site_section[site];
       if (s.rods[r].model.sections[si].ndof == 0) return;
-      cp = riding_point_velocity_product(s, sd, r, si, s.rods[r].decl.sites[s.site_index[site]].X, p, true);
-    } else if (!riding_body_velocity_product(s, sd, m->site_bodyid[site], p, true, cp)) {  // a site riding with a soft rod
+      cp = riding_point_velocity_product(s, sd, r, si, s.rods[r].decl.sites[s.site_index[site]].X, p);
+    } else if (!riding_body_velocity_product(s, sd, m->site_bodyid[site], p, cp)) {  // a site riding with a soft rod
       return;
     }
     out.c += grad.dot(cp.tail<3>());
@@ -1580,6 +1620,52 @@ TendonProduct tendon_velocity_product(const Scene& s, const SceneData& sd, int t
   });
   return out;
 }
+
+TendonProduct tendon_velocity_product(const Scene& s, const SceneData& sd, int t) {
+  const mjModel* m = s.m;
+  const mjData* d = sd.d;
+  TendonProduct out;
+  bool exact = m->tendon_num[t] > 0 && m->wrap_type[m->tendon_adr[t]] != mjWRAP_JOINT;  // (a fixed tendon: none)
+  if (exact) {
+    const int adr = d->ten_wrapadr[t], num = d->ten_wrapnum[t];
+    const int wrap_end = m->tendon_adr[t] + m->tendon_num[t];
+    double divisor = 1.0;
+    int w = m->tendon_adr[t];
+    MaterialMotion prev, cur;
+    for (int k = 0; k < num && exact; ++k) {
+      const int obj = d->wrap_obj[adr + k];
+      const Vec3 p(d->wrap_xpos + 3 * (adr + k));
+      if (obj >= 0) {  // a wrapped geom's tangent point, as a material point of the geom's body
+        exact = body_point_motion(s, sd, m->geom_bodyid[obj], p, cur);
+      } else {  // a site (-1) or a pulley (-2): the next such wrap object
+        while (w < wrap_end && m->wrap_type[w] != mjWRAP_SITE && m->wrap_type[w] != mjWRAP_PULLEY) ++w;
+        if (w == wrap_end) return tendon_sites_velocity_product(s, sd, t);
+        const int wrap = w++;
+        if (obj == -2) {
+          divisor = m->wrap_prm[wrap];
+          continue;
+        }
+        exact = site_motion(s, sd, m->wrap_objid[wrap], p, cur);
+      }
+      out.riding = out.riding || cur.riding;
+      // the straight segment from the point before (none after a pulley; between a geom's two
+      // tangent points the path follows the geom's surface, turning with it)
+      const int before = k > 0 ? d->wrap_obj[adr + k - 1] : -2;
+      if (exact && before != -2 && !(obj >= 0 && before == obj)) {
+        const Vec3 dp = p - prev.x, dv = cur.v - prev.v;
+        const double l = dp.norm();
+        if (l > 0) {
+          const Vec3 u = dp / l;
+          out.c += (u.dot(cur.a - prev.a) + (dv.squaredNorm() - u.dot(dv) * u.dot(dv)) / l) / divisor;
+        }
+      }
+      prev = cur;
+    }
+    if (exact) return out;
+  }
+  return tendon_sites_velocity_product(s, sd, t);
+}
+
 
 // Patch point 5d: tendon limits and tendon equalities through sites on soft rods get their
 // tendons' velocity products (tendon_velocity_product) in their reference accelerations, as the
