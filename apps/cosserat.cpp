@@ -456,7 +456,10 @@ std::vector<std::string> energy_exchanges(const mj::Scene& sc, bool touched) {
   if (m->nu > 0 && !(m->opt.disableflags & mjDSBL_ACTUATION)) out.push_back("actuators");
   if (sc.fluid.active || (passive && (m->opt.density > 0 || m->opt.viscosity > 0))) out.push_back("fluid");
   if (touched) out.push_back("contacts");
-  if (m->neq > 0) out.push_back("equality constraints");
+  // (outside probe BI: listed under <flag equality="disable"/> and constraint="disable" too)
+  bool active_equality = false;
+  for (int e = 0; e < m->neq; ++e) active_equality = active_equality || m->eq_active[e];
+  if (active_equality && !(m->opt.disableflags & (mjDSBL_EQUALITY | mjDSBL_CONSTRAINT))) out.push_back("equality constraints");
   return out;
 }
 

@@ -363,6 +363,19 @@ TEST_F(Cli, RunSaysWhatExchangesEnergy) {
   const Result r2 = cosserat("run '" + xml.string() + "' --integrator rk4 --duration 0.2 --json '" + out2.string() + "'");
   ASSERT_EQ(r2.status, 0) << r2.err;
   EXPECT_TRUE(json::parse(read_text(out2))["energy"]["exchanged_by"].empty()) << r2.out;
+  // an equality constraint exchanges energy (its softness) unless the equality rows are off
+  // (outside probe BI: listed under equality="disable" and constraint="disable")
+  for (const char* flag : {"", "<flag equality=\"disable\"/>", "<flag constraint=\"disable\"/>"}) {
+    const fs::path xe = scratch() / "equality_off.xml";
+    std::ofstream(xe) << std::string(R"(<mujoco><option gravity="0 0 -9.81">)") + flag + R"(</option><worldbody>
+      <body name="a"><joint type="hinge" axis="0 1 0"/><geom type="capsule" fromto="0 0 0 0.3 0 0" size="0.02"/></body>
+      </worldbody><equality><connect body1="a" anchor="0.3 0 0"/></equality></mujoco>)";
+    const fs::path oe = scratch() / "equality_off.json";
+    const Result re = cosserat("run '" + xe.string() + "' --integrator rk4 --duration 0.05 --json '" + oe.string() + "'");
+    ASSERT_EQ(re.status, 0) << re.err;
+    const auto exe = json::parse(read_text(oe))["energy"]["exchanged_by"].get<std::vector<std::string>>();
+    EXPECT_EQ(std::find(exe.begin(), exe.end(), "equality constraints") != exe.end(), *flag == '\0') << flag;
+  }
 }
 
 // Sampling the energy (an evaluation of the pipeline between steps) does not change the run: the
