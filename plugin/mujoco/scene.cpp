@@ -1141,6 +1141,7 @@ void setup_riding_frames(Scene& s) {
 // knows them exactly; `riding`: x rides with a soft rod.
 struct MaterialMotion {
   Vec3 x = Vec3::Zero(), v = Vec3::Zero(), a = Vec3::Zero(), w = Vec3::Zero(), alpha = Vec3::Zero();
+  Vec3 axis = Vec3::UnitX();  // a line anchor's direction (contact_anchor), turning with w
   bool riding = false;
 };
 
@@ -1157,6 +1158,7 @@ bool section_point_motion(const Scene& s, const SceneData& sd, int r, int si, do
   k.alpha = c.head<3>();
   k.w = R * pm.eta.head<3>();
   k.v = R * (pm.eta.tail<3>() + pm.eta.head<3>().cross(R.transpose() * (k.x - pm.pose.u)));
+  k.axis = R.col(0);  // the centre line's tangent
   k.riding = true;
   return true;
 }
@@ -1214,19 +1216,64 @@ bool site_motion(const Scene& s, const SceneData& sd, int site, const Vec3& p, M
 // The point of a geom that a contact at p is anchored to, for the row's velocity product, and its
 // kind: a sphere's centre (a point, whose distance to the other geom the contact keeps), the point
 // of a capsule's segment nearest p, or of a cylinder's axis when the normal n is across it (a line,
-// along which the contact may slide), else p itself (a face's material point).
-enum class Anchor { Face, Point, Line };
-Vec3 contact_anchor(const mjModel* m, const mjData* d, int g, const Vec3& p, const Vec3& n, Anchor& kind) {
+// `axis`, along which the contact may slide), p itself on a plane, a box or a cylinder's cap (a
+// face's material point), and p on other shapes (ellipsoids, meshes, height fields: curved
+// surfaces whose contact point is no material point; outside probe BJ: taken as a face, an
+// ellipsoid rolling on a soft rod was braked from 1 m/s to 0.17 m/s in 0.4 s).
+enum class Anchor { Face, Point, Line, Other };
+Vec3 contact_anchor(const mjModel* m, const mjData* d, int g, const Vec3& p, const Vec3& n, Anchor& kind, Vec3& axis) {
   const Vec3 c(d->geom_xpos + 3 * g);
-  const Vec3 axis(d->geom_xmat[9 * g + 2], d->geom_xmat[9 * g + 5], d->geom_xmat[9 * g + 8]);
-  const int type = m->geom_type[g];
-  kind = type == mjGEOM_SPHERE ? Anchor::Point
-         : type == mjGEOM_CAPSULE || (type == mjGEOM_CYLINDER && std::abs(n.dot(axis)) < 0.5) ? Anchor::Line
-                                                                                              : Anchor::Face;
+  axis = Vec3(d->geom_xmat[9 * g + 2], d->geom_xmat[9 * g + 5], d->geom_xmat[9 * g + 8]);
+  switch (m->geom_type[g]) {
+    case mjGEOM_SPHERE: kind = Anchor::Point; return c;
+    case mjGEOM_CAPSULE: kind = Anchor::Line; break;
+    case mjGEOM_CYLINDER: kind = std::abs(n.dot(axis)) < 0.5 ? Anchor::Line : Anchor::Face; break;
+    case mjGEOM_PLANE: case mjGEOM_BOX: kind = Anchor::Face; return p;
+    default: kind = Anchor::Other; return p;
+  }
   if (kind == Anchor::Face) return p;
-  if (kind == Anchor::Point) return c;
   const double h = m->geom_size[3 * g + 1];
   return c + std::clamp((p - c).dot(axis), -h, h) * axis;
+}
+
+// The second derivative at qacc = 0 of the distance from a point anchor P to the straight line
+// through a line anchor L along L.axis (turning with L's spin): |q|'' with q = Pperp (xP - xL),
+// Pperp = 1 - a a^T, the line's material anchor sliding freely along it. `fallback` where the
+// point lies on the line.
+double point_line_distance_acceleration(const MaterialMotion& L, const MaterialMotion& P, double fallback) {
+  const Vec3& a = L.axis;
+  const Vec3 ad = L.w.cross(a), add = L.alpha.cross(a) + L.w.cross(L.w.cross(a));
+  const Vec3 dx = P.x - L.x, dv = P.v - L.v, da = P.a - L.a;
+  auto perp = [&a](const Vec3& y) { return Vec3(y - a * a.dot(y)); };
+  const Vec3 q = perp(dx);
+  const double l = q.norm();
+  if (l <= 0) return fallback;
+  const Vec3 u = q / l;
+  const Vec3 qd = perp(dv) - ad * a.dot(dx) - a * ad.dot(dx);
+  const Vec3 qdd = perp(da) - 2.0 * (ad * a.dot(dv) + a * ad.dot(dv)) -
+                   (add * a.dot(dx) + 2.0 * ad * ad.dot(dx) + a * add.dot(dx));
+  return u.dot(qdd) + (qd.squaredNorm() - u.dot(qd) * u.dot(qd)) / l;
+}
+
+// The same for the distance between two straight lines, s . (x2 - x1) with s their common normal
+// (a1 x a2, normalised): for lines crossing at 17 degrees or more; nearer parallel, the second
+// line's anchor is taken as a point (the lines' slide along each other then moves it along the
+// first line, which the distance ignores).
+double line_line_distance_acceleration(const MaterialMotion& L1, const MaterialMotion& L2, double fallback) {
+  const Vec3 c = L1.axis.cross(L2.axis);
+  const double k = c.norm();
+  if (k < 0.3) return point_line_distance_acceleration(L1, L2, fallback);
+  const Vec3 a1d = L1.w.cross(L1.axis), a2d = L2.w.cross(L2.axis);
+  const Vec3 a1dd = L1.alpha.cross(L1.axis) + L1.w.cross(a1d), a2dd = L2.alpha.cross(L2.axis) + L2.w.cross(a2d);
+  const Vec3 cd = a1d.cross(L2.axis) + L1.axis.cross(a2d);
+  const Vec3 cdd = a1dd.cross(L2.axis) + 2.0 * a1d.cross(a2d) + L1.axis.cross(a2dd);
+  const Vec3 sh = c / k;
+  const double kd = sh.dot(cd);
+  const Vec3 shd = (cd - sh * kd) / k;
+  const Vec3 shdd = (cdd - shd * kd - sh * (shd.dot(cd) + sh.dot(cdd))) / k - (cd - sh * kd) * kd / (k * k);
+  const Vec3 dx = L2.x - L1.x, dv = L2.v - L1.v, da = L2.a - L1.a;
+  const double sign = sh.dot(dx) >= 0 ? 1.0 : -1.0;
+  return sign * (shdd.dot(dx) + 2.0 * shd.dot(dv) + sh.dot(da));
 }
 
 // Patch point 5b: MuJoCo's contact rows constrain J qacc and leave the velocity product dJ/dt qvel
@@ -1262,8 +1309,12 @@ void patch_contact_references(const Scene& s, SceneData& sd) {
                                         capsule_abscissa(s, sd, g, p), nullptr, side[k]);
         kind[k] = Anchor::Line;
       } else {
-        const Vec3 x = contact_anchor(s.m, d, g, p, n, kind[k]);
+        Vec3 axis;
+        const Vec3 x = contact_anchor(s.m, d, g, p, n, kind[k], axis);
         known[k] = body_point_motion(s, sd, s.m->geom_bodyid[g], x, side[k]);
+        side[k].axis = axis;
+        // a curved surface's contact point is no material point: MuJoCo's rule for a rigid one
+        if (kind[k] == Anchor::Other && !side[k].riding) known[k] = false;
       }
       if (!known[k]) side[k] = MaterialMotion{}, side[k].x = p;  // MuJoCo's rule for that side
     }
@@ -1278,25 +1329,35 @@ void patch_contact_references(const Scene& s, SceneData& sd) {
     // (|dv|^2 - (u . dv)^2) / l; a sphere, or a line anchor (a rod or capsule along a face), on a
     // face keeps its anchor's distance from the face, whose normal turns with the face's body f:
     // 2 (w_f x n) . dv + (alpha_f x n + w_f x (w_f x n)) . dx (none on a face at rest: a floor's rows
-    // as before). A line anchor against a point or a line slides along its line, where its material
-    // point's turning would count the slide (crossed rods): n . da alone there. Until the forty-sixth
+    // as before). A line anchor against a point or a line keeps the distance between the straight
+    // lines along which the anchors slide (point_line_ and line_line_distance_acceleration: the
+    // rods' slide along each other no turning of the gap; outside probe BJ: their relative
+    // acceleration alone told a sphere pressing on the side of a rod turning with it to accelerate
+    // by omega^2 d). Curved shapes other than spheres keep MuJoCo's rule. Until the forty-sixth
     // session it was the soft side's term alone (outside probe BI: a rod on a turning table pressing
     // on a wall of the table sank 12.6 mm where the rigid rod sank 0.3 mm, MuJoCo's rows leaving out
     // both sides' centripetal terms, which cancel; a stiff rod's end passed 283 mm through the wall),
     // and a rope sliding over a fixed drum was told to keep its centre line from turning with the
     // drum's surface.
     double normal = n.dot(c.tail<3>());
-    if (known[0] && known[1]) {
+    if (known[0] && known[1] && kind[0] != Anchor::Other && kind[1] != Anchor::Other) {
       const Vec3 dx = side[1].x - side[0].x, dv = side[1].v - side[0].v;
+      const bool face0 = kind[0] == Anchor::Face, face1 = kind[1] == Anchor::Face;
       if (kind[0] == Anchor::Point && kind[1] == Anchor::Point) {
         const double l = dx.norm();
         if (l > 0) {
           const Vec3 u = dx / l;
           normal += (dv.squaredNorm() - u.dot(dv) * u.dot(dv)) / l;
         }
-      } else if ((kind[0] == Anchor::Face) != (kind[1] == Anchor::Face)) {
-        const MaterialMotion& f = kind[0] == Anchor::Face ? side[0] : side[1];  // the face's body
+      } else if (face0 != face1) {
+        const MaterialMotion& f = face0 ? side[0] : side[1];  // the face's body
         normal += 2 * f.w.cross(n).dot(dv) + (f.alpha.cross(n) + f.w.cross(f.w.cross(n))).dot(dx);
+      } else if (kind[0] == Anchor::Line && kind[1] == Anchor::Line) {
+        normal = line_line_distance_acceleration(side[0], side[1], normal);
+      } else if (kind[0] == Anchor::Line && kind[1] == Anchor::Point) {
+        normal = point_line_distance_acceleration(side[0], side[1], normal);
+      } else if (kind[0] == Anchor::Point && kind[1] == Anchor::Line) {
+        normal = point_line_distance_acceleration(side[1], side[0], normal);
       }
     }
     // contact-frame components: normal, tangents, then rotations about normal, t1, t2

@@ -306,6 +306,86 @@ TEST(Contact, ABallOnASoftRodPressingOnATurningWallReferencesTheGapsAcceleration
   EXPECT_NEAR(soft, control, 0.1 * control);
 }
 
+// The normal rows of contacts with a soft rod's side, against Richardson second differences of
+// MuJoCo's contact distances along q + t qvel (outside probe BJ): a sphere on a slide of a turning
+// table pressing on the side of a stiff rod lying on the table (point on a line, turning together:
+// the relative acceleration of the anchors, omega^2 d along the normal, is cancelled by the turning
+// of the line; it had been taken alone), and an ellipsoid spinning on two soft rails (a curved
+// surface whose contact point is no material point: MuJoCo's rule, nothing from the ellipsoid; it
+// had been taken as a face's material point, its centripetal term braking a rolling ellipsoid).
+TEST(Contact, RowsOnARodsSideReferenceTheGapsAcceleration) {
+  struct Case {
+    const char* name;
+    std::string xml;
+    std::vector<double> qvel;  // (empty: the table's motor only)
+    double largest_wrong;      // what a term left out or taken wrongly would add, m/s^2
+  };
+  const std::vector<Case> cases = {
+      {"sphere on a turning rod", R"(<mujoco><option gravity="0 0 0" cone="elliptic"><flag filterparent="disable"/></option><worldbody>
+        <body name="tt" pos="0 0 0.1"><joint name="spin" axis="0 0 1"/><inertial pos="0 0 0" mass="10" diaginertia="1 1 1"/>
+          <cosserat name="arm" length="0.4" sections="4" strain="kl" radius="0.008" density="1000" young="1e11"/>
+          <body name="bb" pos="0.25 0.057 0"><joint name="ys" type="slide" axis="0 1 0"/>
+            <geom name="ball" type="sphere" size="0.05" mass="0.2"/></body></body></worldbody></mujoco>)",
+       {}, 5.0},
+      {"ellipsoid spinning on rails", R"(<mujoco><option cone="elliptic"/><worldbody>
+        <body name="w" pos="-0.1 0 0.0475" euler="90 0 0"><freejoint/>
+          <geom name="e" condim="1" type="ellipsoid" size="0.05 0.05 0.03" mass="0.3"/></body>
+        <cosserat name="r1" pos="-0.2 0.025 0.0101" length="0.6" sections="6" strain="kl" radius="0.01" young="1e9" condim="1"/>
+        <cosserat name="r2" pos="-0.2 -0.025 0.0101" length="0.6" sections="6" strain="kl" radius="0.01" young="1e9" condim="1"/>
+        </worldbody></mujoco>)",
+       {0, 0, 0, 0, 0, -20}, 10.0},
+  };
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.name);
+    auto s = load_scene_string(c.xml, kPath);
+    SceneData sd(*s);
+    const mjModel* m = s->m;
+    if (c.qvel.empty()) sd.d->qvel[0] = 10.0;  // the table turning at 10 rad/s
+    for (size_t k = 0; k < c.qvel.size(); ++k) sd.d->qvel[k] = c.qvel[k];
+    forward(*s, sd);
+    ASSERT_GT(sd.d->ncon, 0);
+    const std::vector<mjtNum> ours(sd.d->efc_aref, sd.d->efc_aref + sd.d->nefc);
+    std::vector<mjContact> contacts(sd.d->contact, sd.d->contact + sd.d->ncon);
+    mj_referenceConstraint(m, sd.d);
+    const std::vector<mjtNum> mujocos(sd.d->efc_aref, sd.d->efc_aref + sd.d->nefc);
+    const std::vector<mjtNum> q0(sd.d->qpos, sd.d->qpos + m->nq), v(sd.d->qvel, sd.d->qvel + m->nv);
+    auto dists_at = [&](double t) {  // the same geom pairs' distances
+      SceneData sdt(*s);
+      mju_copy(sdt.d->qpos, q0.data(), m->nq);
+      mj_integratePos(m, sdt.d->qpos, v.data(), t);
+      mju_copy(sdt.d->qvel, v.data(), m->nv);
+      forward(*s, sdt);
+      std::vector<double> out;
+      for (const mjContact& con : contacts) {
+        double dist = std::nan("");
+        for (int i = 0; i < sdt.d->ncon; ++i)
+          if (sdt.d->contact[i].geom1 == con.geom1 && sdt.d->contact[i].geom2 == con.geom2) dist = sdt.d->contact[i].dist;
+        out.push_back(dist);
+      }
+      return out;
+    };
+    auto second = [&](double e) {
+      const auto p = dists_at(e), z = dists_at(0.0), n = dists_at(-e);
+      std::vector<double> out;
+      for (size_t i = 0; i < p.size(); ++i) out.push_back((p[i] - 2 * z[i] + n[i]) / (e * e));
+      return out;
+    };
+    const auto fine = second(5e-5), coarse = second(1e-4);
+    int checked = 0;
+    for (size_t i = 0; i < contacts.size(); ++i) {
+      const mjContact& con = contacts[i];
+      // a contact's distance is smooth where it stays on one capsule, away from the capsules' ends
+      if (!std::isfinite(fine[i]) || !std::isfinite(coarse[i]) || std::abs(fine[i] - coarse[i]) > 1e-3) continue;
+      const double gap = (4 * fine[i] - coarse[i]) / 3;  // (Richardson)
+      const int a = con.efc_address;
+      const double normal = mujocos[a] - ours[a];  // what the patch subtracts (elliptic: the normal row)
+      EXPECT_NEAR(normal, gap, 1e-3 * c.largest_wrong) << "contact " << i;
+      ++checked;
+    }
+    EXPECT_GT(checked, 0);
+  }
+}
+
 // `steps` implicit steps from sd's state (each must stay finite: a failure otherwise), after_step(k)
 // after step k; the start's energy and the largest one sampled every `every` steps.
 struct EnergyRange {
