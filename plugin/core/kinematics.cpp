@@ -476,7 +476,11 @@ PointMotion point_motion_at_rest_acceleration(const Model& m, const Data& d, int
   return point_motion(m, d, r, X, section, true);
 }
 
-Vec6 rod_twist(const Model& m, const Data& d, int r, double X) { return point_motion(m, d, r, X, -1, false).eta; }
+Vec6 rod_twist(const Model& m, const Data& d, int r, double X, SE3* pose) {
+  const PointMotion pm = point_motion(m, d, r, X, -1, false);
+  if (pose) *pose = pm.pose;
+  return pm.eta;
+}
 
 SE3 rod_pose_and_jacobian(const Model& m, const Data& d, int r, double X, int section, Mat6X& J, SE3* g_start_X) {
   Mat6X& G = tl_scratch.G_pose;

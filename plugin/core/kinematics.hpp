@@ -67,8 +67,8 @@ PointMotion point_motion_at_rest_acceleration(const Model& m, const Data& d, int
 // Twist [angular; linear] of the cross-section of rod r at X (the material frame rod_pose gives),
 // in that frame: the base's twist carried along the rod plus the strain rates' share. After
 // fwd_velocity. X as rod_pose's (clamped to [0, L]; on a boundary, the earlier section's point,
-// the same frame).
-Vec6 rod_twist(const Model& m, const Data& d, int rod, double X);
+// the same frame). With `pose`, the cross-section's pose too (rod_pose's, from the same partial step).
+Vec6 rod_twist(const Model& m, const Data& d, int rod, double X, SE3* pose = nullptr);
 
 // Strain xi(X) = Phi(X) q + xi* of rod r.
 Vec6 rod_strain(const Model& m, const Data& d, int rod, double X);

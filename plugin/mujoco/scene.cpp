@@ -884,9 +884,8 @@ bool rod_contacts(const Scene& s, const mjData* d) {
 // one crossed with the offset to p and the offset's centripetal term (a contact takes the
 // centre-line point itself, p on the centre line: contact_anchor). World axes: angular, then
 // linear. After patch_bias.
-Vec6 riding_point_velocity_product(const Scene& s, const SceneData& sd, int r, int si, double X, const Vec3& p) {
-  const mjModel* m = s.m;
-  const cosserat::PointMotion pm = cosserat::point_motion_at_rest_acceleration(s.rods[r].model, sd.rod[r], 0, X, si);
+// From the cross-section's motion pm (cosserat::point_motion_at_rest_acceleration).
+Vec6 riding_point_velocity_product(const mjModel* m, const cosserat::PointMotion& pm, const Vec3& p) {
   const Mat3& R = pm.pose.R;
   const Vec3 w = pm.eta.head<3>(), v = pm.eta.tail<3>();
   Vec6 c;
@@ -897,6 +896,11 @@ Vec6 riding_point_velocity_product(const Scene& s, const SceneData& sd, int r, i
   c.tail<3>() = R * (pm.acc.tail<3>() + w.cross(v)) + c.head<3>().cross(offset) + ww.cross(ww.cross(offset));
   if (!(m->opt.disableflags & mjDSBL_GRAVITY)) c.tail<3>() += Vec3(m->opt.gravity[0], m->opt.gravity[1], m->opt.gravity[2]);
   return c;
+}
+
+Vec6 riding_point_velocity_product(const Scene& s, const SceneData& sd, int r, int si, double X, const Vec3& p) {
+  return riding_point_velocity_product(
+      s.m, cosserat::point_motion_at_rest_acceleration(s.rods[r].model, sd.rod[r], 0, X, si), p);
 }
 
 // The cross-section a point fixed to body b rides with, when that is one of a section with strain
@@ -1145,21 +1149,27 @@ struct MaterialMotion {
   bool riding = false;
 };
 
-// The point of rod r's soft section si on the cross-section at X, at x (the centre-line point when
-// x is null). False on a section without strain dofs.
-bool section_point_motion(const Scene& s, const SceneData& sd, int r, int si, double X, const Vec3* x,
-                          MaterialMotion& k) {
-  if (s.rods[r].model.sections[si].ndof == 0) return false;
-  const cosserat::PointMotion pm = cosserat::point_motion_at_rest_acceleration(s.rods[r].model, sd.rod[r], 0, X, si);
+// The point x riding with the cross-section whose motion is pm (x null: its centre-line point).
+MaterialMotion riding_material_motion(const mjModel* m, const cosserat::PointMotion& pm, const Vec3* x) {
   const Mat3& R = pm.pose.R;
+  MaterialMotion k;
   k.x = x ? *x : pm.pose.u;
-  const Vec6 c = riding_point_velocity_product(s, sd, r, si, X, k.x);
+  const Vec6 c = riding_point_velocity_product(m, pm, k.x);
   k.a = c.tail<3>();
   k.alpha = c.head<3>();
   k.w = R * pm.eta.head<3>();
   k.v = R * (pm.eta.tail<3>() + pm.eta.head<3>().cross(R.transpose() * (k.x - pm.pose.u)));
   k.axis = R.col(0);  // the centre line's tangent
   k.riding = true;
+  return k;
+}
+
+// The point of rod r's soft section si on the cross-section at X, at x (the centre-line point when
+// x is null). False on a section without strain dofs.
+bool section_point_motion(const Scene& s, const SceneData& sd, int r, int si, double X, const Vec3* x,
+                          MaterialMotion& k) {
+  if (s.rods[r].model.sections[si].ndof == 0) return false;
+  k = riding_material_motion(s.m, cosserat::point_motion_at_rest_acceleration(s.rods[r].model, sd.rod[r], 0, X, si), x);
   return true;
 }
 
@@ -1180,22 +1190,19 @@ bool body_point_motion(const Scene& s, const SceneData& sd, int b, const Vec3& x
     k.v = Vec3(d->cvel + 6 * b + 3) + k.w.cross(x - com);
   };
   if (s.riding_rod[b] >= 0) {
+    if (s.riding_dof[b] < 0) {  // fixed to the cross-section it rides with
+      int r = -1, si = -1;
+      double X = 0.0;
+      if (!riding_frame(s, b, r, si, X)) return false;
+      k = riding_material_motion(m, cosserat::point_motion_at_rest_acceleration(s.rods[r].model, sd.rod[r], 0, X, si), &x);
+      return true;
+    }
     Vec6 c;
     if (!riding_body_velocity_product(s, sd, b, x, c)) return false;
     k.a = c.tail<3>();
     k.alpha = c.head<3>();
     k.riding = true;
-    if (s.riding_dof[b] >= 0) {
-      from_cvel();
-      return true;
-    }
-    int r = -1, si = -1;
-    double X = 0.0;
-    riding_frame(s, b, r, si, X);
-    const cosserat::PointMotion pm = cosserat::point_motion_at_rest_acceleration(s.rods[r].model, sd.rod[r], 0, X, si);
-    const Mat3& R = pm.pose.R;
-    k.w = R * pm.eta.head<3>();
-    k.v = R * (pm.eta.tail<3>() + pm.eta.head<3>().cross(R.transpose() * (x - pm.pose.u)));
+    from_cvel();
     return true;
   }
   if (moved_by_rod(s, b)) return false;
@@ -1667,16 +1674,9 @@ TendonProduct tendon_sites_velocity_product(const Scene& s, const SceneData& sd,
   const mjData* d = sd.d;
   TendonProduct out;
   tendon_site_points(m, d, t, [&](int site, const Vec3& p, const Vec3& grad) {
-    const int r = s.site_rod[site];
-    Vec6 cp;
-    if (r >= 0) {  // a rod site: its cross-section
-      const int si = s.site_section[site];
-      if (s.rods[r].model.sections[si].ndof == 0) return;
-      cp = riding_point_velocity_product(s, sd, r, si, s.rods[r].decl.sites[s.site_index[site]].X, p);
-    } else if (!riding_body_velocity_product(s, sd, m->site_bodyid[site], p, cp)) {  // a site riding with a soft rod
-      return;
-    }
-    out.c += grad.dot(cp.tail<3>());
+    MaterialMotion k;
+    if (!site_motion(s, sd, site, p, k) || !k.riding) return;
+    out.c += grad.dot(k.a);
     out.riding = true;
   });
   return out;
@@ -1726,7 +1726,6 @@ TendonProduct tendon_velocity_product(const Scene& s, const SceneData& sd, int t
   }
   return tendon_sites_velocity_product(s, sd, t);
 }
-
 
 // Patch point 5d: tendon limits and tendon equalities through sites on soft rods get their
 // tendons' velocity products (tendon_velocity_product) in their reference accelerations, as the
@@ -4213,11 +4212,11 @@ Vec6 rod_frame_velocity(const Scene& s, const SceneData& sd, int r, double X) {
   check_rod(s, sd, r);
   const cosserat::Model& model = s.rods[r].model;
   const cosserat::Data& rd = sd.rod[r];
-  const Mat3 R = rod_pose(model, rd, 0, X).R;
-  const Vec6 eta = rod_twist(model, rd, 0, X);  // in the cross-section's frame
+  SE3 pose;
+  const Vec6 eta = rod_twist(model, rd, 0, X, &pose);  // in the cross-section's frame
   Vec6 w;
-  w.head<3>() = R * eta.head<3>();
-  w.tail<3>() = R * eta.tail<3>();
+  w.head<3>() = pose.R * eta.head<3>();
+  w.tail<3>() = pose.R * eta.tail<3>();
   return w;
 }
 
