@@ -393,6 +393,11 @@ void check_section_scales(const Reader& r, const SectionSpec& s, double r_min, s
       warnings.push_back(where(r) + "density " + fmt(s.material.density) +
                          " kg/m^3 is outside the densities of real solids (about 1 for aerogels to 2.3e4 for "
                          "osmium): check the units (kg/m^3)");
+    else if (s.material.density < 50)  // (outside probe BL: silicone's 1.1 g/cm^3 loaded without a word)
+      warnings.push_back(where(r) + "density " + fmt(s.material.density) +
+                         " kg/m^3 is lighter than any solid but aerogels and the lightest foams (water 1000, "
+                         "silicone about 1100): check the units (kg/m^3; " + fmt(s.material.density) +
+                         " g/cm^3 is " + fmt(1e3 * s.material.density) + " kg/m^3)");
   }
   if (rod || r.has("young")) {
     r.check(s.material.young * I >= kTiny, "young",
@@ -402,6 +407,10 @@ void check_section_scales(const Reader& r, const SectionSpec& s, double r_min, s
       warnings.push_back(where(r) + "young " + fmt(s.material.young) +
                          " Pa is outside the moduli of real materials (about 10 Pa for the softest gels to 1.2e12 Pa "
                          "for diamond): check the units (Pa)");
+    else if (s.material.young < 100)  // (outside probe BL: a silicone's 1 MPa as young="1" loaded quietly)
+      warnings.push_back(where(r) + "young " + fmt(s.material.young) +
+                         " Pa is softer than all but the softest gels (silicones and rubbers 1e5 to 1e8 Pa): check "
+                         "the units (Pa; " + fmt(s.material.young) + " MPa is " + fmt(1e6 * s.material.young) + " Pa)");
   }
   if (r.has("shear")) {
     r.check(s.material.shear * I >= kTiny, "shear",
