@@ -2788,8 +2788,14 @@ bool add_outer_in_tree(const mjModel* m, mjtNum* A, const mjtNum* u, double c, s
 // cone's) stay out. Without these terms a wire of short sections lying on a floor split every step
 // (outside probe AA: 300 corrections and 15 splits per 1 ms step under trapezoidal, midpoint and
 // genalpha; now 27 and 1).
+// Which active rows add_constraint_terms freezes with the matrix: every row in MuJoCo's quadratic
+// state, the equality rows only, or every row and, should one tie two branches of the tree, the
+// equality rows only.
+enum class FrozenRows { All, Equalities, AllElseEqualities };
+
 void add_constraint_terms(const mjModel* m, const char* strain, SceneData& sd, mjtNum* A, double hD, double hK,
-                          bool equalities_only = false) {
+                          FrozenRows which = FrozenRows::All) {
+  const bool equalities_only = which == FrozenRows::Equalities;
   const mjData* d = sd.d;
   const int nv = m->nv;
   const bool sparse = mj_isSparse(m);
@@ -2836,6 +2842,7 @@ void add_constraint_terms(const mjModel* m, const char* strain, SceneData& sd, m
       for (int k = d->efc_J_rowadr[i]; k < d->efc_J_rowadr[i] + d->efc_J_rownnz[i]; ++k) row[d->efc_J_colind[k]] = 0.0;
     if (across) {  // a row across two branches: the terms would be partial, none are taken
       sd.frozen_D.clear();
+      if (which == FrozenRows::AllElseEqualities) add_constraint_terms(m, strain, sd, A, hD, hK, FrozenRows::Equalities);
       return;
     }
   }
@@ -2989,7 +2996,11 @@ void factor_implicit(const Scene& s, SceneData& sd, bool rods, double cD, double
         }
   add_fluid_damping(s, sd, hD, A);  // fluid hook: + cD h D_f (no-op without the fluid)
   sd.frozen_D.clear();
-  if (constraints || equalities) add_constraint_terms(m, s.dof_strain.data(), sd, A, hD, hK, !constraints);
+  if (constraints || equalities)
+    add_constraint_terms(m, s.dof_strain.data(), sd, A, hD, hK,
+                         !constraints ? FrozenRows::Equalities
+                         : equalities ? FrozenRows::AllElseEqualities
+                                      : FrozenRows::All);
   factor_ldl(m, d, A, A, sd.A_LDiagInv.data(), s.dof_strain.data());  // (factor_mass: the rods keep their pivots)
   factor_woodbury(m, sd);
 }
@@ -3123,7 +3134,11 @@ void filter_activations(const Scene& s, SceneData& sd, const mjtNum* act0, const
 //   A a = M qacc - theta h K v,   q+ = q + h (v + theta h a),  v+ = v + h a.
 // theta = 1 (Implicit) is linearised backward Euler; theta = 1/2 (Trapezoidal) the trapezoidal rule
 // on the same linearisation: no numerical damping of the linear modes.
-void implicit_step(const Scene& s, SceneData& sd, bool rods = true, double theta = 1.0) {
+// contacts: the active contact rows too, as the linearised `implicit` and `trapezoidal --newton 0`
+// steps take them (not the Newton schemes' event steps and first iterates, whose contacts change
+// within the step: the pushed rod's stopping distance under `midpoint` went from within 0.3% of
+// Coulomb's to 1-3% long with them)
+void implicit_step(const Scene& s, SceneData& sd, bool rods = true, double theta = 1.0, bool contacts = false) {
   const mjModel* m = s.m;
   mjData* d = sd.d;
   const int nv = m->nv;
@@ -3134,13 +3149,17 @@ void implicit_step(const Scene& s, SceneData& sd, bool rods = true, double theta
     mju_copy(sd.qacc_tmp.data(), d->qfrc_smooth, nv);
   else
     mj_mulM(m, d, sd.qacc_tmp.data(), d->qacc);
-  const bool equalities = rods && d->ne > 0 && !smooth_only(sd);
-  factor_implicit(s, sd, rods, theta, theta * theta, false, equalities);
+  // the active rows on rods (equalities; with `contacts` every row in MuJoCo's quadratic state),
+  // implicit as the Newton schemes' matrix takes them: their force at the step's end, linearised,
+  // -D (J a + B J v+ + K I r+), less the start's, leaves D J'(J a0) - theta h D K I J'(J v) on the
+  // right-hand side. Contacts since the forty-seventh session (outside probe BM: torsional friction
+  // at a soft rod's end, its force from MuJoCo's solve against M alone, let the end turn 2 rad on
+  // the floor under 16% of mu_t N where the rod's native twin turned 0.008 rad); where a row ties
+  // two branches of the tree (an arm pressing a free object) the equality rows alone.
+  const bool rows = rods && !smooth_only(sd) && (contacts ? d->nefc > 0 : d->ne > 0);
+  factor_implicit(s, sd, rods, theta, theta * theta, rows && contacts, rows);
   if (rods) subtract_stiffness(s, sd, th, d->qvel, sd.qacc_tmp.data());
-  // the equality rows on rods, implicit as the Newton schemes' matrix takes them: their force at the
-  // step's end, linearised, -D (J a + B J v+ + K I r+), less the start's, leaves
-  // D J'(J a0) - theta h D K I J'(J v) on the right-hand side
-  if (equalities) {
+  if (rows) {
     add_constraint_mass(sd, d->qacc, sd.qacc_tmp.data());
     add_frozen_rows(sd, sd.frozen_kI, d->qvel, sd.qacc_tmp.data(), -th);
   }
@@ -3767,12 +3786,12 @@ bool single_step(const Scene& s, SceneData& sd, Integrator method) {
         return true;
       }
       forward(s, sd, Need::Forces);
-      implicit_step(s, sd);
+      implicit_step(s, sd, true, 1.0, true);
       return true;
     case Integrator::Trapezoidal:
       if (n > 0) return newton_step(s, sd, trapezoidal_rule(), n) || n == 1;
       forward(s, sd, Need::Forces);
-      implicit_step(s, sd, true, 0.5);
+      implicit_step(s, sd, true, 0.5, true);
       return true;
     case Integrator::GeneralizedAlpha: return newton_step(s, sd, generalized_alpha(s.rho_inf), std::max(1, n)) || n <= 1;
     case Integrator::Midpoint: return midpoint_step(s, sd, std::max(1, n)) || n <= 1;
