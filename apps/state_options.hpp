@@ -17,7 +17,8 @@ namespace cosserat::cli {
 // Keyframe `key` (name or index; empty: none) and then the controls `ctrl` (nu numbers separated by
 // commas; empty: none) into d. Controls of magnitude 1e10 or more are refused: MuJoCo 2.2.2 sets
 // such a control to 0 with only a warning (mjMAXVAL), so the run would silently ignore it. A
-// control outside a limited actuator's ctrlrange is kept (MuJoCo clamps it) with a warning.
+// control outside a limited actuator's ctrlrange, given or from the keyframe, is kept (MuJoCo
+// clamps it unless the model disables clampctrl) with a warning.
 inline void apply_key_and_ctrl(const mjModel* m, mjData* d, const std::string& key, const std::string& ctrl) {
   if (!key.empty()) {
     int id = mj_name2id(m, mjOBJ_KEY, key.c_str());
@@ -34,17 +35,21 @@ inline void apply_key_and_ctrl(const mjModel* m, mjData* d, const std::string& k
     }
     if (static_cast<int>(u.size()) != m->nu)
       fail("--ctrl: " + std::to_string(u.size()) + " values for " + std::to_string(m->nu) + " actuators");
-    for (int i = 0; i < m->nu; ++i) {  // MuJoCo clamps a limited control: say so
-      const double lo = m->actuator_ctrlrange[2 * i], hi = m->actuator_ctrlrange[2 * i + 1];
-      if (!m->actuator_ctrllimited[i] || (u[i] >= lo && u[i] <= hi)) continue;
-      const char* name = mj_id2name(m, mjOBJ_ACTUATOR, i);
-      char label[128];
-      if (name) std::snprintf(label, sizeof label, "'%s'", name);
-      else std::snprintf(label, sizeof label, "%d", i);
-      std::fprintf(stderr, "warning: --ctrl: %g for actuator %s is outside its ctrlrange [%g, %g]: MuJoCo clamps it to %g\n",
-                   u[i], label, lo, hi, std::clamp(u[i], lo, hi));
-    }
     std::copy(u.begin(), u.end(), d->ctrl);
+  }
+  // MuJoCo clamps a limited control, unless <flag clampctrl="disable"/>: say so, of the keyframe's
+  // controls too (outside probe BM: the warning had claimed a clamp the flag turned off, and a
+  // keyframe's control out of range went without one)
+  if (m->opt.disableflags & mjDSBL_CLAMPCTRL || (key.empty() && ctrl.empty())) return;
+  for (int i = 0; i < m->nu; ++i) {
+    const double lo = m->actuator_ctrlrange[2 * i], hi = m->actuator_ctrlrange[2 * i + 1], u = d->ctrl[i];
+    if (!m->actuator_ctrllimited[i] || (u >= lo && u <= hi)) continue;
+    const char* name = mj_id2name(m, mjOBJ_ACTUATOR, i);
+    char label[128];
+    if (name) std::snprintf(label, sizeof label, "'%s'", name);
+    else std::snprintf(label, sizeof label, "%d", i);
+    std::fprintf(stderr, "warning: %s: %g for actuator %s is outside its ctrlrange [%g, %g]: MuJoCo clamps it to %g\n",
+                 ctrl.empty() ? ("keyframe '" + key + "'").c_str() : "--ctrl", u, label, lo, hi, std::clamp(u, lo, hi));
   }
 }
 

@@ -848,6 +848,24 @@ TEST_F(Cli, ControlsOutsideTheirRangeAreClampedWithAWarning) {
   ASSERT_EQ(within.status, 0) << within.err;
   EXPECT_EQ(within.err.find("warning"), std::string::npos) << within.err;
   EXPECT_EQ(json::parse(read_text(out))["sites"], json::parse(read_text(ref))["sites"]);
+  // a keyframe's control out of range is warned about as well; under <flag clampctrl="disable"/>
+  // MuJoCo keeps the control as given, and no warning claims a clamp (outside probe BM)
+  const fs::path keyed = scratch() / "motor_key.xml", unclamped = scratch() / "motor_unclamped.xml";
+  std::string xml = read_text(m);
+  std::ofstream(keyed) << xml.replace(xml.find("</mujoco>"), 9, R"(<keyframe><key name="k" ctrl="3"/></keyframe></mujoco>)");
+  const Result key = cosserat("run '" + keyed.string() + "' --key k --duration 0.01");
+  ASSERT_EQ(key.status, 0) << key.err;
+  EXPECT_NE(key.err.find("warning: keyframe 'k': 3 for actuator 'm' is outside its ctrlrange [-1, 1]: MuJoCo clamps it to 1"),
+            std::string::npos) << key.err;
+  std::ofstream(unclamped) << xml.replace(xml.find("<worldbody>"), 11, R"(<option><flag clampctrl="disable"/></option><worldbody>)");
+  const fs::path free_out = scratch() / "unclamped.json";
+  for (const char* options : {"--key k", "--ctrl 3"}) {
+    const Result r3 = cosserat("equilibrium '" + unclamped.string() + "' " + options + " --json '" + free_out.string() + "'");
+    ASSERT_EQ(r3.status, 0) << r3.err;
+    EXPECT_EQ(r3.err.find("warning"), std::string::npos) << r3.err;
+    // the motor's 3 N m against the spring's 2 N m/rad: the arm turns further than at 1
+    EXPECT_NE(json::parse(read_text(free_out))["sites"], json::parse(read_text(ref))["sites"]);
+  }
 }
 
 TEST_F(Cli, EquilibriumRefusesFreeBodies) {
