@@ -827,6 +827,7 @@ void patch_contact_distances(const Scene& s, SceneData& sd) {
   const mjModel* m = s.m;
   mjData* d = sd.d;
   int kept = 0;  // contacts kept, compacted in place
+  const bool override_margin = (m->opt.enableflags & mjENBL_OVERRIDE) && !s.sagging_geoms.empty();
   for (int i = 0; i < d->ncon; ++i) {
     mjContact con = d->contact[i];
     const Vec3 n(con.frame[0], con.frame[1], con.frame[2]), p(con.pos[0], con.pos[1], con.pos[2]);
@@ -854,16 +855,21 @@ void patch_contact_distances(const Scene& s, SceneData& sd) {
       const Vec3 centre = cosserat::rod_pose(rb.model, sd.rod[r], 0, c.abscissa(rb.decl.geoms[k], p)).u;
       con.dist += sign * n.dot(centre - measured);
     }
-    if (!sagging || con.exclude > 1) {
+    if ((!sagging && !override_margin) || con.exclude > 1) {
       d->contact[kept++] = con;
       continue;
     }
     const int pair = geom_pair(s, con.geom1, con.geom2);  // an explicit <pair> sets its own margin and gap
-    const double user_margin = pair >= 0 ? s.pair_margin0[pair] : std::max(margin[0], margin[1]);
+    // (MuJoCo's margin is o_margin under <flag override>, widened by widen_contact_margins for every
+    // contact: each is put back at the user's)
+    const double user_margin = override_margin ? s.o_margin0
+                               : pair >= 0     ? s.pair_margin0[pair]
+                                               : std::max(margin[0], margin[1]);
     // found only through the widened margin, beyond the user's: no contact (an adhesion actuator
     // counts the contacts in a gap, MuJoCo's excluded ones)
     if (con.dist >= user_margin) continue;
-    if (pair < 0) con.includemargin = user_margin - std::max(gap[0], gap[1]);
+    if (pair < 0 || override_margin)
+      con.includemargin = user_margin - (pair >= 0 ? s.pair_gap0[pair] : std::max(gap[0], gap[1]));
     con.exclude = con.dist < con.includemargin ? 0 : 1;
     d->contact[kept++] = con;
   }
@@ -1106,6 +1112,7 @@ void setup_sagging_contacts(Scene& s) {
   const mjModel* m = s.m;
   std::vector<char> sagging(m->ngeom, 0);
   for (const int g : s.sagging_geoms) sagging[g] = 1;
+  s.o_margin0 = m->opt.o_margin;
   s.pair_margin0.assign(m->pair_margin, m->pair_margin + m->npair);
   s.pair_gap0.assign(m->pair_gap, m->pair_gap + m->npair);
   for (int p = 0; p < m->npair; ++p) {
@@ -1995,6 +2002,14 @@ void widen_contact_margins(const Scene& s, const SceneData& sd) {
     const double sag = sd.geom_sag[m->pair_geom1[p]] + sd.geom_sag[m->pair_geom2[p]];
     m->pair_margin[p] = s.pair_margin0[p] + sag;
     m->pair_gap[p] = s.pair_gap0[p] + sag;
+  }
+  // under <flag override="enable"/> MuJoCo takes o_margin for every contact's margin: widened by
+  // the largest sag, patch_contact_distances puts every contact back at o_margin (outside probe BM:
+  // a soft rod with o_margin 5 mm rested at no margin)
+  if (m->opt.enableflags & mjENBL_OVERRIDE) {
+    double widest = 0.0;
+    for (const int g : s.sagging_geoms) widest = std::max(widest, sd.geom_sag[g]);
+    m->opt.o_margin = s.o_margin0 + widest + largest;
   }
 }
 

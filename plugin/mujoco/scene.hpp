@@ -136,6 +136,7 @@ struct Scene {
   // and those pairs' own margins and gaps (set at load)
   std::vector<int> sagging_geoms, sagging_pairs;
   std::vector<double> pair_margin0, pair_gap0;
+  double o_margin0 = 0.0;  // <option o_margin> as loaded (MuJoCo's margin of every contact under <flag override>)
   // whether two sagging capsules of different bodies can meet (their filters, or a pair): MuJoCo
   // takes the larger of two geoms' margins, so each capsule's then carries the largest sag of the
   // step besides its own (widen_contact_margins)
