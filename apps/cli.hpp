@@ -28,6 +28,36 @@ struct Failure : std::runtime_error {
 
 [[noreturn]] inline void fail(const std::string& msg) { throw Failure(msg); }
 
+// The directories this command created for its outputs, outermost first: a failed command removes
+// those still empty (outside probe BL: a render refused for an unknown camera left its --out
+// directory behind, empty).
+inline std::vector<std::filesystem::path>& created_directories() {
+  static std::vector<std::filesystem::path> dirs;
+  return dirs;
+}
+
+// create_directories(dir), recording the directories it made in created_directories().
+inline void create_output_directories(const std::filesystem::path& dir, std::error_code& ec) {
+  std::vector<std::filesystem::path> missing;
+  std::error_code probe;
+  for (std::filesystem::path p = dir; !p.empty() && !std::filesystem::exists(p, probe); p = p.parent_path()) {
+    missing.push_back(p);
+    if (p == p.parent_path()) break;
+  }
+  std::filesystem::create_directories(dir, ec);
+  for (auto it = missing.rbegin(); it != missing.rend(); ++it)
+    if (std::filesystem::is_directory(*it, probe)) created_directories().push_back(*it);
+}
+
+// After a failure: removes the directories the command created and left empty, innermost first.
+inline void remove_empty_created_directories() {
+  auto& dirs = created_directories();
+  std::error_code ec;
+  for (auto it = dirs.rbegin(); it != dirs.rend(); ++it)
+    if (std::filesystem::is_directory(*it, ec) && std::filesystem::is_empty(*it, ec)) std::filesystem::remove(*it, ec);
+  dirs.clear();
+}
+
 // Fails at once if `path` (an output named by `option`) cannot be written, so that a long run does
 // not end to find that out. Creates its directory; leaves an existing file as it is and no new
 // file behind.
@@ -40,7 +70,7 @@ inline void check_writable(const std::string& option, const std::string& path) {
   if (std::filesystem::is_fifo(path, ec)) return;
   const std::filesystem::path dir = std::filesystem::path(path).parent_path();
   std::error_code dir_ec;  // why the directory could not be made, if it could not
-  if (!dir.empty()) std::filesystem::create_directories(dir, dir_ec);
+  if (!dir.empty()) create_output_directories(dir, dir_ec);
   {
     std::ofstream f(path, std::ios::app);
     if (!f) fail(option + ": cannot write " + path + (dir_ec ? " (" + dir_ec.message() + ")" : ""));

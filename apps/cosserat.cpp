@@ -97,9 +97,19 @@ std::ofstream open_output(const std::string& path) {
   return f;
 }
 
-// Writes j to path ('-': stdout). A write that fails, also at the final flush (a full disk: a small
-// report sits in the stream's buffer until then), is a failure naming the path and the reason.
-void write_json(const std::string& path, const json& j) {
+// The command line after the program's name (dispatch): each JSON report starts with it, so that
+// reports of runs with other options can be told apart (outside probe BL).
+std::vector<std::string>& command_line() {
+  static std::vector<std::string> args;
+  return args;
+}
+
+// Writes j to path ('-': stdout), after a "command" entry with the command line. A write that
+// fails, also at the final flush (a full disk: a small report sits in the stream's buffer until
+// then), is a failure naming the path and the reason.
+void write_json(const std::string& path, const json& report) {
+  json j = {{"command", command_line()}};
+  j.update(report);
   if (path == "-") {
     std::cout << j.dump(2) << "\n";
     if (!std::cout.flush()) fail("--json: cannot write stdout");
@@ -1486,8 +1496,21 @@ int dispatch(int argc, char** argv) {
     return 1;
   }
   const std::string cmd = argv[1];
+  command_line().assign(argv + 1, argv + argc);
+  if (cmd == "help" && argc > 2)  // `cosserat help run` is `cosserat run --help`
+    for (const auto& c : kCommands)
+      if (argv[2] == std::string(c.name)) {
+        char help[] = "--help";
+        char* args[] = {argv[2], help, nullptr};
+        return c.run(1, args + 1);
+      }
   if (cmd == "--help" || cmd == "-h" || cmd == "help") {
     std::cout << usage();
+    return 0;
+  }
+  if (cmd == "--version" || cmd == "version") {
+    std::printf("cosserat %s (MuJoCo %d.%d.%d)\n", COSSERAT_VERSION, mj_version() / 100, mj_version() / 10 % 10,
+                mj_version() % 10);
     return 0;
   }
   for (const auto& c : kCommands)
@@ -1513,11 +1536,13 @@ int main(int argc, char** argv) {
     // disk, a closed pipe) is a failed command, not a silent loss
     std::cout.flush();
     if (std::fflush(stdout) != 0 || std::ferror(stdout) || !std::cout) fail("cannot write stdout");
+    if (status != 0) remove_empty_created_directories();
     return status;
   } catch (const mj::LoadError& e) {
     std::cerr << one_line(e.what()) << "\n";
   } catch (const std::exception& e) {  // Failure and anything unexpected
     std::cerr << "cosserat: " << one_line(e.what()) << "\n";
   }
+  remove_empty_created_directories();
   return 1;
 }

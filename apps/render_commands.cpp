@@ -315,7 +315,7 @@ int render_command(int argc, char** argv) {
     // the frames' directory before the model is loaded (outside probe BB: a bad model was reported
     // before a bad --out, unlike the other commands)
     std::error_code ec;
-    fs::create_directories(o.out, ec);
+    create_output_directories(o.out, ec);
     if (!fs::is_directory(o.out)) fail("--out: cannot create directory " + o.out + (ec ? " (" + ec.message() + ")" : ""));
     check_writable("--out", rd::frame_path(o.out, 0));
     Simulation sim((*pos)[0], o);

@@ -151,6 +151,31 @@ TEST_F(Cli, EveryCommandHasHelp) {
   }
 }
 
+// `cosserat help COMMAND` is COMMAND's --help, `--version` names MuJoCo's; a failed command leaves no
+// directory it created for its outputs (outside probe BL: a render refused for an unknown camera,
+// a run for a bad --ctrl, had left them behind, empty), a successful one keeps them.
+TEST_F(Cli, HelpVersionAndTheDirectoriesOfFailedCommands) {
+  for (const char* c : {"run", "render"})
+    EXPECT_EQ(cosserat(std::string("help ") + c).out, cosserat(std::string(c) + " --help").out) << c;
+  const Result v = cosserat("--version");
+  EXPECT_EQ(v.status, 0);
+  EXPECT_NE(v.out.find("(MuJoCo 2.2.2)"), std::string::npos) << v.out;
+  const fs::path made = scratch() / "made";
+  const Result bad_camera = cosserat("render '" + kCantilever + "' --camera nosuch --out '" + (made / "frames").string() + "'");
+  EXPECT_EQ(bad_camera.status, 1);
+  EXPECT_FALSE(fs::exists(made)) << bad_camera.err;
+  const Result bad_ctrl = cosserat("run '" + kCantilever + "' --ctrl 1,2,3 --json '" + (made / "a" / "r.json").string() + "'");
+  EXPECT_EQ(bad_ctrl.status, 1);
+  EXPECT_FALSE(fs::exists(made)) << bad_ctrl.err;
+  const Result good = cosserat("run '" + kCantilever + "' --duration 0.01 --json '" + (made / "a" / "r.json").string() + "'");
+  EXPECT_EQ(good.status, 0) << good.err;
+  EXPECT_TRUE(fs::exists(made / "a" / "r.json"));
+  // (a directory that was there stays, empty or not)
+  fs::create_directories(made / "empty");
+  EXPECT_EQ(cosserat("run '" + kCantilever + "' --ctrl 1,2,3 --json '" + (made / "empty" / "r.json").string() + "'").status, 1);
+  EXPECT_TRUE(fs::is_directory(made / "empty"));
+}
+
 TEST_F(Cli, RunWritesCsvWithExactHeaderAndRows) {
   const fs::path csv = scratch() / "run.csv";
   const Result r = cosserat("run '" + kCantilever + "' --duration 0.05 --every 10 --csv '" + csv.string() + "'");
@@ -328,6 +353,10 @@ TEST_F(Cli, RunJsonHasRequiredKeys) {
   for (const char* k : {"steps", "sim_time", "wall_time", "energy", "sites", "bodies", "diverged", "warnings"})
     EXPECT_TRUE(j.contains(k)) << k;
   for (const char* k : {"initial", "final", "max_rel_drift"}) EXPECT_TRUE(j["energy"].contains(k)) << k;
+  // the command line, so that reports of runs with other options can be told apart (outside probe BL)
+  ASSERT_TRUE(j.contains("command"));
+  EXPECT_EQ(j["command"][0], "run");
+  EXPECT_EQ(j["command"][3], "0.01");
   EXPECT_EQ(j["steps"], 100);
   EXPECT_NEAR(j["sim_time"].get<double>(), 0.01, 1e-12);
   EXPECT_EQ(j["diverged"], false);
