@@ -571,7 +571,7 @@ int cmd_run(int argc, char** argv) {
   int every = 0;  // 0: the default, set once the run's length is known
   CommandLine cl{"run", "simulate a model from its initial state", {"MODEL.xml"}, {}, ""};
   sim.add_to(cl);
-  state.add_to(cl);
+  state.add_to(cl, true);
   cl.options.push_back(text_option("--csv", "F", "write time,energy,<name>.x,<name>.y,<name>.z,... (sites, then bodies; '-': stdout)", csv));
   cl.options.push_back(int_option("--every", "N",
                                   "CSV rows and energy samples every N steps (steps 0, N, 2N, ... and the last; default: "

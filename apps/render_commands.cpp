@@ -83,7 +83,7 @@ struct PictureOptions {
     c.options.push_back(int_option("--rod-segments", "N", "rings drawn along each rod's tube, evenly spaced (default: adaptive to its bending)", r.rods.segments, 1));
     c.options.push_back({"--no-shadows", "", "do not draw shadows", [&r](const std::string&) { r.shadows = false; }});
     c.options.push_back(int_option("--samples", "N", "multisampling per pixel (default: the model's offsamples)", r.samples, 0));
-    state.add_to(c);
+    state.add_to(c, true);
     c.options.push_back(positive_option("--timestep", "h", "time step [s] (default: the model's <option timestep>)", timestep));
     c.options.push_back(text_option("--integrator", "NAME", "euler | implicit | trapezoidal | genalpha | midpoint | rk4 | rosenbrock (default: implicit with rods, euler without; see 'cosserat run --help')", integrator));
     c.options.push_back(optional_positive_option("--step-tol", "TOL", "adaptive substeps to this tolerance (implicit, trapezoidal, genalpha, midpoint; default: the model's cosserat:step_tol, else fixed steps; see 'cosserat run --help')", step_tol));
@@ -312,6 +312,8 @@ int render_command(int argc, char** argv) {
     check_writable("--video", video);
 
     if (amplitude > 0 && mode == 0) fail("--amplitude is the amplitude of --mode K's animation: give --mode too");
+    if (mode > 0 && !o.state.ctrl_file.empty())
+      fail("--ctrl-file: --mode animates a mode about the equilibrium of constant controls: give --key or --ctrl");
     // the frames' directory before the model is loaded (outside probe BB: a bad model was reported
     // before a bad --out, unlike the other commands)
     std::error_code ec;

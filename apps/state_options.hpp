@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "cli.hpp"
+#include "control_schedule.hpp"
 #include "scene.hpp"
 
 namespace cosserat::cli {
@@ -55,14 +56,26 @@ inline void apply_key_and_ctrl(const mjModel* m, mjData* d, const std::string& k
 
 // The initial state and the controls: a keyframe (qpos, qvel, act, ctrl) and/or explicit controls.
 struct StateOptions {
-  std::string key, ctrl;
+  std::string key, ctrl, ctrl_file;
 
-  void add_to(CommandLine& c) {
+  // schedule: the command takes --ctrl-file too (the ones that simulate a run: run, render, snapshot)
+  void add_to(CommandLine& c, bool schedule = false) {
     c.options.push_back(text_option("--key", "K", "start from keyframe K (name or index): qpos, qvel, act, ctrl", key));
     c.options.push_back(text_option("--ctrl", "U", "actuator controls: nu numbers separated by commas (applied after --key)", ctrl));
+    if (schedule)
+      c.options.push_back(text_option(
+          "--ctrl-file", "F",
+          "controls that change over the run: a CSV file, its header time,<actuator>,... and rows of numbers (# lines "
+          "skipped); at every evaluation each named actuator's control is interpolated linearly in the simulated time "
+          "between the rows (before the first and after the last: theirs); actuators without a column keep --key's "
+          "and --ctrl's",
+          ctrl_file));
   }
 
-  void apply(const mj::Scene& s, mj::SceneData& sd) const { apply_key_and_ctrl(s.m, sd.d, key, ctrl); }
+  void apply(const mj::Scene& s, mj::SceneData& sd) const {
+    apply_key_and_ctrl(s.m, sd.d, key, ctrl);
+    if (!ctrl_file.empty()) install_schedule_file(ctrl_file, s.m, sd.d);
+  }
 };
 
 // The number of steps of h in `duration` (to the nearest). Refused, naming `what` (the options

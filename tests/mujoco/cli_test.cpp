@@ -897,6 +897,50 @@ TEST_F(Cli, ControlsOutsideTheirRangeAreClampedWithAWarning) {
   }
 }
 
+// --ctrl-file: controls that change over the run (outside probe BL: grasping and then lifting needed
+// a C++ program). A unit mass on a slide under a motor whose control ramps from 0 at t = 0 to 1 at
+// t = 1 s and then stays: x(1) = 1/6, x(2) = 1/6 + 1/2 + 1/2 (rk4, with the controls of each
+// stage's time, exact for these polynomials); every mistake in the file names its line.
+TEST_F(Cli, ControlsChangeOverTheRunFromACtrlFile) {
+  const fs::path m = scratch() / "slide.xml", ramp = scratch() / "ramp.csv";
+  std::ofstream(m) << R"(<mujoco><option gravity="0 0 0" timestep="0.001"/><worldbody><body name="b">
+    <joint name="x" type="slide" axis="1 0 0"/><geom type="sphere" size="0.05" mass="1"/></body></worldbody>
+    <actuator><motor name="still" joint="x" gear="0"/><motor name="m" joint="x"/></actuator></mujoco>)";
+  std::ofstream(ramp) << "# a ramp\ntime, m\n0,0\n1,1\n";
+  for (const auto& [duration, x] : {std::pair{"1", 1.0 / 6.0}, std::pair{"2", 7.0 / 6.0}}) {
+    const Result r = cosserat("run '" + m.string() + "' --integrator rk4 --duration " + duration + " --ctrl-file '" +
+                              ramp.string() + "' --json -");
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_NEAR(json::parse(r.out)["bodies"]["b"][0].get<double>(), x, 1e-9) << duration;
+  }
+  const struct {
+    std::string text, error;
+  } bad[] = {
+      {"time,mm\n0,0\n", ":1: no actuator 'mm' in the model (actuators: still, m)"},
+      {"time,m\n0,0\n0,1\n", ":3: time 0 does not follow 0: times must increase"},
+      {"time,m\n0,0,3\n", ":2: 3 values, the header has 2"},
+      {"t,m\n0,0\n", ":1: the first line names the columns: time,<actuator>,..."},
+      {"time,m,m\n0,0,0\n", ":1: actuator 'm' has two columns"},
+      {"time,m\n0,x\n", ":2: 'x' is not a number"},
+      {"time,m\n", ": no rows after the header"},
+  };
+  for (const auto& b : bad) {
+    const fs::path f = scratch() / "bad.csv";
+    std::ofstream(f) << b.text;
+    const Result r = cosserat("run '" + m.string() + "' --ctrl-file '" + f.string() + "'");
+    EXPECT_EQ(r.status, 1);
+    EXPECT_NE(r.err.find("--ctrl-file: " + f.string() + b.error), std::string::npos) << r.err;
+  }
+  // the pictures take it too; --mode, about an equilibrium of constant controls, refuses it
+  const Result snap = cosserat("snapshot '" + m.string() + "' --time 1 --ctrl-file '" + ramp.string() + "' --width 32 --height 24 --out '" +
+                               (scratch() / "ramp.png").string() + "'");
+  EXPECT_EQ(snap.status, 0) << snap.err;
+  const Result mode = cosserat("render '" + m.string() + "' --mode 1 --ctrl-file '" + ramp.string() + "' --out '" +
+                               (scratch() / "mode").string() + "'");
+  EXPECT_EQ(mode.status, 1);
+  EXPECT_NE(mode.err.find("--ctrl-file: --mode animates a mode"), std::string::npos) << mode.err;
+}
+
 TEST_F(Cli, EquilibriumRefusesFreeBodies) {
   const fs::path m = scratch() / "free.xml";
   std::ofstream(m) << "<mujoco><worldbody><body name=\"b\"><freejoint/><geom size=\"0.1\"/></body></worldbody></mujoco>\n";
