@@ -373,6 +373,7 @@ class EnergyTracker {
     if (n_++ == 0) initial_ = total, gravity_min_ = gravity_max_ = e.gravity;
     if (n_ == 1) stored0_ = e.kinetic + e.elastic;
     final_ = total;
+    final_kinetic_ = e.kinetic;
     max_dev_ = std::max(max_dev_, std::abs(total - initial_));
     max_gain_ = std::max(max_gain_, total - initial_);
     max_loss_ = std::max(max_loss_, initial_ - total);
@@ -382,6 +383,8 @@ class EnergyTracker {
   }
   double initial() const { return initial_; }
   double final() const { return final_; }
+  // the kinetic energy at the last sample: whether the run came to rest (outside probe BL)
+  double final_kinetic() const { return final_kinetic_; }
   // the energy the run exchanged between its forms (kinetic, elastic, gravitational)
   double exchanged() const { return max_stored_ + (gravity_max_ - gravity_min_); }
   double max_rel_drift() const {
@@ -404,7 +407,7 @@ class EnergyTracker {
 
  private:
   long n_ = 0;
-  double initial_ = 0, final_ = 0, max_dev_ = 0, max_gain_ = 0, max_loss_ = 0, max_stored_ = 0, stored0_ = 0,
+  double initial_ = 0, final_ = 0, final_kinetic_ = 0, max_dev_ = 0, max_gain_ = 0, max_loss_ = 0, max_stored_ = 0, stored0_ = 0,
          gravity_min_ = 0, gravity_max_ = 0;
 };
 
@@ -826,8 +829,8 @@ int cmd_run(int argc, char** argv) {
     j["steps"] = k;
     j["sim_time"] = s.time();
     j["wall_time"] = wall;
-    j["energy"] = {{"initial", energy.initial()}, {"final", energy.final()}, {"max_rel_drift", energy.max_rel_drift()},
-                   {"exchanged_by", exchanges}};
+    j["energy"] = {{"initial", energy.initial()}, {"final", energy.final()}, {"final_kinetic", energy.final_kinetic()},
+                   {"max_rel_drift", energy.max_rel_drift()}, {"exchanged_by", exchanges}};
     add_positions(j, out, s.data());
     if (with_sensors) add_sensors(j, sensors, s.data().d);
     j["diverged"] = diverged;
@@ -846,9 +849,10 @@ int cmd_run(int argc, char** argv) {
   if (json_path != "-" && csv != "-") {  // stdout carries the JSON or the CSV alone
     std::string exchanged;  // the drift is the integrator's only in a closed scene
     for (const auto& e : exchanges) exchanged += (exchanged.empty() ? "; not conserved here: " : ", ") + e;
-    std::printf("simulated %.6g s in %ld steps (%s, h = %g s) in %.3f s wall; energy %.6g -> %.6g J (max drift %.2e%s)\n",
+    std::printf("simulated %.6g s in %ld steps (%s, h = %g s) in %.3f s wall; energy %.6g -> %.6g J (max drift %.2e%s), "
+                "kinetic at the end %.3g J\n",
                 s.time(), k, integrator_name(s.integrator()), s.timestep(), wall, energy.initial(), energy.final(),
-                energy.max_rel_drift(), exchanged.c_str());
+                energy.max_rel_drift(), exchanged.c_str(), energy.final_kinetic());
     if (s.scene().newton_for(s.integrator()) > 0) {
       const auto& ns = s.data().newton_stats;
       std::printf("newton: %.2f corrections per step, %ld steps split, %ld unconverged", k > 0 ? double(ns.iterations) / double(k) : 0.0,

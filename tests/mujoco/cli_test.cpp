@@ -352,7 +352,8 @@ TEST_F(Cli, RunJsonHasRequiredKeys) {
   const json j = json::parse(read_text(out));
   for (const char* k : {"steps", "sim_time", "wall_time", "energy", "sites", "bodies", "diverged", "warnings"})
     EXPECT_TRUE(j.contains(k)) << k;
-  for (const char* k : {"initial", "final", "max_rel_drift"}) EXPECT_TRUE(j["energy"].contains(k)) << k;
+  for (const char* k : {"initial", "final", "final_kinetic", "max_rel_drift"}) EXPECT_TRUE(j["energy"].contains(k)) << k;
+  EXPECT_GT(j["energy"]["final_kinetic"].get<double>(), 0.0);  // the released beam swings
   // the command line, so that reports of runs with other options can be told apart (outside probe BL)
   ASSERT_TRUE(j.contains("command"));
   EXPECT_EQ(j["command"][0], "run");
