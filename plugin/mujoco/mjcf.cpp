@@ -75,6 +75,13 @@ std::string fmt(double v) {
   return std::string(buf, r.ptr);
 }
 
+// %g: a value the message suggests (0.15, not 0.15000000000000002)
+std::string fmt_g(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%g", v);
+  return buf;
+}
+
 std::string fmt3(double x, double y, double z) { return fmt(x) + " " + fmt(y) + " " + fmt(z); }
 
 bool is(const XMLElement* e, std::string_view name) { return e && name == e->Name(); }
@@ -901,6 +908,15 @@ void Preprocessor::read_sites(const Reader& r, RodInput& rod) {
             "must be in [0, " + fmt(L) + "] (the rod length), got " + s.text("at"));
     if (const auto p = s.numbers("pos", 2, 3))
       site.decl.pos = p->size() == 2 ? Vec3(0, (*p)[0], (*p)[1]) : Vec3((*p)[0], (*p)[1], (*p)[2]);
+    // (outside probe BL: pos="0.05 0.008 0" at 0.1 loaded quietly, the site 5 cm ahead of its
+    // cross-section, rigidly, where a user had meant the material point at 0.15)
+    // (beyond the rod's ends a rigid offset is all there is)
+    if (const double along = site.decl.X + site.decl.pos.x(); site.decl.pos.x() != 0.0 && along >= 0 && along <= L)
+      warnings_.push_back(where(s) + "pos has " + fmt(site.decl.pos.x()) +
+                          " along the centre line: the site rides rigidly with the cross-section at at=\"" +
+                          fmt(site.decl.X) + "\", not with the material point that far along the rod (which the "
+                          "rod's bending moves); give at=\"" + fmt_g(along) +
+                          "\" and pos=\"" + fmt(site.decl.pos.y()) + " " + fmt(site.decl.pos.z()) + "\" for that point");
     // the section containing X; on a boundary, the earlier one
     while (site.section + 1 < static_cast<int>(rod.section_end.size()) &&
            site.decl.X > rod.section_end[site.section] + 1e-9 * L)

@@ -309,6 +309,11 @@ TEST(MjcfErrors, ImplausibleValuesAreWarnedAbout) {
       // cantilever drooped 29% short of its converged tip drop, quietly)
       {in_world(rod + "/>"), "inline.xml:3: <cosserat>: sections not given: one PCS section, whose strain is constant"},
       {in_world(rod + R"( order="2"/>)"), ""},
+      // a rod site's pos along the centre line (outside probe BL): rigid with its cross-section
+      {in_world(rod4 + "><site name=\"s\" at=\"0.1\" pos=\"0.05 0.008 0\"/></cosserat>"),
+       "inline.xml:3: <site>: pos has 0.05 along the centre line: the site rides rigidly with the cross-section at at=\"0.1\", not with the material point that far along the rod (which the rod's bending moves); give at=\"0.15\" and pos=\"0.008 0\" for that point"},
+      {in_world(rod4 + "><site name=\"s\" at=\"0.3\" pos=\"0.05 0.008 0\"/></cosserat>"), ""},  // beyond the tip
+      {in_world(rod4 + "><site name=\"s\" at=\"0.1\" pos=\"0.008 0\"/></cosserat>"), ""},
       {in_world(rod + R"( strain="rigid"/>)"), ""},
       {in_world(rod4 + R"( radius="0.005" young="1e6" density="1000"/>)"), ""},
       {in_world(rod4 + R"( radius="0.005" young="1e12" density="22000"/>)"), ""},
