@@ -975,7 +975,8 @@ int cmd_equilibrium(int argc, char** argv) {
     print_positions(out, *eq.data);
     print_sensors(sensors, eq.data->d);
   }
-  if (!eq.result.converged) fail("no static equilibrium: " + eq.result.message);
+  if (!eq.result.converged)
+    fail((eq.result.omega2_min < 0 ? "no stable equilibrium: " : "no static equilibrium: ") + eq.result.message);
   return 0;
 }
 

@@ -1687,8 +1687,13 @@ SceneStaticsResult equilibrium_of_held(const Scene& s, SceneData& sd, const Scen
     }
     res.converged = false;
     res.omega2_min = w2;
-    res.message += "; the state it settled in is an unstable equilibrium (omega^2_min = " + std::to_string(w2) +
-                   "): the scene would fall away from it (start from a perturbed state, e.g. a keyframe)";
+    // the verdict first, then how it was reached (outside probe BL: "NOT converged ... (residual
+    // 1.50e-14)" led a 600-character line that came to the instability at its end)
+    char w2_text[32];
+    std::snprintf(w2_text, sizeof w2_text, "%.6g", w2);
+    res.message = std::string("the search settled in an unstable equilibrium (omega^2_min = ") + w2_text +
+                  " 1/s^2: the scene would fall away from it) and found no stable one; start from a perturbed state, "
+                  "e.g. a keyframe. How: " + res.message;
     return res;
   }
 }
