@@ -1282,8 +1282,10 @@ Preprocessed Preprocessor::run(const std::string& text, const std::string& path)
     for (const XMLElement* k = kf->FirstChildElement("key"); k; k = k->NextSiblingElement("key"))
       out.key_origin.push_back(SourceLine{origin(k).file, origin(k).line});
   for (const XMLElement* se = root->FirstChildElement("sensor"); se; se = se->NextSiblingElement("sensor"))
-    for (const XMLElement* k = se->FirstChildElement(); k; k = k->NextSiblingElement())
+    for (const XMLElement* k = se->FirstChildElement(); k; k = k->NextSiblingElement()) {
       out.sensor_origin.push_back(SourceLine{origin(k).file, origin(k).line});
+      out.sensor_objname.push_back(k->Attribute("objname") ? k->Attribute("objname") : "");
+    }
   // a lengthrange in any <default> may reach any actuator through its class (not resolved here)
   bool default_lengthrange = false;
   std::vector<const XMLElement*> defaults;

@@ -104,6 +104,9 @@ struct Preprocessed {
   // what loads but is likely a mistake ("file:line: <element>: ..."): a rod thicker than it is long,
   // moduli and densities outside those of real materials in SI units
   std::vector<std::string> warnings;
+  // per sensor (MuJoCo's ids): its objname, "" without (MuJoCo's "unrecognized name of
+  // sensorized object" names the sensor, not the object)
+  std::vector<std::string> sensor_objname;
 };
 
 // Reads `path`, expands <include file=...> recursively (relative to the main model's directory, as

@@ -97,6 +97,11 @@ LoadError mujoco_error(const Preprocessed& pre, const std::string& error) {
       nth(pre.actuator_origin, at2);
     } else if (first.find("in sensor") != std::string::npos && after("(id = ") != std::string::npos) {
       nth(pre.sensor_origin, after("(id = "));
+      // the object it could not find (outside probe BL: a rod's name as a framepos's objname)
+      const int k = std::atoi(msg.c_str() + after("(id = "));
+      if (first.find("sensorized object") != std::string::npos && k >= 0 &&
+          k < static_cast<int>(pre.sensor_objname.size()) && !pre.sensor_objname[k].empty())
+        first += " (objname '" + pre.sensor_objname[k] + "')";
     } else if (const size_t at3 = after("in actuator "); at3 != std::string::npos) {  // lengthrange
       nth(pre.actuator_origin, at3);
       if (!pre.rods.empty())
@@ -128,6 +133,20 @@ LoadError mujoco_error(const Preprocessed& pre, const std::string& error) {
       std::any_of(pre.rods.begin(), pre.rods.end(), names_a_capsule))
     hint = ": a <default> geom pos reaches the rod's capsules, which are placed with fromto; give the rod a class "
            "without a geom pos";
+  // what a rod becomes, by the names MuJoCo knows (outside probe BL: a rod's name, or its section's
+  // body, given as a sensor's object, an actuator's joint or site or an exclude's body read as
+  // MuJoCo's bare "not found")
+  auto what_rod_makes = [](const RodDecl& r) {
+    std::string sites;
+    for (size_t k = 0; k < r.sites.size() && k < 6; ++k) sites += (k ? ", " : "") + r.sites[k].name;
+    if (r.sites.size() > 6) sites += " and " + std::to_string(r.sites.size() - 6) + " more";
+    return "rod '" + r.name + "' becomes the bodies " + r.name + "/base and " + r.name + "/s0 to " + r.name + "/s" +
+           std::to_string(r.proxies.size() - 1) + " (each section's end), the sites " + sites + ", the strain joints " +
+           r.name + "/s<i>/<coordinate> (slides) and the capsules " + r.name + "/s<i>/g<k>";
+  };
+  for (const RodDecl& r : pre.rods)
+    if (hint.empty() && first.find("'" + r.name + "'") != std::string::npos)
+      hint = ": '" + r.name + "' is a rod, which MuJoCo knows by what it becomes: " + what_rod_makes(r);
   // a name under a rod's prefix that the rod does not generate (outside probe AD: a strain joint
   // the rod's strain has not, or a section beyond its last, read "unknown transmission target")
   for (const RodDecl& r : pre.rods) {
@@ -145,6 +164,13 @@ LoadError mujoco_error(const Preprocessed& pre, const std::string& error) {
         hint = ": '" + name + "' is a capsule of rod '" + r.name +
                "', which takes the rod's geom attributes (contype, conaffinity, condim, friction, solref, solimp, "
                "margin, gap, rgba, group, material)";
+      else  // a name of another kind than the element wants
+        hint = ": '" + name + "' is " +
+               (std::find(r.joints.begin(), r.joints.end(), name) != r.joints.end() ? "a strain joint"
+                : std::any_of(r.sites.begin(), r.sites.end(), [&](const RodSiteDecl& x) { return x.name == name; })
+                    ? (name == r.name + "/base" ? "a body and a site" : "a site")
+                    : "a body") +
+               " of rod '" + r.name + "', which MuJoCo knows by what the rod becomes: " + what_rod_makes(r);
       continue;
     }
     // the coordinates of the section the name points at, if it has one, else of the first (outside

@@ -494,6 +494,17 @@ TEST(Scene, MujocoCompileErrorsPointAtTheUsersFileAndLine) {
                     dir, "condim.xml", 3,
                     "invalid condim in geom 'A/s0/g0' (id = 0) (object 'A/s0/g0'): 'A/s0/g0' is a capsule of rod 'A', "
                     "which takes the rod's geom attributes");
+  // a rod's name, or a name the rod makes of another kind, where MuJoCo wants an object it has: what
+  // the rod becomes (outside probe BL: MuJoCo's bare "not found"; a sensor's error named the sensor,
+  // not the object)
+  expect_load_error(kl3 + "<actuator>\n<motor joint=\"A/s1\"/>\n</actuator>\n</mujoco>\n", dir, "body_as_joint.xml", 6,
+                    "unknown transmission target 'A/s1' for actuator id = 0: 'A/s1' is a body of rod 'A', which MuJoCo "
+                    "knows by what the rod becomes: rod 'A' becomes the bodies A/base and A/s0 to A/s2 (each section's "
+                    "end), the sites A/base, A/tip, the strain joints A/s<i>/<coordinate> (slides) and the capsules A/s<i>/g<k>");
+  expect_load_error(kl3 + "<sensor>\n<framepos objtype=\"body\" objname=\"A\"/>\n</sensor>\n</mujoco>\n", dir,
+                    "rod_as_body.xml", 6,
+                    "unrecognized name of sensorized object in sensor '' (id = 0) (objname 'A'): 'A' is a rod, which MuJoCo "
+                    "knows by what it becomes: rod 'A' becomes the bodies A/base");
   // with sections of different strains, the named section's coordinates (outside probe AE)
   expect_load_error("<mujoco>\n<worldbody>\n<cosserat name=\"A\" length=\"0.3\" sections=\"2\">\n<section/>\n"
                     "<section strain=\"ikl\"/>\n</cosserat>\n</worldbody>\n<actuator>\n<motor joint=\"A/s1/px\"/>\n"
