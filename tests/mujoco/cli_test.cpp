@@ -176,6 +176,24 @@ TEST_F(Cli, HelpVersionAndTheDirectoriesOfFailedCommands) {
   EXPECT_TRUE(fs::is_directory(made / "empty"));
 }
 
+// The README's first example ("Put a rod into your own scene") runs as written under the loads the
+// README suggests, with the default step (outside probe BL: it had diverged under them, as the
+// README then said).
+TEST_F(Cli, TheReadmesFirstExampleRunsAsWritten) {
+  const std::string readme = read_text(COSSERAT_SOURCE_DIR "/README.md");
+  const size_t section = readme.find("## Put a rod into your own scene");
+  ASSERT_NE(section, std::string::npos);
+  const size_t begin = readme.find("```xml\n", section), end = readme.find("```", begin + 7);
+  ASSERT_NE(end, std::string::npos);
+  const fs::path model = scratch() / "readme_example.xml";
+  std::ofstream(model) << readme.substr(begin + 7, end - begin - 7);
+  for (const char* ctrl : {"1,0", "0,0.01"}) {
+    const Result r = cosserat("run '" + model.string() + "' --ctrl " + ctrl + " --duration 3");
+    EXPECT_EQ(r.status, 0) << ctrl << ": " << r.err;
+    EXPECT_EQ(r.out.find("warning"), std::string::npos) << r.out;
+  }
+}
+
 TEST_F(Cli, RunWritesCsvWithExactHeaderAndRows) {
   const fs::path csv = scratch() / "run.csv";
   const Result r = cosserat("run '" + kCantilever + "' --duration 0.05 --every 10 --csv '" + csv.string() + "'");
