@@ -53,8 +53,8 @@ inline std::vector<std::string> csv_fields(const std::string& line) {
   return out;
 }
 
-// Reads F: a header "time,<actuator name>,..." and rows of numbers, '#' lines and blank lines
-// skipped. Every mistake is a failure naming the file and line.
+// Reads F: a header "time,<actuator name>,..." (#k for the k-th actuator where it has no name) and
+// rows of numbers, lines starting with '#' and blank lines skipped. Every mistake is a failure naming the file and line.
 inline ControlSchedule read_control_schedule(const std::string& path, const mjModel* m) {
   std::ifstream f(path);
   if (!f) fail("--ctrl-file: cannot read " + path);
@@ -65,6 +65,7 @@ inline ControlSchedule read_control_schedule(const std::string& path, const mjMo
   auto where = [&] { return "--ctrl-file: " + path + ":" + std::to_string(lineno) + ": "; };
   while (std::getline(f, line)) {
     ++lineno;
+    if (lineno == 1 && line.rfind("\xEF\xBB\xBF", 0) == 0) line.erase(0, 3);  // a UTF-8 byte order mark
     const size_t first = line.find_first_not_of(" \t\r");
     if (first == std::string::npos || line[first] == '#') continue;
     const std::vector<std::string> fields = csv_fields(line);
@@ -73,7 +74,13 @@ inline ControlSchedule read_control_schedule(const std::string& path, const mjMo
         fail(where() + "the first line names the columns: time,<actuator>,... (got '" + line + "')");
       if (fields.size() < 2) fail(where() + "no actuator column after 'time'");
       for (size_t c = 1; c < fields.size(); ++c) {
-        const int id = mj_name2id(m, mjOBJ_ACTUATOR, fields[c].c_str());
+        int id = mj_name2id(m, mjOBJ_ACTUATOR, fields[c].c_str());
+        // an unnamed actuator by its index, as the error below lists it (outside probe BO)
+        if (id < 0 && fields[c].size() > 1 && fields[c][0] == '#' &&
+            fields[c].find_first_not_of("0123456789", 1) == std::string::npos) {
+          const int k = std::atoi(fields[c].c_str() + 1);
+          if (k < m->nu && !mj_id2name(m, mjOBJ_ACTUATOR, k)) id = k;
+        }
         if (id < 0) {
           std::string names;
           for (int a = 0; a < m->nu; ++a) {

@@ -817,8 +817,15 @@ void Preprocessor::read_sections(const Reader& r, RodInput& rod) {
   spec.sections = requested;
   // (outside probe BL: a newcomer's soft cantilever without `sections` drooped 29% short of the
   // converged tip drop under its weight, without a word)
-  const bool soft = std::any_of(spec.section.dofs.begin(), spec.section.dofs.end(), [](bool b) { return b; });
-  if (elements.empty() && !r.has("sections") && soft && spec.section.order == 0)
+  // (not on the constant-curvature sets and the spring, whose one section is the model the user
+  // chose: outside probe BO)
+  const auto& dofs = spec.section.dofs;
+  const bool bends = dofs[0] || dofs[1] || dofs[2];
+  std::string strain = r.has("strain") ? r.text("strain") : "";
+  for (auto& ch : strain) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
+  const bool arc_model = strain == "cc" || strain == "pcc" || strain == "icc" || strain == "constant-curvature" ||
+                         strain == "planar-constant-curvature" || strain == "inextensible-constant-curvature";
+  if (elements.empty() && !r.has("sections") && bends && !arc_model && spec.section.order == 0)
     warnings_.push_back(where(r) + "sections not given: one PCS section, whose strain is constant along the rod (it "
                                    "bends into a circular arc only); give sections=\"N\" (a soft cantilever under its "
                                    "weight: 4 sections within 5% of the converged tip drop, 16 within 0.3%) or order=\"N\"");

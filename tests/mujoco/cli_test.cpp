@@ -157,6 +157,7 @@ TEST_F(Cli, EveryCommandHasHelp) {
 TEST_F(Cli, HelpVersionAndTheDirectoriesOfFailedCommands) {
   for (const char* c : {"run", "render"})
     EXPECT_EQ(cosserat(std::string("help ") + c).out, cosserat(std::string(c) + " --help").out) << c;
+  EXPECT_EQ(cosserat("help nosuch").status, 1);
   const Result v = cosserat("--version");
   EXPECT_EQ(v.status, 0);
   EXPECT_NE(v.out.find("(MuJoCo 2.2.2)"), std::string::npos) << v.out;
@@ -926,6 +927,12 @@ TEST_F(Cli, ControlsChangeOverTheRunFromACtrlFile) {
     <joint name="x" type="slide" axis="1 0 0"/><geom type="sphere" size="0.05" mass="1"/></body></worldbody>
     <actuator><motor name="still" joint="x" gear="0"/><motor name="m" joint="x"/></actuator></mujoco>)";
   std::ofstream(ramp) << "# a ramp\ntime, m\n0,0\n1,1\n";
+  // (a spreadsheet's UTF-8 byte order mark before the header is no part of it: outside probe BO)
+  const fs::path bom = scratch() / "bom.csv";
+  std::ofstream(bom) << "\xEF\xBB\xBFtime,m\n0,0\n1,1\n";
+  const Result with_bom = cosserat("run '" + m.string() + "' --integrator rk4 --duration 1 --ctrl-file '" + bom.string() + "' --json -");
+  ASSERT_EQ(with_bom.status, 0) << with_bom.err;
+  EXPECT_NEAR(json::parse(with_bom.out)["bodies"]["b"][0].get<double>(), 1.0 / 6.0, 1e-9);
   for (const auto& [duration, x] : {std::pair{"1", 1.0 / 6.0}, std::pair{"2", 7.0 / 6.0}}) {
     const Result r = cosserat("run '" + m.string() + "' --integrator rk4 --duration " + duration + " --ctrl-file '" +
                               ramp.string() + "' --json -");

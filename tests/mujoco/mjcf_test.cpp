@@ -315,6 +315,8 @@ TEST(MjcfErrors, ImplausibleValuesAreWarnedAbout) {
       {in_world(rod4 + "><site name=\"s\" at=\"0.3\" pos=\"0.05 0.008 0\"/></cosserat>"), ""},  // beyond the tip
       {in_world(rod4 + "><site name=\"s\" at=\"0.1\" pos=\"0.008 0\"/></cosserat>"), ""},
       {in_world(rod + R"( strain="rigid"/>)"), ""},
+      {in_world(rod + R"( strain="icc"/>)"), ""},  // one arc: the constant-curvature model chosen
+      {in_world(rod + R"( strain="spring"/>)"), ""},
       {in_world(rod4 + R"( radius="0.005" young="1e6" density="1000"/>)"), ""},
       {in_world(rod4 + R"( radius="0.005" young="1e12" density="22000"/>)"), ""},
       {in_world(rod4 + R"( radius="1e-8" young="1e10" density="1300"/>)"), ""},  // a bacterial flagellum
