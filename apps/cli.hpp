@@ -19,6 +19,15 @@
 
 namespace cosserat::cli {
 
+// "warning: <msg>" on stderr, once per process whatever the number of calls (render applies the
+// start state once to frame the run and again to draw it: outside probe BO saw each twice).
+inline void warn_once(const std::string& msg) {
+  static std::vector<std::string> said;
+  if (std::find(said.begin(), said.end(), msg) != said.end()) return;
+  said.push_back(msg);
+  std::cerr << "warning: " << msg << "\n";
+}
+
 // -------------------------------------------------------------------------------- failures --
 
 // A bad command line or a failed command: main prints "cosserat: <what>" and exits with 1.

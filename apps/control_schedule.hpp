@@ -125,10 +125,11 @@ inline ControlSchedule read_control_schedule(const std::string& path, const mjMo
       const double lo = m->actuator_ctrlrange[2 * a], hi = m->actuator_ctrlrange[2 * a + 1];
       for (size_t k = 0; k < s.times.size(); ++k)
         if (s.u[k][c] < lo || s.u[k][c] > hi) {
-          std::fprintf(stderr,
-                       "warning: --ctrl-file: %s at t = %g for actuator '%s' is outside its ctrlrange [%g, %g]: "
-                       "MuJoCo clamps it\n",
-                       x_text(s.u[k][c]).c_str(), s.times[k], mj_id2name(m, mjOBJ_ACTUATOR, a), lo, hi);
+          const char* name = mj_id2name(m, mjOBJ_ACTUATOR, a);
+          std::string label = name ? name : "#";
+          if (!name) label.append(std::to_string(a));
+          warn_once("--ctrl-file: " + x_text(s.u[k][c]) + " at t = " + x_text(s.times[k]) + " for actuator '" + label +
+                    "' is outside its ctrlrange [" + x_text(lo) + ", " + x_text(hi) + "]: MuJoCo clamps it");
           break;
         }
     }

@@ -49,8 +49,10 @@ inline void apply_key_and_ctrl(const mjModel* m, mjData* d, const std::string& k
     char label[128];
     if (name) std::snprintf(label, sizeof label, "'%s'", name);
     else std::snprintf(label, sizeof label, "%d", i);
-    std::fprintf(stderr, "warning: %s: %g for actuator %s is outside its ctrlrange [%g, %g]: MuJoCo clamps it to %g\n",
-                 ctrl.empty() ? ("keyframe '" + key + "'").c_str() : "--ctrl", u, label, lo, hi, std::clamp(u, lo, hi));
+    char b[512];
+    std::snprintf(b, sizeof b, "%s: %g for actuator %s is outside its ctrlrange [%g, %g]: MuJoCo clamps it to %g",
+                  ctrl.empty() ? ("keyframe '" + key + "'").c_str() : "--ctrl", u, label, lo, hi, std::clamp(u, lo, hi));
+    warn_once(b);
   }
 }
 

@@ -902,6 +902,11 @@ TEST_F(Cli, ControlsOutsideTheirRangeAreClampedWithAWarning) {
   const fs::path keyed = scratch() / "motor_key.xml", unclamped = scratch() / "motor_unclamped.xml";
   std::string xml = read_text(m);
   std::ofstream(keyed) << xml.replace(xml.find("</mujoco>"), 9, R"(<keyframe><key name="k" ctrl="3"/></keyframe></mujoco>)");
+  // render applies the start state twice (to frame the run, then to draw it): warned once
+  const Result frames = cosserat("render '" + m.string() + "' --ctrl 3 --duration 0.2 --fps 10 --width 32 --height 24 --out '" +
+                                 (scratch() / "clamp_frames").string() + "'");
+  ASSERT_EQ(frames.status, 0) << frames.err;
+  EXPECT_EQ(frames.err.find("warning: --ctrl"), frames.err.rfind("warning: --ctrl")) << frames.err;
   const Result key = cosserat("run '" + keyed.string() + "' --key k --duration 0.01");
   ASSERT_EQ(key.status, 0) << key.err;
   EXPECT_NE(key.err.find("warning: keyframe 'k': 3 for actuator 'm' is outside its ctrlrange [-1, 1]: MuJoCo clamps it to 1"),
