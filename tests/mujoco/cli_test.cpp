@@ -906,6 +906,7 @@ TEST_F(Cli, ControlsOutsideTheirRangeAreClampedWithAWarning) {
   const Result frames = cosserat("render '" + m.string() + "' --ctrl 3 --duration 0.2 --fps 10 --width 32 --height 24 --out '" +
                                  (scratch() / "clamp_frames").string() + "'");
   ASSERT_EQ(frames.status, 0) << frames.err;
+  EXPECT_NE(frames.err.find("warning: --ctrl: 3 for actuator 'm'"), std::string::npos) << frames.err;
   EXPECT_EQ(frames.err.find("warning: --ctrl"), frames.err.rfind("warning: --ctrl")) << frames.err;
   const Result key = cosserat("run '" + keyed.string() + "' --key k --duration 0.01");
   ASSERT_EQ(key.status, 0) << key.err;
