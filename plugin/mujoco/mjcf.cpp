@@ -385,6 +385,17 @@ std::string where(const Reader& r) {
 // real materials in SI units (a unit slip, e.g. MPa or g/cm^3). Each element is checked for the
 // attributes it gives (a <section> inherits the checked values of its rod); read_rod also warns
 // about radii below molecular sizes and rods thicker than they are long.
+// A rest curvature whose radius 1/kappa is below the rod's radius folds the inner side of the rod
+// onto itself (outside probe BL: a rest strain written in degrees, kappa = 90 1/m, loaded quietly).
+void check_rest_curvature(const Reader& r, const SectionSpec& s, double r_max, std::vector<std::string>& warnings) {
+  if (!r.has("reststrain")) return;
+  const double kappa = std::hypot(s.rest_strain(1), s.rest_strain(2));
+  if (kappa * r_max >= 1.0)
+    warnings.push_back(where(r) + "reststrain bends the rod with curvature " + fmt_g(kappa) + " 1/m, a radius " +
+                       fmt_g(1.0 / kappa) + " m below the rod's radius " + fmt_g(r_max) +
+                       " m: its inner side folds onto itself; check the units (1/m, radians per metre)");
+}
+
 void check_section_scales(const Reader& r, const SectionSpec& s, double r_min, std::vector<std::string>& warnings) {
   const double I = M_PI * r_min * r_min * r_min * r_min / 4.0;  // second moment of area, thinnest end
   constexpr double kTiny = std::numeric_limits<double>::min();   // the smallest normal double
@@ -684,6 +695,7 @@ RodInput Preprocessor::read_rod(XMLElement* cosserat, const std::string& parent_
   spec.section.length = 0.0;
   const double r_min = std::min(spec.radius_base, spec.radius_tip);
   check_section_scales(r, spec.section, r_min, warnings_);
+  check_rest_curvature(r, spec.section, std::max(spec.radius_base, spec.radius_tip), warnings_);
   if (r_min < 1e-9)
     warnings_.push_back(where(r) + "radius " + fmt(r_min) +
                         " m is below molecular sizes (a bacterial flagellum's filament is about 1e-8 m): check the "
@@ -780,6 +792,7 @@ void Preprocessor::read_sections(const Reader& r, RodInput& rod) {
             "coefficients): give the section strainrange=\"0 0 0 0 0 0 0 0 0 0 0 0\" or order 0");
     rod.decl.strain_range.push_back(range);
     check_section_scales(s, ss, std::min(spec.radius_base, spec.radius_tip), warnings_);
+    check_rest_curvature(s, ss, std::max(spec.radius_base, spec.radius_tip), warnings_);
     ss.length = s.number("length", 0.0);
     s.check(!s.has("length") || ss.length > 0, "length", "must be positive, got " + s.text("length"));
     secs.push_back(ss);

@@ -316,6 +316,10 @@ TEST(MjcfErrors, ImplausibleValuesAreWarnedAbout) {
       {in_world(rod4 + "><site name=\"s\" at=\"0.1\" pos=\"0.008 0\"/></cosserat>"), ""},
       {in_world(rod + R"( strain="rigid"/>)"), ""},
       {in_world(rod + R"( strain="icc"/>)"), ""},  // one arc: the constant-curvature model chosen
+      // a rest curvature tighter than the rod is thick (outside probe BL: degrees for radians per metre)
+      {in_world(rod4 + R"( radius="0.012" reststrain="0 0 90 1 0 0"/>)"),
+       "inline.xml:3: <cosserat>: reststrain bends the rod with curvature 90 1/m, a radius 0.0111111 m below the rod's radius 0.012 m"},
+      {in_world(rod4 + R"( radius="0.01" reststrain="0 0 90 1 0 0"/>)"), ""},
       {in_world(rod + R"( strain="spring"/>)"), ""},
       {in_world(rod4 + R"( radius="0.005" young="1e6" density="1000"/>)"), ""},
       {in_world(rod4 + R"( radius="0.005" young="1e12" density="22000"/>)"), ""},
