@@ -3210,10 +3210,11 @@ void filter_activations(const Scene& s, SceneData& sd, const mjtNum* act0, const
 //   A a = M qacc - theta h K v,   q+ = q + h (v + theta h a),  v+ = v + h a.
 // theta = 1 (Implicit) is linearised backward Euler; theta = 1/2 (Trapezoidal) the trapezoidal rule
 // on the same linearisation: no numerical damping of the linear modes.
-// contacts: the active contact rows too, as the linearised `implicit` and `trapezoidal --newton 0`
-// steps take them (not the Newton schemes' event steps and first iterates, whose contacts change
-// within the step: the pushed rod's stopping distance under `midpoint` went from within 0.3% of
-// Coulomb's to 1-3% long with them)
+// contacts: the elliptic cones' friction rows too (add_constraint_terms, FrozenRows::
+// AllElseEqualities), as the linearised `implicit` and `trapezoidal --newton 0` steps take them (not
+// the Newton schemes' event steps and first iterates, whose contacts change within the step: the
+// pushed rod's stopping distance under `midpoint` went from within 0.3% of Coulomb's to 1-3% long
+// with them)
 void implicit_step(const Scene& s, SceneData& sd, bool rods = true, double theta = 1.0, bool contacts = false) {
   const mjModel* m = s.m;
   mjData* d = sd.d;
@@ -3225,13 +3226,14 @@ void implicit_step(const Scene& s, SceneData& sd, bool rods = true, double theta
     mju_copy(sd.qacc_tmp.data(), d->qfrc_smooth, nv);
   else
     mj_mulM(m, d, sd.qacc_tmp.data(), d->qacc);
-  // the active rows on rods (equalities; with `contacts` every row in MuJoCo's quadratic state),
-  // implicit as the Newton schemes' matrix takes them: their force at the step's end, linearised,
-  // -D (J a + B J v+ + K I r+), less the start's, leaves D J'(J a0) - theta h D K I J'(J v) on the
-  // right-hand side. Contacts since the forty-seventh session (outside probe BM: torsional friction
-  // at a soft rod's end, its force from MuJoCo's solve against M alone, let the end turn 2 rad on
-  // the floor under 16% of mu_t N where the rod's native twin turned 0.008 rad); where a row ties
-  // two branches of the tree (an arm pressing a free object) the equality rows alone.
+  // the active rows on rods in MuJoCo's quadratic state (equalities; with `contacts` also the
+  // friction rows of elliptic cones), implicit as the Newton schemes' matrix takes them: their force
+  // at the step's end, linearised, -D (J a + B J v+ + K I r+), less the start's, leaves
+  // D J'(J a0) - theta h D K I J'(J v) on the right-hand side. Friction rows since the forty-seventh
+  // session (outside probe BM: torsional friction at a soft rod's end, its force from MuJoCo's solve
+  // against M alone, let the end turn 2 rad on the floor under 16% of mu_t N where the rod's native
+  // twin turned 0.008 rad); where a row ties two branches of the tree (an arm pressing a free
+  // object) the equality rows alone.
   const bool rows = rods && !smooth_only(sd) && (contacts ? d->nefc > 0 : d->ne > 0);
   factor_implicit(s, sd, rods, theta, theta * theta, rows && contacts, rows);
   if (rods) subtract_stiffness(s, sd, th, d->qvel, sd.qacc_tmp.data());
