@@ -1097,7 +1097,9 @@ void warn_pyramidal_torsion(Scene& s) {
   bool torsion = false;
   for (int g = 0; g < m->ngeom; ++g) {
     torsion = torsion || (m->geom_condim[g] >= 4 && (m->geom_contype[g] || m->geom_conaffinity[g]));
-    if (!rod && s.geom_rod[g] >= 0 && (m->geom_contype[g] || m->geom_conaffinity[g])) rod = &s.rods[s.geom_rod[g]];
+    // (a rod of rigid sections only keeps MuJoCo's rows, which hold it)
+    if (!rod && s.geom_rod[g] >= 0 && (m->geom_contype[g] || m->geom_conaffinity[g]) && s.rods[s.geom_rod[g]].model.nv > 0)
+      rod = &s.rods[s.geom_rod[g]];
   }
   for (int p = 0; p < m->npair && !torsion; ++p) torsion = m->pair_dim[p] >= 4;
   if (!rod || !torsion) return;

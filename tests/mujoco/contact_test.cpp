@@ -835,6 +835,8 @@ TEST(Contact, TorsionalFrictionAtASoftRodsEndHoldsUnderEveryIntegrator) {
             std::string::npos)
       << pyramidal->load_warnings[0];
   EXPECT_TRUE(load_scene_string(replace_all(xml, "CONE", "elliptic"), kPath)->load_warnings.empty());
+  EXPECT_TRUE(load_scene_string(replace_all(replace_all(xml, "CONE", "pyramidal"), "strain=\"kl\"", "strain=\"rigid\""), kPath)
+                  ->load_warnings.empty());
 }
 std::string fmt(double v) {
   char b[64];
