@@ -1081,11 +1081,6 @@ void avoid_sparse_newton_on_small_pivots(Scene& s, SceneData& sd) {
                             "raise the inertia" + (asked ? "" : ")"));
 }
 
-// A load warning for two rods whose capsules overlap in the model's reference configuration where
-// MuJoCo would collide them: rods mounted at one point of one body (or of the world) overlap at
-// their bases, which the proxies' exclusions (parent body, tip bodies) do not cover, and push each
-// other apart from the first step. (Outside probe U: two branches from one hub.) `sd`: positions
-// evaluated at qpos0 (recompute_qpos0_constants leaves them so).
 // Torsional and rolling friction (condim 4, 6) on soft rods' contacts under the pyramidal cone: the
 // linearised steps hold an elliptic cone's friction rows with their matrix, not the pyramid's edges
 // (outside probe BO: held, those braked and blew up rolling rods), and a soft rod's end twisted by
@@ -1111,6 +1106,11 @@ void warn_pyramidal_torsion(Scene& s) {
                             "(--newton 10, trapezoidal, genalpha, midpoint) with either cone");
 }
 
+// A load warning for two rods whose capsules overlap in the model's reference configuration where
+// MuJoCo would collide them: rods mounted at one point of one body (or of the world) overlap at
+// their bases, which the proxies' exclusions (parent body, tip bodies) do not cover, and push each
+// other apart from the first step. (Outside probe U: two branches from one hub.) `sd`: positions
+// evaluated at qpos0 (recompute_qpos0_constants leaves them so).
 void warn_overlapping_rods(Scene& s, const SceneData& sd) {
   const mjModel* m = s.m;
   if (!s.may_collide) return;
@@ -1251,9 +1251,7 @@ bool body_point_motion(const Scene& s, const SceneData& sd, int b, const Vec3& x
     if (s.riding_dof[b] < 0) {  // fixed to the cross-section it rides with
       int r = -1, si = -1;
       double X = 0.0;
-      if (!riding_frame(s, b, r, si, X)) return false;
-      k = riding_material_motion(m, cosserat::point_motion_at_rest_acceleration(s.rods[r].model, sd.rod[r], 0, X, si), &x);
-      return true;
+      return riding_frame(s, b, r, si, X) && section_point_motion(s, sd, r, si, X, &x, k);
     }
     Vec6 c;
     if (!riding_body_velocity_product(s, sd, b, x, c)) return false;
@@ -2040,9 +2038,9 @@ void smooth_forces(const mjModel* m, mjData* d) {
 // explicit pair's margin, which MuJoCo reads instead, gets its two geoms' sags.
 void widen_contact_margins(const Scene& s, const SceneData& sd) {
   mjModel* m = s.m;
-  double largest = 0.0;
-  if (s.sagging_capsules_meet)
-    for (const int g : s.sagging_geoms) largest = std::max(largest, sd.geom_sag[g]);
+  double widest = 0.0;  // the largest sag of the step
+  for (const int g : s.sagging_geoms) widest = std::max(widest, sd.geom_sag[g]);
+  const double largest = s.sagging_capsules_meet ? widest : 0.0;
   for (const int g : s.sagging_geoms) {
     const RodBinding& rb = s.rods[s.geom_rod[g]];
     const int k = s.geom_index[g];
@@ -2057,11 +2055,7 @@ void widen_contact_margins(const Scene& s, const SceneData& sd) {
   // under <flag override="enable"/> MuJoCo takes o_margin for every contact's margin: widened by
   // the largest sag, patch_contact_distances puts every contact back at o_margin (outside probe BM:
   // a soft rod with o_margin 5 mm rested at no margin)
-  if (m->opt.enableflags & mjENBL_OVERRIDE) {
-    double widest = 0.0;
-    for (const int g : s.sagging_geoms) widest = std::max(widest, sd.geom_sag[g]);
-    m->opt.o_margin = s.o_margin0 + widest + largest;
-  }
+  if (m->opt.enableflags & mjENBL_OVERRIDE) m->opt.o_margin = s.o_margin0 + widest + largest;
 }
 
 void fwd_inertia(const Scene& s, SceneData& sd, bool mass) {
@@ -2840,6 +2834,18 @@ bool add_outer_in_tree(const mjModel* m, mjtNum* A, const mjtNum* u, double c, s
   return true;
 }
 
+// Which active rows (in MuJoCo's quadratic state, on rods) factor_implicit freezes with its matrix
+// (add_constraint_terms): none; every row (the Newton schemes); the equality rows; or the equality
+// rows and the friction rows of elliptic cones, and should one of those tie two branches of the
+// tree, the equality rows alone (the linearised steps).
+enum class FrozenRows { None, All, Equalities, EqualitiesAndEllipticFriction };
+
+// Whether efc row i is a friction row of an elliptic cone (a contact's rows after its normal one).
+bool elliptic_friction_row(const mjData* d, int i) {
+  return d->efc_type[i] == mjCNSTR_CONTACT_ELLIPTIC && i > 0 && d->efc_type[i - 1] == mjCNSTR_CONTACT_ELLIPTIC &&
+         d->efc_id[i - 1] == d->efc_id[i];
+}
+
 // The Newton schemes' terms of the constraint rows. A row in MuJoCo's quadratic state (equality
 // rows, active limits, pyramidal contact rows) pulls with -D (J a + B J v + K I r): it adds D J'J to
 // the mass the iteration sees, B D J'J to its damping and K I D J'J to its stiffness, so
@@ -2855,19 +2861,8 @@ bool add_outer_in_tree(const mjModel* m, mjtNum* A, const mjtNum* u, double c, s
 // cone's) stay out. Without these terms a wire of short sections lying on a floor split every step
 // (outside probe AA: 300 corrections and 15 splits per 1 ms step under trapezoidal, midpoint and
 // genalpha; now 27 and 1).
-// Which active rows add_constraint_terms freezes with the matrix: every row in MuJoCo's quadratic
-// state, the equality rows only, or every row and, should one tie two branches of the tree, the
-// equality rows only.
-enum class FrozenRows { All, Equalities, AllElseEqualities };
-
-// Whether efc row i is a friction row of an elliptic cone (a contact's rows after its normal one).
-bool elliptic_friction_row(const mjData* d, int i) {
-  return d->efc_type[i] == mjCNSTR_CONTACT_ELLIPTIC && i > 0 && d->efc_type[i - 1] == mjCNSTR_CONTACT_ELLIPTIC &&
-         d->efc_id[i - 1] == d->efc_id[i];
-}
-
 void add_constraint_terms(const mjModel* m, const char* strain, SceneData& sd, mjtNum* A, double hD, double hK,
-                          FrozenRows which = FrozenRows::All) {
+                          FrozenRows which) {
   const bool equalities_only = which == FrozenRows::Equalities;
   const mjData* d = sd.d;
   const int nv = m->nv;
@@ -2886,7 +2881,8 @@ void add_constraint_terms(const mjModel* m, const char* strain, SceneData& sd, m
     // the linearised steps hold the friction rows of elliptic cones, not the normal rows nor the
     // pyramid's (outside probe BO: held, those damped a soft rod's bounce from 62 to 14 mm and
     // braked, even blew up, a rod rolling on a pyramidal cone)
-    if (which == FrozenRows::AllElseEqualities && d->efc_type[i] != mjCNSTR_EQUALITY && !elliptic_friction_row(d, i))
+    if (which == FrozenRows::EqualitiesAndEllipticFriction && d->efc_type[i] != mjCNSTR_EQUALITY &&
+        !elliptic_friction_row(d, i))
       continue;
     const mjtNum* u = sparse ? row : d->efc_J + static_cast<size_t>(i) * nv;
     int last = -1, count = 0;
@@ -2920,7 +2916,8 @@ void add_constraint_terms(const mjModel* m, const char* strain, SceneData& sd, m
       for (int k = d->efc_J_rowadr[i]; k < d->efc_J_rowadr[i] + d->efc_J_rownnz[i]; ++k) row[d->efc_J_colind[k]] = 0.0;
     if (across) {  // a row across two branches: the terms would be partial, none are taken
       sd.frozen_D.clear();
-      if (which == FrozenRows::AllElseEqualities) add_constraint_terms(m, strain, sd, A, hD, hK, FrozenRows::Equalities);
+      if (which == FrozenRows::EqualitiesAndEllipticFriction)
+        add_constraint_terms(m, strain, sd, A, hD, hK, FrozenRows::Equalities);
       return;
     }
   }
@@ -3016,8 +3013,8 @@ void factor_woodbury(const mjModel* m, SceneData& sd) {
 // and D live inside each section's dof chain, D_f in the kinematic tree's pattern), after
 // forward: assembled in sd.A_LD from qM and factorised there as MuJoCo factorises qM
 // (factor_ldl), with 1/diag(D) in sd.A_LDiagInv; mjData is not touched.
-void factor_implicit(const Scene& s, SceneData& sd, bool rods, double cD, double cK, bool constraints = false,
-                     bool equalities = false) {
+void factor_implicit(const Scene& s, SceneData& sd, bool rods, double cD, double cK,
+                     FrozenRows frozen = FrozenRows::None) {
   const mjModel* m = s.m;
   mjData* d = sd.d;
   const double h = m->opt.timestep, hD = cD * h, hK = cK * h * h;
@@ -3074,11 +3071,7 @@ void factor_implicit(const Scene& s, SceneData& sd, bool rods, double cD, double
         }
   add_fluid_damping(s, sd, hD, A);  // fluid hook: + cD h D_f (no-op without the fluid)
   sd.frozen_D.clear();
-  if (constraints || equalities)
-    add_constraint_terms(m, s.dof_strain.data(), sd, A, hD, hK,
-                         !constraints ? FrozenRows::Equalities
-                         : equalities ? FrozenRows::AllElseEqualities
-                                      : FrozenRows::All);
+  if (frozen != FrozenRows::None) add_constraint_terms(m, s.dof_strain.data(), sd, A, hD, hK, frozen);
   factor_ldl(m, d, A, A, sd.A_LDiagInv.data(), s.dof_strain.data());  // (factor_mass: the rods keep their pivots)
   factor_woodbury(m, sd);
 }
@@ -3212,11 +3205,10 @@ void filter_activations(const Scene& s, SceneData& sd, const mjtNum* act0, const
 //   A a = M qacc - theta h K v,   q+ = q + h (v + theta h a),  v+ = v + h a.
 // theta = 1 (Implicit) is linearised backward Euler; theta = 1/2 (Trapezoidal) the trapezoidal rule
 // on the same linearisation: no numerical damping of the linear modes.
-// contacts: the elliptic cones' friction rows too (add_constraint_terms, FrozenRows::
-// AllElseEqualities), as the linearised `implicit` and `trapezoidal --newton 0` steps take them (not
-// the Newton schemes' event steps and first iterates, whose contacts change within the step: the
-// pushed rod's stopping distance under `midpoint` went from within 0.3% of Coulomb's to 1-3% long
-// with them)
+// contacts: the elliptic cones' friction rows too (FrozenRows::EqualitiesAndEllipticFriction), as
+// the linearised `implicit` and `trapezoidal --newton 0` steps take them (not the Newton schemes'
+// event steps and first iterates, whose contacts change within the step: the pushed rod's stopping
+// distance under `midpoint` went from within 0.3% of Coulomb's to 1-3% long with them)
 void implicit_step(const Scene& s, SceneData& sd, bool rods = true, double theta = 1.0, bool contacts = false) {
   const mjModel* m = s.m;
   mjData* d = sd.d;
@@ -3237,7 +3229,10 @@ void implicit_step(const Scene& s, SceneData& sd, bool rods = true, double theta
   // twin turned 0.008 rad); where a row ties two branches of the tree (an arm pressing a free
   // object) the equality rows alone.
   const bool rows = rods && !smooth_only(sd) && (contacts ? d->nefc > 0 : d->ne > 0);
-  factor_implicit(s, sd, rods, theta, theta * theta, rows && contacts, rows);
+  factor_implicit(s, sd, rods, theta, theta * theta,
+                  !rows      ? FrozenRows::None
+                  : contacts ? FrozenRows::EqualitiesAndEllipticFriction
+                             : FrozenRows::Equalities);
   if (rods) subtract_stiffness(s, sd, th, d->qvel, sd.qacc_tmp.data());
   if (rows) {
     add_constraint_mass(sd, d->qacc, sd.qacc_tmp.data());
@@ -3537,7 +3532,7 @@ bool newton_step(const Scene& s, SceneData& sd, const Scheme& sc, int iterations
   // iteration matrix (add_constraint_terms), of which the linearised step's holds the equalities only
   const bool constrained = !smooth_only(sd) && d->nefc > 0;
   if (!refresh && (constrained || (!be && (c * sc.cv1 != 0.5 || c * sc.cq1 != 0.25))))
-    factor_implicit(s, sd, true, c * sc.cv1, c * sc.cq1, true);  // the start state's, the scheme's coefficients
+    factor_implicit(s, sd, true, c * sc.cv1, c * sc.cq1, FrozenRows::All);  // the start state's, the scheme's coefficients
   if (!be) set_end_state(s, sd, sc);
   bool converged = false;
   double first = 0.0;  // size of the first correction
@@ -3546,7 +3541,7 @@ bool newton_step(const Scene& s, SceneData& sd, const Scheme& sc, int iterations
     forward(s, sd, Need::Forces);  // at (q+, v+)
     // the iteration matrix at the first iterate's state (Scene::newton_refresh; the rods' D and K
     // are constant)
-    if (k == 0 && refresh) factor_implicit(s, sd, true, be ? 1.0 : c * sc.cv1, be ? 1.0 : c * sc.cq1, true);
+    if (k == 0 && refresh) factor_implicit(s, sd, true, be ? 1.0 : c * sc.cv1, be ? 1.0 : c * sc.cq1, FrozenRows::All);
     ++sd.newton_stats.iterations;
     // y = M r, M at (q+, v+), r = c f(q+, v+) + z; when forward skipped the accelerations (no
     // constraints), M f(q+, v+) = qfrc_smooth: y = M z + c qfrc_smooth
@@ -3733,7 +3728,7 @@ bool midpoint_step(const Scene& s, SceneData& sd, int iterations) {
   std::copy(d->qacc, d->qacc + nv, w.A.begin());
   // the start state's constraint rows in the iteration matrix (add_constraint_terms)
   const bool constrained = !smooth_only(sd) && d->nefc > 0;
-  if (constrained) factor_implicit(s, sd, true, 0.5, 0.25, true);
+  if (constrained) factor_implicit(s, sd, true, 0.5, 0.25, FrozenRows::All);
   mjtNum* Mv = w.A0.data();  // M(q_m) v_m (A0 and f0 are not used by this scheme)
   mjtNum* vm = w.f0.data();  // v_m
   bool converged = false;
