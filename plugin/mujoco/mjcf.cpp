@@ -831,13 +831,10 @@ void Preprocessor::read_sections(const Reader& r, RodInput& rod) {
   // (outside probe BL: a newcomer's soft cantilever without `sections` drooped 29% short of the
   // converged tip drop under its weight, without a word)
   // (not on the constant-curvature sets and the spring, whose one section is the model the user
-  // chose: outside probe BO)
+  // chose: outside probe BO; of the named strain sets that bend, those without twist)
   const auto& dofs = spec.section.dofs;
   const bool bends = dofs[0] || dofs[1] || dofs[2];
-  std::string strain = r.has("strain") ? r.text("strain") : "";
-  for (auto& ch : strain) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
-  const bool arc_model = strain == "cc" || strain == "pcc" || strain == "icc" || strain == "constant-curvature" ||
-                         strain == "planar-constant-curvature" || strain == "inextensible-constant-curvature";
+  const bool arc_model = r.has("strain") && !dofs[0];
   if (elements.empty() && !r.has("sections") && bends && !arc_model && spec.section.order == 0)
     warnings_.push_back(where(r) + "sections not given: one PCS section, whose strain is constant along the rod (it "
                                    "bends into a circular arc only); give sections=\"N\" (a soft cantilever under its "
@@ -1295,7 +1292,7 @@ Preprocessed Preprocessor::run(const std::string& text, const std::string& path)
 
   tinyxml2::XMLPrinter printer;
   doc.Print(&printer);
-  Preprocessed out{printer.CStr(), path, std::move(rods_), {}, {}, {}, {}, {}, {}, {}};
+  Preprocessed out{printer.CStr(), path, std::move(rods_), {}, {}, {}, {}, {}, {}, {}, {}};
   out.warnings = std::move(warnings_);
   map_lines(root, out);
   for (const XMLElement* kf = root->FirstChildElement("keyframe"); kf; kf = kf->NextSiblingElement("keyframe"))
