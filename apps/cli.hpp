@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -18,6 +19,13 @@
 #include <vector>
 
 namespace cosserat::cli {
+
+// A number in messages, "%g" (0.15, not 0.15000000000000002).
+inline std::string format_g(double v) {
+  char b[32];
+  std::snprintf(b, sizeof b, "%g", v);
+  return b;
+}
 
 // "warning: <msg>" on stderr, once per process whatever the number of calls (render applies the
 // start state once to frame the run and again to draw it: outside probe BO saw each twice).

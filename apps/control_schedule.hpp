@@ -35,12 +35,6 @@ struct ControlSchedule {
   }
 };
 
-inline std::string x_text(double v) {
-  char b[32];
-  std::snprintf(b, sizeof b, "%g", v);
-  return b;
-}
-
 // Splits a CSV line at commas (no quoting: names and numbers only), trimming spaces.
 inline std::vector<std::string> csv_fields(const std::string& line) {
   std::vector<std::string> out;
@@ -62,7 +56,8 @@ inline ControlSchedule read_control_schedule(const std::string& path, const mjMo
   std::string line;
   int lineno = 0;
   bool header = false;
-  auto where = [&] { return "--ctrl-file: " + path + ":" + std::to_string(lineno) + ": "; };
+  auto line_of = [&] { return "--ctrl-file: " + path + ":" + std::to_string(lineno); };
+  auto where = [&] { return line_of() + ": "; };
   while (std::getline(f, line)) {
     ++lineno;
     if (lineno == 1 && line.rfind("\xEF\xBB\xBF", 0) == 0) line.erase(0, 3);  // a UTF-8 byte order mark
@@ -103,15 +98,12 @@ inline ControlSchedule read_control_schedule(const std::string& path, const mjMo
       fail(where() + std::to_string(fields.size()) + " values, the header has " + std::to_string(s.actuators.size() + 1));
     std::vector<double> row;
     for (const auto& x : fields) {
-      char* end = nullptr;
-      const double v = std::strtod(x.c_str(), &end);
-      if (x.empty() || *end || !std::isfinite(v) || x.find_first_of("xX") != std::string::npos)
-        fail(where() + "'" + x + "' is not a number");
+      const double v = parse_number(line_of(), x);
       if (!(std::abs(v) < mjMAXVAL)) fail(where() + "'" + x + "' is not below 1e10 in magnitude (MuJoCo ignores such controls)");
       row.push_back(v);
     }
     if (!s.times.empty() && !(row[0] > s.times.back()))
-      fail(where() + "time " + x_text(row[0]) + " does not follow " + x_text(s.times.back()) + ": times must increase");
+      fail(where() + "time " + format_g(row[0]) + " does not follow " + format_g(s.times.back()) + ": times must increase");
     s.times.push_back(row[0]);
     s.u.emplace_back(row.begin() + 1, row.end());
   }
@@ -128,8 +120,8 @@ inline ControlSchedule read_control_schedule(const std::string& path, const mjMo
           const char* name = mj_id2name(m, mjOBJ_ACTUATOR, a);
           std::string label = name ? name : "#";
           if (!name) label.append(std::to_string(a));
-          warn_once("--ctrl-file: " + x_text(s.u[k][c]) + " at t = " + x_text(s.times[k]) + " for actuator '" + label +
-                    "' is outside its ctrlrange [" + x_text(lo) + ", " + x_text(hi) + "]: MuJoCo clamps it");
+          warn_once("--ctrl-file: " + format_g(s.u[k][c]) + " at t = " + format_g(s.times[k]) + " for actuator '" + label +
+                    "' is outside its ctrlrange [" + format_g(lo) + ", " + format_g(hi) + "]: MuJoCo clamps it");
           break;
         }
     }

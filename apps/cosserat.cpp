@@ -486,12 +486,6 @@ std::vector<std::string> energy_exchanges(const mj::Scene& sc, bool touched) {
 
 // --------------------------------------------------------------------------------- commands --
 
-std::string format_g(double x) {
-  char b[32];
-  std::snprintf(b, sizeof b, "%g", x);
-  return b;
-}
-
 // One rod's resistive-force coefficients at its base, and where they came from (the law, lambda and
 // Lighthill's Lambda along the filament).
 void print_rod_fluid(const std::string& rod, bool enabled, const cosserat::RodFluidInfo& f) {

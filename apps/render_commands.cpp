@@ -38,12 +38,6 @@ namespace mj = cosserat::mj;
 namespace rd = cosserat::render;
 using cosserat::Integrator;
 
-std::string format(double v) {
-  char b[32];
-  std::snprintf(b, sizeof b, "%g", v);
-  return b;
-}
-
 // A number option; `positive`: > 0 required (else >= lo).
 Option number(const std::string& name, const std::string& metavar, const std::string& help, double& target,
               double lo = -HUGE_VAL, double hi = HUGE_VAL, bool positive = false) {
@@ -51,8 +45,8 @@ Option number(const std::string& name, const std::string& metavar, const std::st
             target = parse_number(name, v);
             if (positive && !(target > 0)) fail(name + ": must be positive, got '" + v + "'");
             if (target < lo || target > hi)
-              fail(name + (hi == HUGE_VAL ? ": must be at least " + format(lo)
-                                          : ": must be in [" + format(lo) + ", " + format(hi) + "]") +
+              fail(name + (hi == HUGE_VAL ? ": must be at least " + format_g(lo)
+                                          : ": must be in [" + format_g(lo) + ", " + format_g(hi) + "]") +
                    ", got '" + v + "'");
           }};
 }
@@ -184,11 +178,11 @@ std::string uneven_frames_warning(double fps, double h, long frames) {
   }
   const double worst = std::max(hi - per_frame, per_frame - lo) / per_frame;
   if (worst <= 0.05) return "";
-  return "--fps " + format(fps) + " puts frames " + format(1.0 / fps) + " s apart, " + format(per_frame) +
-         " time steps of " + format(h) + " s: each frame shows the step nearest its time k/fps, so frames are " +
-         (lo == hi ? format(lo * h) : format(lo * h) + " to " + format(hi * h)) + " s apart (up to " +
-         format(std::round(100 * worst)) + "% off) and motion plays unevenly; an --fps of " + format(1.0 / h) +
-         " divided by a whole number, or a --timestep dividing " + format(1.0 / fps) + " s, spaces them evenly";
+  return "--fps " + format_g(fps) + " puts frames " + format_g(1.0 / fps) + " s apart, " + format_g(per_frame) +
+         " time steps of " + format_g(h) + " s: each frame shows the step nearest its time k/fps, so frames are " +
+         (lo == hi ? format_g(lo * h) : format_g(lo * h) + " to " + format_g(hi * h)) + " s apart (up to " +
+         format_g(std::round(100 * worst)) + "% off) and motion plays unevenly; an --fps of " + format_g(1.0 / h) +
+         " divided by a whole number, or a --timestep dividing " + format_g(1.0 / fps) + " s, spaces them evenly";
 }
 
 // Runs a command body and turns every failure into a one-line message and status 1.
@@ -252,8 +246,8 @@ int render_mode(Simulation& sim, const PictureOptions& o, int mode, double ampli
   progress.clear();
   if (!video.empty()) rd::encode_video(o.out, fps, video);  // the cycle plays in --duration (outside probe BF: at 30 fps)
   std::printf("render: mode %d (%s) at the equilibrium, amplitude %g %s: %ld frames %dx%d in %s%s\n", mode,
-              shape.omega2 < 0 ? ("unstable, omega^2 = " + format(shape.omega2) + " 1/s^2").c_str()
-                               : (format(shape.frequency_hz) + " Hz").c_str(),
+              shape.omega2 < 0 ? ("unstable, omega^2 = " + format_g(shape.omega2) + " 1/s^2").c_str()
+                               : (format_g(shape.frequency_hz) + " Hz").c_str(),
               amplitude, shape.displaces ? "m" : "in its largest coordinate (it moves no rod centreline, site or body)",
               frames, renderer.width(), renderer.height(), o.out.c_str(), video.empty() ? "" : (", video " + video).c_str());
   return 0;
@@ -292,9 +286,9 @@ int render_command(int argc, char** argv) {
     if (!pos) return 0;
     o.finish();
     const double nframes = duration * fps;
-    if (!(nframes < 1e7)) fail("--duration " + format(duration) + " at --fps " + format(fps) + " makes more than 1e7 frames");
+    if (!(nframes < 1e7)) fail("--duration " + format_g(duration) + " at --fps " + format_g(fps) + " makes more than 1e7 frames");
     const long frames = std::lround(nframes);
-    if (frames < 1) fail("--duration " + format(duration) + " at --fps " + format(fps) + " makes no frame");
+    if (frames < 1) fail("--duration " + format_g(duration) + " at --fps " + format_g(fps) + " makes no frame");
     if (!video.empty() && rd::find_program("ffmpeg").empty())
       fail("--video needs ffmpeg, which is not installed (apt-get install ffmpeg); without --video only the frames are written");
     if (!video.empty()) {  // ffmpeg picks the container from the extension: a wrong one failed after every frame
@@ -325,8 +319,8 @@ int render_command(int argc, char** argv) {
     const double h = sim.scene->m->opt.timestep;
     step_count((frames - 1) / fps, h, "--duration");  // before any frame is written
     if (frames > 1 && fps * h > 1.0 + 1e-9)  // frames closer than a step: repeated pictures, or none at all
-      fail("--fps " + format(fps) + " puts frames " + format(1.0 / fps) + " s apart, closer than the time step " +
-           format(h) + " s: use --fps " + format(1.0 / h) + " or less, or a smaller --timestep");
+      fail("--fps " + format_g(fps) + " puts frames " + format_g(1.0 / fps) + " s apart, closer than the time step " +
+           format_g(h) + " s: use --fps " + format_g(1.0 / h) + " or less, or a smaller --timestep");
     if (const std::string w = uneven_frames_warning(fps, h, frames); !w.empty()) std::fprintf(stderr, "warning: %s\n", w.c_str());
     rd::Renderer renderer(*sim.scene, o.render);
     warn_renderer(renderer);
