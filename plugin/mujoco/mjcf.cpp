@@ -722,21 +722,6 @@ RodInput Preprocessor::read_rod(XMLElement* cosserat, const std::string& parent_
   rod.capsules = r.integer("capsules", 2, 1);
   r.check(rod.capsules <= kMaxCapsules, "capsules",
           "must be <= " + std::to_string(kMaxCapsules) + " per section, got " + r.text("capsules"));
-  // one soft PCS section with one capsule and two Gauss points of mass: its contacts act at the
-  // section's two ends, which a mode of the section moves without moving either mass point (held
-  // by the cross-sections' rotary inertia alone). Outside probe AX: a 1 m rod of one such section
-  // lying on a floor was held at its ends by forces of 0.4 N against its 3 N weight, sank 46 mm
-  // and was thrown up with 100 times its energy. Three Gauss points, the Lobatto rule or a second
-  // capsule (a contact at the middle) hold it.
-  if (rod.capsules == 1 && spec.overrides.size() == 1) {
-    const SectionSpec& only = spec.overrides[0];
-    const bool soft = std::any_of(only.dofs.begin(), only.dofs.end(), [](bool b) { return b; });
-    const bool colliding = !(r.text("contype") == "0" && r.text("conaffinity") == "0");
-    if (soft && only.order == 0 && !only.lobatto && only.gauss_points() < 3 && colliding)
-      warnings_.push_back(where(r) + "one section with capsules=\"1\" touches only at the section's two ends, which "
-                          "its two Gauss points of mass let move without moving any mass: lying on a floor such a rod "
-                          "sinks through it; use capsules=\"2\", quadrature=\"3\" or \"lobatto\", or more sections");
-  }
   rod.selfcollide = r.boolean("selfcollide", false);
   // the strain limits' softness, for every limited strain joint (MuJoCo's joint solreflimit and
   // solimplimit; its defaults otherwise)
@@ -746,6 +731,16 @@ RodInput Preprocessor::read_rod(XMLElement* cosserat, const std::string& parent_
             attr, "is given, but no strain is limited (strainrange)");
     r.pass_through(attr, lo, hi, rod.limit);
   }
+  // a solimplimit of 3 or 4 numbers: MuJoCo takes the rest from the joint's class, so the rest of
+  // MuJoCo's default (0.9 0.95 0.001 0.5 2) is written out here, never a <default><joint>'s
+  for (auto& [name, value] : rod.limit)
+    if (name == "solimplimit") {
+      const char* rest[] = {"0.5", "2"};
+      std::istringstream in(value);
+      int n = 0;
+      for (std::string word; in >> word;) ++n;
+      for (int k = std::max(n, 3); k < 5; ++k) value += std::string(" ") + rest[k - 3];
+    }
   for (auto [attr, lo, hi] : {std::tuple{"contype", 1, 1}, {"conaffinity", 1, 1}, {"condim", 1, 1},
                               {"friction", 1, 3}, {"solref", 2, 2}, {"solimp", 3, 5}, {"margin", 1, 1},
                               {"gap", 1, 1}, {"rgba", 4, 4}, {"group", 1, 1}, {"material", 0, 0},
@@ -831,10 +826,13 @@ void Preprocessor::read_sections(const Reader& r, RodInput& rod) {
   // (outside probe BL: a newcomer's soft cantilever without `sections` drooped 29% short of the
   // converged tip drop under its weight, without a word)
   // (not on the constant-curvature sets and the spring, whose one section is the model the user
-  // chose: outside probe BO; of the named strain sets that bend, those without twist)
+  // chose: outside probe BO; the sets pcc, icc and cc, by name or by their dofs masks: outside
+  // probe BQ)
   const auto& dofs = spec.section.dofs;
   const bool bends = dofs[0] || dofs[1] || dofs[2];
-  const bool arc_model = r.has("strain") && !dofs[0];
+  constexpr const char* kArcSets[] = {"pcc", "icc", "cc"};
+  const bool arc_model = std::any_of(std::begin(kArcSets), std::end(kArcSets),
+                                     [&](const char* set) { return strain_mask_from_name(set) == dofs; });
   if (elements.empty() && !r.has("sections") && bends && !arc_model && spec.section.order == 0)
     warnings_.push_back(where(r) + "sections not given: one PCS section, whose strain is constant along the rod (it "
                                    "bends into a circular arc only); give sections=\"N\" (a soft cantilever under its "
@@ -976,7 +974,11 @@ XMLElement* new_slide_joint(XMLDocument& doc, const std::string& name, const Att
                       {"range", "0 0"}, {"margin", "0"},
                       // MuJoCo's compiler sets stiffness and damping from a positive springdamper
                       // (a user <default>'s), overriding the two above
-                      {"springdamper", "0 0"}},
+                      {"springdamper", "0 0"},
+                      // the strain limits' softness is the rod's or MuJoCo's default, never a
+                      // <default><joint>'s (outside probe BQ: a main default's solreflimit moved a
+                      // limited rod's resting tip by 0.12 m); `limit` replaces these
+                      {"solreflimit", "0.02 1"}, {"solimplimit", "0.9 0.95 0.001 0.5 2"}},
                      limit);  // strainrange: limited, range, and the rod's solreflimit / solimplimit
 }
 

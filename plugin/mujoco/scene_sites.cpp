@@ -5,9 +5,11 @@
 #include <algorithm>
 #include <string>
 #include <utility>
+#include <vector>
 
 #include "dynamics.hpp"
 #include "kinematics.hpp"
+#include "strain.hpp"
 
 namespace cosserat::mj {
 
@@ -303,24 +305,26 @@ void patch_velocity_sensors(const Scene& s, SceneData& sd) {
   }
 }
 
-// World-frame acceleration of a rod site's material point in MuJoCo's layout (angular, linear), its
-// linear part counting gravity as MuJoCo's cacc does (the world accelerates by -g). From the
-// section's start frame (the rod's base body or the previous section's proxy, whose cvel and cacc
-// MuJoCo computes exactly: the patched cdof and cdof_dot) and the section's own motion: the twist
-// of the cross-section at X is eta_X = Ad^-1_G eta_s + psi, psi = J qvel (section_jacobian's J,
-// G the pose of X in the start frame), and its rate Ad^-1_G eta_s' + J qacc + Jdot qvel
+// The motion of the cross-section of rod r at X in its section si: its world pose, and its twist and
+// acceleration in its own frame, the acceleration counting gravity as MuJoCo's cacc does (the world
+// accelerates by -g). From the section's start frame (the rod's base body or the previous section's
+// proxy, whose cvel and cacc MuJoCo computes exactly: the patched cdof and cdof_dot) and the
+// section's own motion: the twist at X is eta_X = Ad^-1_G eta_s + psi, psi = J qvel (section_jacobian's
+// J, G the pose of X in the start frame), and its rate Ad^-1_G eta_s' + J qacc + Jdot qvel
 // - ad_psi Ad^-1_G eta_s.
-void rod_site_acceleration(const Scene& s, const SceneData& sd, int site, mjtNum out[6]) {
+struct CrossSectionMotion {
+  SE3 pose;
+  Vec6 eta, acc;
+};
+CrossSectionMotion cross_section_motion(const Scene& s, const SceneData& sd, int r, int si, double X) {
   const mjModel* m = s.m;
   const mjData* d = sd.d;
-  const int r = s.site_rod[site], si = s.site_section[site];
   const RodBinding& rb = s.rods[r];
   const cosserat::Data& rd = sd.rod[r];
-  const RodSiteDecl& sdl = rb.decl.sites[s.site_index[site]];
   Mat6X& J = sd.scratch[r].section_J[si];
   Mat6X& Jdot = sd.scratch[r].section_Jdot[si];
   SE3 G;
-  section_jacobian(rb.model, rd, 0, sdl.X, J, &Jdot, &G, si);
+  section_jacobian(rb.model, rd, 0, X, J, &Jdot, &G, si);
   const int start = si == 0 ? rb.base_body : rb.proxy_body[si - 1];
   const SE3 gs = anchor_pose(rd, rb.model.sections[si].start_node);
   const SE3 C = com_frame(gs, d->subtree_com + 3 * m->body_rootid[start]);
@@ -333,12 +337,20 @@ void rod_site_acceleration(const Scene& s, const SceneData& sd, int site, mjtNum
     acc += J.col(k) * d->qacc[dof0 + k] + Jdot.col(k) * d->qvel[dof0 + k];
   }
   acc -= ad_apply(psi, eta_s);
-  const Vec6 eta = eta_s + psi;
+  return {gs * G, eta_s + psi, acc};
+}
+
+// World-frame acceleration of a rod site's material point in MuJoCo's layout (angular, linear), its
+// linear part counting gravity as MuJoCo's cacc does: its cross-section's (cross_section_motion) at
+// the site's offset.
+void rod_site_acceleration(const Scene& s, const SceneData& sd, int site, mjtNum out[6]) {
+  const int r = s.site_rod[site];
+  const RodSiteDecl& sdl = s.rods[r].decl.sites[s.site_index[site]];
+  const CrossSectionMotion cs = cross_section_motion(s, sd, r, s.site_section[site], sdl.X);
   // the point at the site's offset in the cross-section frame, rotated to the world
-  const Vec3 w = eta.head<3>(), v = eta.tail<3>(), wd = acc.head<3>();
-  const Vec3 a = acc.tail<3>() + wd.cross(sdl.pos) + w.cross(v + w.cross(sdl.pos));
-  const Mat3 R = gs.R * G.R;
-  const Vec3 wd_world = R * wd, a_world = R * a;
+  const Vec3 w = cs.eta.head<3>(), v = cs.eta.tail<3>(), wd = cs.acc.head<3>();
+  const Vec3 a = cs.acc.tail<3>() + wd.cross(sdl.pos) + w.cross(v + w.cross(sdl.pos));
+  const Vec3 wd_world = cs.pose.R * wd, a_world = cs.pose.R * a;
   for (int e = 0; e < 3; ++e) {
     out[e] = wd_world(e);
     out[3 + e] = a_world(e);
@@ -397,38 +409,70 @@ void patch_cfrc_int(const Scene& s, SceneData& sd) {
   }
 }
 
-// The wrench rod `m` (the scene's rod model, rod 0 of it) carries across its cross-section at X,
-// com-based about c, from its node wrenches (cosserat::Data::F, the nodes' own inverse dynamics and
-// everything beyond). Each mass node stands for a stretch of the rod, the nodes' length weights
-// (Node::dX) laid end to end from the base (the Gauss points' and Gauss-Lobatto's separate their
-// nodes). The sections beyond the one X lies in count as the quadrature has them (node wrenches at
-// the nodes: the rule is exact over whole sections); in X's section each node with its stretch
-// beyond X counts the part of its own wrench beyond X, its force at the mean of the centre line
-// over that part. Under a uniform load this is the continuum's resultant and moment (with the
-// Gauss rule and GVS's; Gauss-Lobatto's end nodes, placed at the section ends by their rule, leave
-// the moment up to 2e-3 of a cantilever's base moment off). The node carrying the rod's payload
-// keeps its whole wrench at its place. (Outside probe AN: counting the nodes at or beyond X in
-// full had read -3.8% to +7% off on a hanging rod, the shipped cantilever's beam_mid 2.5% high;
-// outside probe AO: moments with the forces left at the nodes, -46% and the wrong sign just inside
-// a Gauss-Lobatto tip.)
-Vec6 rod_wrench_beyond(const cosserat::Model& m, const cosserat::Data& rd, double X, double section_end, const mjtNum* c) {
+// The wrench rod r carries across the cross-section of rod site `site` (at X in section si), less
+// the wrench it carries across the section's end (the node wrench cosserat::Data::F of its end
+// node: the nodes' own inverse dynamics, at MuJoCo's accelerations, and everything beyond),
+// com-based about c. That is the part of the section beyond X: its inertial wrench (gravity
+// counted as the world's acceleration) integrated over [X, X1] by the section's own mass rule laid
+// on that stretch (its Gauss points, or Gauss-Lobatto's ends and middle), at each point's own motion
+// (cross_section_motion), and the external loads of its mass nodes (fluid drag) in proportion to
+// their stretches beyond X (the nodes' length weights laid end to end from the section's start),
+// each at the mean of the centre line over its part. With the Gauss-Lobatto rule the end node is
+// shared with the next section: the part of its inertial wrench that stands for this section's
+// stretch is taken out of F first. At X = X0 the rule is the section's own (the same points and
+// weights): a site at a section's start reads the node wrenches as the rod's base does.
+// (Outside probe BQ: splitting each node's whole wrench in proportion to its stretch beyond X read
+// a rigid rod swinging on a hinge 3.2x, 28%, 3.5% off at its base with 1, 2, 4 sections; outside probe AN: counting the nodes at or beyond
+// X in full had read -3.8% to +7% off on a hanging rod; outside probe AO: moments with the forces
+// left at the nodes, -46% and the wrong sign just inside a Gauss-Lobatto tip.)
+Vec6 rod_wrench_beyond_section_end(const Scene& s, const SceneData& sd, int site, const mjtNum* c) {
+  const int r = s.site_rod[site], si = s.site_section[site];
+  const cosserat::Model& m = s.rods[r].model;
+  const cosserat::Data& rd = sd.rod[r];
+  const cosserat::Section& sec = m.sections[si];
   const cosserat::Rod& rod = m.rods[0];
-  auto W = [&](int k) { return k > rod.tip_node ? Vec6(Vec6::Zero()) : coAd_apply(com_frame(rd.g[k], c), rd.F[k]); };
+  const double X = s.rods[r].decl.sites[s.site_index[site]].X, X1 = sec.X0 + sec.length;
+  // the inertial wrench of rod length w at the cross-section at x, com-based about c
+  auto inertial = [&](double x, double w) {
+    const CrossSectionMotion cs = cross_section_motion(s, sd, r, si, x);
+    const Vec6 I = w * cosserat::section_inertia_density(sec.material, rod.radius(x));
+    const Vec6 f = I.cwiseProduct(cs.acc) + coad_apply(cs.eta, Vec6(I.cwiseProduct(cs.eta)));
+    return coAd_apply(com_frame(cs.pose, c), f);
+  };
   Vec6 sum = Vec6::Zero();
-  double begin = 0.0;  // where node k's stretch begins
-  for (int k = rod.first_node; k <= rod.tip_node; ++k) {
-    const double dX = m.nodes[k].dX, end = begin + dX;
-    if (dX > 0 && end > X) {
-      if (begin >= section_end || k == rd.attached_node) return sum + W(k);
+  const double len = X1 - X;
+  if (sec.end_weight > 0.0) {  // Gauss-Lobatto: 0, 1/2, 1 on [X, X1]; this section's share of the end node out
+    sum -= inertial(X1, sec.end_weight * sec.length);
+    if (len > 0) {
+      sum += inertial(X, sec.end_weight * len) + inertial(X1, sec.end_weight * len);
+      sum += inertial(0.5 * (X + X1), (1.0 - 2.0 * sec.end_weight) * len);
+    }
+  } else if (len > 0) {  // the section's Gauss points on [X, X1]
+    int nq = 0;
+    for (int k = sec.first_node; k <= sec.end_node; ++k) nq += m.nodes[k].dX > 0 ? 1 : 0;
+    thread_local std::vector<double> gx, gw;
+    cosserat::gauss_legendre01(nq, gx, gw);
+    for (int j = 0; j < nq; ++j) sum += inertial(X + gx[j] * len, gw[j] * len);
+  }
+  // the external loads of the section's own mass nodes, each over its stretch beyond X
+  double begin = sec.X0 + (sec.end_weight > 0.0 ? sec.end_weight * sec.length : 0.0);
+  for (int k = sec.first_node; k < sec.end_node; ++k) {
+    const cosserat::Node& n = m.nodes[k];
+    const double dX = n.dX, end = begin + dX;
+    if (dX > 0 && end > X && !(rd.f_ext_body[k].isZero(0.0) && rd.f_ext_world[k].isZero(0.0))) {
+      const Mat3 Rt = rd.g[k].R.transpose();
+      Vec6 ext = rd.f_ext_body[k];  // body frame, as the rnea subtracts it
+      ext.head<3>() += Rt * rd.f_ext_world[k].head<3>();
+      ext.tail<3>() += Rt * rd.f_ext_world[k].tail<3>();
+      Vec6 own = -coAd_apply(com_frame(rd.g[k], c), ext);
       const double from = std::max(begin, X);
-      Vec6 own = W(k) - W(k + 1);
       // (the mean of the centre line over that part, by 2 Gauss points: exact where it is cubic)
       const double mid = 0.5 * (from + end), half = 0.5 / std::sqrt(3.0) * (end - from);
       const Vec3 p_mean = 0.5 * (cosserat::rod_pose(m, rd, 0, mid - half).u + cosserat::rod_pose(m, rd, 0, mid + half).u);
       own.head<3>() += (p_mean - rd.g[k].u).cross(Vec3(own.tail<3>()));
       sum += (end - from) / dX * own;
     }
-    begin = end;
+    if (dX > 0) begin = end;
   }
   return sum;
 }
@@ -449,7 +493,7 @@ Vec6 contact_wrench_on(const mjModel* m, mjData* d, int j, int body, const mjtNu
 
 // Scene::force_sensors again, as mj_sensorAcc computes them (cfrc_int of the site's body, to the
 // site's frame), from the patched cfrc_int. A site on a rod section reads the wrench transmitted
-// into the rod from its abscissa on (rod_wrench_beyond) instead of from the section's end, plus
+// into the rod from its abscissa on (rod_wrench_beyond_section_end) instead of from the section's end, plus
 // what MuJoCo's bodies below add (tip bodies; contacts on the capsules of the site's section
 // at or beyond the site's abscissa, and on the sections beyond). (Outside probe AN: the contacts
 // on the site's own section before it had counted too, 8-24% of the weight of a rod on a floor.)
@@ -462,12 +506,8 @@ void patch_force_sensors(const Scene& s, SceneData& sd) {
     const mjtNum* c = d->subtree_com + 3 * m->body_rootid[body];
     Vec6 cf = Eigen::Map<const Vec6>(d->cfrc_int + 6 * body);
     if (const int r = s.site_rod[site]; r >= 0 && body != s.rods[r].base_body) {
-      const RodBinding& rb = s.rods[r];
-      const cosserat::Data& rd = sd.rod[r];
-      const double X = rb.decl.sites[s.site_index[site]].X;
-      const cosserat::Section& sec = rb.model.sections[s.site_section[site]];
-      cf += rod_wrench_beyond(rb.model, rd, X, sec.X0 + sec.length, c) -
-            coAd_apply(com_frame(rd.g[sec.end_node], c), rd.F[sec.end_node]);
+      const double X = s.rods[r].decl.sites[s.site_index[site]].X;
+      cf += rod_wrench_beyond_section_end(s, sd, site, c);
       // cfrc_int holds minus the external wrenches on the proxy: add back those of the contacts on
       // the section's capsules before X
       for (int j = 0; j < d->ncon; ++j) {

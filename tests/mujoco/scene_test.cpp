@@ -717,13 +717,15 @@ TEST(Scene, ProxiesAndHelpersCarryNoInertia) {
 // A user's <default> joint attributes reach the user's joints, never the generated strain joints
 // (the rod's elasticity, damping and inertia are the solver's): a springdamper (from which MuJoCo's
 // compiler computes stiffness and damping), stiffness, damping, armature, friction loss, limits,
-// range and margin.
+// range and margin, and the softness of limits (outside probe BQ: a default's solreflimit and
+// solimplimit reached the limited strain joints of a rod with a strainrange, moving its resting tip
+// by 0.12 m; they take the rod's, or MuJoCo's defaults).
 TEST(Scene, UserJointDefaultsDoNotReachTheStrainJoints) {
   const std::string plain = arm_xml("kl", 3, 0, 0.0);
   const std::string with_defaults = replace_all(
       plain, "<worldbody>",
       R"(<default><joint springdamper="0.05 1" stiffness="10" damping="3" armature="0.1" frictionloss="0.2"
-           limited="true" range="-0.1 0.1" margin="0.02"/></default><worldbody>)");
+           limited="true" range="-0.1 0.1" margin="0.02" solreflimit="0.1 0.5" solimplimit="0.5 0.6 0.01 0.4 3"/></default><worldbody>)");
   ASSERT_NE(with_defaults, plain);
   auto s = load_scene_string(with_defaults, kPath);
   const mjModel* m = s->m;
@@ -742,6 +744,28 @@ TEST(Scene, UserJointDefaultsDoNotReachTheStrainJoints) {
   }
   // the user's hinge has them
   EXPECT_GT(m->jnt_stiffness[0], 0.0);
+  EXPECT_EQ(m->jnt_solref[0], 0.1);
+  // limited strain joints: MuJoCo's default softness, or the rod's own
+  for (const std::string rod_softness : {"", R"( solreflimit="0.03 0.8" solimplimit="0.8 0.9 0.002")"}) {
+    SCOPED_TRACE(rod_softness);
+    const std::string limited = replace_all(with_defaults, "<cosserat ",
+                                            R"(<cosserat strainrange="0 0 -5 5 -5 5 0 0 0 0 0 0")" + rod_softness + " ");
+    ASSERT_NE(limited, with_defaults);
+    auto sl = load_scene_string(limited, kPath);
+    const RodBinding& rl = sl->rods[0];
+    const double solref[2] = {rod_softness.empty() ? 0.02 : 0.03, rod_softness.empty() ? 1.0 : 0.8};
+    const double solimp[5] = {rod_softness.empty() ? 0.9 : 0.8, rod_softness.empty() ? 0.95 : 0.9,
+                              rod_softness.empty() ? 0.001 : 0.002, 0.5, 2.0};
+    int nlimited = 0;
+    for (int k = 0; k < rl.model.nv; ++k) {
+      const int j = sl->m->dof_jntid[rl.dof0 + k];
+      if (!sl->m->jnt_limited[j]) continue;
+      ++nlimited;
+      for (int e = 0; e < 2; ++e) EXPECT_EQ(sl->m->jnt_solref[mjNREF * j + e], solref[e]) << k;
+      for (int e = 0; e < 5; ++e) EXPECT_EQ(sl->m->jnt_solimp[mjNIMP * j + e], solimp[e]) << k;
+    }
+    EXPECT_GT(nlimited, 0);
+  }
   // the rod sags as without the defaults (the hub's hinge held still by its own)
   auto tip_after = [](const std::string& xml) {
     auto sc = load_scene_string(xml, kPath);
