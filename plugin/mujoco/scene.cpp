@@ -4279,6 +4279,15 @@ SceneEnergy energy(const Scene& s, SceneData& sd) {
   // MuJoCo's springs, as mj_energyPos counts them (outside probe W: ball and free joint springs
   // had been left out)
   e.elastic += quadratic_spring_energy(s.m, d) + nonlinear_springs(m, d, nullptr, nullptr);
+  double mass = 0.0;
+  for (int b = 1; b < m->nbody; ++b)
+    if (m->body_weldid[b] != 0) mass += m->body_mass[b];  // (not the bodies welded to the world)
+  for (size_t r = 0; r < s.rods.size(); ++r) {
+    double rod_mass = 0.0;
+    cosserat::center_of_mass(s.rods[r].model, sd.rod[r], &rod_mass);
+    mass += rod_mass;
+  }
+  if (mass > 0) e.translational = 0.5 * momentum(s, sd).tail<3>().squaredNorm() / mass;
   return e;
 }
 

@@ -545,6 +545,10 @@ void abandon_step(SceneData& sd, const std::string& reason);
 // Energies of the whole scene (after forward): rods (core) plus MuJoCo's rigid bodies.
 struct SceneEnergy {
   double kinetic = 0, gravity = 0, elastic = 0;
+  // the part of `kinetic` that moves the centre of mass of everything that can move, |P|^2 / 2M
+  // (Koenig; P the scene's momentum, M the mass of its bodies and rods): in a scene moving as a
+  // whole, energy no exchange within it touches
+  double translational = 0;
   double total() const { return kinetic + gravity + elastic; }
 };
 SceneEnergy energy(const Scene& s, SceneData& sd);

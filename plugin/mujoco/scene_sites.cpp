@@ -202,10 +202,40 @@ void patch_rangefinders(const Scene& s, SceneData& sd) {
   }
 }
 
+// The part of rod r that body b's subtree holds, as mass nodes of the rod's model: all of it where
+// the rod's base body is in the subtree; where b is the proxy of section i, or one of its helpers
+// (the proxies stand at the sections' ends, the rod beyond them hanging below), the nodes beyond
+// section i's end and, with the Gauss-Lobatto rule, the next section's share of the node at that
+// end, which both sections' stretches share; none otherwise. (Outside probe BP: subtree sensors on
+// a section's proxy had counted no rod at all, reading a rod section moving at 1.6 m/s at rest.)
+struct RodPart {
+  int first = -1;          // first node counted whole; -1: none of the rod
+  int shared = -1;         // a node counted in part
+  double fraction = 0.0;   // of the shared node's mass
+};
+RodPart rod_part_in_subtree(const Scene& s, int r, int b) {
+  const RodBinding& rb = s.rods[r];
+  if (is_descendant(s.m, rb.base_body, b)) return {0, -1, 0.0};
+  for (size_t i = 0; i < rb.proxy_body.size(); ++i) {
+    const auto& helpers = rb.helper_body[i];
+    if (rb.proxy_body[i] != b && std::find(helpers.begin(), helpers.end(), b) == helpers.end()) continue;
+    const cosserat::Model& m = rb.model;
+    const cosserat::Section& sec = m.sections[i];
+    RodPart part{sec.end_node + 1, -1, 0.0};
+    if (i + 1 < m.sections.size()) {
+      const cosserat::Section& next = m.sections[i + 1];
+      const double here = sec.end_weight * sec.length * sec.material.density;
+      const double beyond = next.end_weight * next.length * next.material.density;
+      if (beyond > 0) part.shared = sec.end_node, part.fraction = beyond / (here + beyond);
+    }
+    return part;
+  }
+  return {};
+}
+
 // Body b's subtree with the rods hanging in it (their mass lives in the solver): its mass, centre of
 // mass and, with `velocities`, the linear velocity of that centre and the angular momentum about
-// it, from MuJoCo's rigid-body subtree quantities and the rods' own (cosserat::center_of_mass,
-// cosserat::momentum: about the world origin, world axes).
+// it, from MuJoCo's rigid-body subtree quantities and the rods' nodes in it (rod_part_in_subtree).
 struct Subtree {
   double mass = 0.0;
   Vec3 com, linvel, angmom;
@@ -218,27 +248,34 @@ Subtree subtree_with_rods(const Scene& s, const SceneData& sd, int b, bool veloc
   Subtree st;
   st.mass = M0;
   Vec3 mc = M0 * c0;
-  for (size_t r = 0; r < s.rods.size(); ++r)
-    if (is_descendant(m, s.rods[r].base_body, b)) {
-      double mr = 0.0;
-      const Vec3 cr = cosserat::center_of_mass(s.rods[r].model, sd.rod[r], &mr);
-      st.mass += mr;
-      mc += mr * cr;
-    }
+  Vec3 P = Vec3::Zero(), L_origin = Vec3::Zero();  // the rods' momentum, and angular momentum about the origin
+  for (size_t r = 0; r < s.rods.size(); ++r) {
+    const RodPart part = rod_part_in_subtree(s, static_cast<int>(r), b);
+    if (part.first < 0) continue;
+    const cosserat::Model& rm = s.rods[r].model;
+    const cosserat::Data& rd = sd.rod[r];
+    auto add = [&](int k, double w) {
+      const Mat6& I = rm.nodes[k].inertia;
+      const double mass = w * I(3, 3);
+      if (mass <= 0) return;
+      st.mass += mass;
+      mc += mass * rd.g[k].act(unskew(I.topRightCorner<3, 3>()) / I(3, 3));
+      if (velocities) {
+        const Vec6 h = w * coAd_apply(rd.g[k], Vec6(I * rd.eta[k]));
+        P += h.tail<3>();
+        L_origin += h.head<3>();
+      }
+    };
+    if (part.shared >= 0) add(part.shared, part.fraction);
+    for (int k = part.first; k < static_cast<int>(rm.nodes.size()); ++k) add(k, 1.0);
+  }
   st.com = st.mass > 0 ? Vec3(mc / st.mass) : c0;
   if (!velocities) return st;
   const Vec3 v0(d->subtree_linvel[3 * b], d->subtree_linvel[3 * b + 1], d->subtree_linvel[3 * b + 2]);
-  Vec3 P = M0 * v0;
-  Vec3 L = Vec3(d->subtree_angmom[3 * b], d->subtree_angmom[3 * b + 1], d->subtree_angmom[3 * b + 2]) +
-           (c0 - st.com).cross(P);
-  for (size_t r = 0; r < s.rods.size(); ++r)
-    if (is_descendant(m, s.rods[r].base_body, b)) {
-      const Vec6 h = cosserat::momentum(s.rods[r].model, sd.rod[r]);
-      P += h.tail<3>();
-      L += h.head<3>() - st.com.cross(h.tail<3>());
-    }
-  st.linvel = st.mass > 0 ? Vec3(P / st.mass) : v0;
-  st.angmom = L;
+  const Vec3 P0 = M0 * v0;
+  st.linvel = st.mass > 0 ? Vec3((P0 + P) / st.mass) : v0;
+  st.angmom = Vec3(d->subtree_angmom[3 * b], d->subtree_angmom[3 * b + 1], d->subtree_angmom[3 * b + 2]) +
+              (c0 - st.com).cross(P0) + L_origin - st.com.cross(P);
   return st;
 }
 
@@ -570,9 +607,10 @@ void check_sensors(const Preprocessed& pre, const Scene& s) {
 void setup_site_readers(const Preprocessed& pre, Scene& s) {
   const mjModel* m = s.m;
   check_sensors(pre, s);
-  auto rods_below = [&](int body) {  // a rod hangs in body's subtree
-    return body >= 0 && std::any_of(s.rods.begin(), s.rods.end(),
-                                    [&](const RodBinding& rb) { return is_descendant(m, rb.base_body, body); });
+  auto rods_below = [&](int body) {  // a rod, or part of one, hangs in body's subtree
+    for (size_t r = 0; body >= 0 && r < s.rods.size(); ++r)
+      if (rod_part_in_subtree(s, static_cast<int>(r), body).first >= 0) return true;
+    return false;
   };
   for (int i = 0; i < m->nsensor; ++i) {
     const int t = m->sensor_type[i];
