@@ -4049,6 +4049,17 @@ void adaptive_step(const Scene& s, SceneData& sd, Integrator method) {
   record_end(a, d);
 }
 
+// Activations of actuators with actlimited clipped to their actrange, as MuJoCo 2.2.2's mj_step
+// leaves them after each step whatever its integrator (outside probe BR: rk4 and rosenbrock had
+// let an integrator's activation reach 0.5 of its limit 0.1, a filter's 0.993 of 0.3).
+void clamp_activations(const mjModel* m, mjData* d) {
+  for (int a = m->nu - m->na; a < m->nu; ++a) {  // (MuJoCo 2.2: the stateful actuators come last)
+    if (!m->actuator_actlimited[a]) continue;
+    const int j = a - (m->nu - m->na);
+    d->act[j] = mju_clip(d->act[j], m->actuator_actrange[2 * a], m->actuator_actrange[2 * a + 1]);
+  }
+}
+
 // Classic RK4 on (qpos, qvel, act) with our forward at every stage (MuJoCo's mj_RungeKutta calls
 // mj_forward and would lose the rod patches). Positions are integrated with mj_integratePos.
 void rk4_step(const Scene& s, SceneData& sd) {
@@ -4091,6 +4102,7 @@ void rk4_step(const Scene& s, SceneData& sd) {
     for (int st = 0; st < 4; ++st) acc += B[st] * ka[st * na + i];
     d->act[i] = a0[i] + h * acc;
   }
+  clamp_activations(m, d);
   d->time = t0 + h;
 }
 
@@ -4171,6 +4183,7 @@ void rosenbrock_step(const Scene& s, SceneData& sd) {
   }
   mju_copy(d->qpos, q0.data(), nq);
   mj_integratePos(m, d->qpos, dx.data(), 1.0);
+  clamp_activations(m, d);
   for (int i = 0; i < nv; ++i) d->qacc[i] = (d->qvel[i] - v0[i]) / h;
   mju_copy(d->qacc_warmstart, d->qacc, nv);
   d->time = t0 + h;
