@@ -1042,7 +1042,7 @@ int cmd_equilibrium(int argc, char** argv) {
     print_sensors(sensors, eq.data->d);
   }
   if (!eq.result.converged)
-    fail((eq.result.omega2_min < 0 ? "no stable equilibrium: " : "no static equilibrium: ") + eq.result.message);
+    fail((eq.result.omega2_min < 0 || eq.result.flutter_rate > 0 ? "no stable equilibrium: " : "no static equilibrium: ") + eq.result.message);
   return 0;
 }
 
@@ -1135,6 +1135,17 @@ int cmd_linearize(int argc, char** argv) {
       open_warnings.push_back(o + " at the equilibrium (MuJoCo's constraints are soft: solref, solimp and the inertia "
                                   "of what it joins); the linearisation holds it rigid there, open: a stiffer solref "
                                   "(e.g. solref=\"0.002 1\") or heavier bodies close it");
+  // the modes with omega^2 < 0 (listed first), and a growing oscillation where the loads turn with
+  // the structure (outside probe BR: a follower-loaded rod's flutter had been read stable)
+  const int divergent = lin.diverging_modes;
+  char flutter_buf[400] = "";
+  if (lin.flutter_rate > 0)
+    std::snprintf(flutter_buf, sizeof flutter_buf,
+                  "flutter: an oscillation of %.4g Hz grows at %.4g 1/s (e-folding time %.4g s): loads that turn with "
+                  "the structure (follower loads: site actuators without a refsite) feed it faster than the damping "
+                  "takes it; the equilibrium is unstable",
+                  lin.flutter_hz, lin.flutter_rate, 1.0 / lin.flutter_rate);
+  const std::string flutter_text = flutter_buf;
   if (!json_path.empty()) {
     json j;
     j["frequencies_hz"] = std::vector<double>(lin.frequencies_hz.data(), lin.frequencies_hz.data() + lin.frequencies_hz.size());
@@ -1152,8 +1163,12 @@ int cmd_linearize(int argc, char** argv) {
     json warnings = json::array();
     if (!constraint_warning.empty()) warnings.push_back(constraint_warning);
     for (const auto& w : open_warnings) warnings.push_back(w);
-    if (lin.unstable_modes > 0)
-      warnings.push_back(std::to_string(lin.unstable_modes) + " unstable mode(s) (omega2 < 0): the equilibrium is unstable");
+    if (divergent > 0)
+      warnings.push_back(std::to_string(divergent) + " unstable mode(s) (omega2 < 0): the equilibrium is unstable");
+    if (lin.flutter_rate > 0) {
+      warnings.push_back(flutter_text);
+      j["flutter"] = {{"growth_rate", lin.flutter_rate}, {"frequency_hz", lin.flutter_hz}};
+    }
     if (!warnings.empty()) j["warnings"] = warnings;
     if (modes > 0) {
       const Outputs named = named_outputs(*eq.scene);
@@ -1191,13 +1206,13 @@ int cmd_linearize(int argc, char** argv) {
     if (!constraint_note.empty()) std::printf("%s\n", constraint_note.c_str());
     if (!constraint_warning.empty()) std::printf("warning: %s\n", constraint_warning.c_str());
     for (const auto& w : open_warnings) std::printf("warning: %s\n", w.c_str());
-    if (lin.unstable_modes > 0)
-      std::printf("warning: %d unstable mode(s) (omega^2 < 0, listed first): the equilibrium is unstable\n",
-                  lin.unstable_modes);
+    if (divergent > 0)
+      std::printf("warning: %d unstable mode(s) (omega^2 < 0, listed first): the equilibrium is unstable\n", divergent);
+    if (lin.flutter_rate > 0) std::printf("warning: %s\n", flutter_text.c_str());
     std::printf("natural frequencies [Hz], undamped (damping ratio):\n");
     for (int i = 0; i < lin.frequencies_hz.size(); ++i) {
       // the modes are in ascending omega^2: the unstable ones come first, growing as exp(t / tau)
-      if (i < lin.unstable_modes) {
+      if (i < divergent && lin.omega2(i) < 0) {
         std::printf("  %3d  unstable: omega^2 = %.6g 1/s^2, e-folding time %.4g s\n", i + 1, lin.omega2(i),
                     1.0 / std::sqrt(-lin.omega2(i)));
         continue;

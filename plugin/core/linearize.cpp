@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <complex>
 #include <limits>
 
 #include <Eigen/Eigenvalues>
@@ -56,6 +57,39 @@ bool unstable_mode_fd(const VecX& x, const MatX& K, const MatX& M, double noise,
 
 double noise_bound(const VecX& ax, const MatX& N) { return ax.dot(N * ax); }
 
+GrowthModes growth_modes(const MatX& M, const MatX& K, const MatX& D, double floor) {
+  GrowthModes g;
+  const int n = static_cast<int>(M.rows());
+  if (n == 0) return g;
+  Eigen::PartialPivLU<MatX> lu(M);
+  MatX A = MatX::Zero(2 * n, 2 * n);
+  A.topRightCorner(n, n).setIdentity();
+  A.bottomLeftCorner(n, n) = -lu.solve(K);
+  A.bottomRightCorner(n, n) = -lu.solve(D);
+  Eigen::EigenSolver<MatX> es(A);
+  if (es.info() != Eigen::Success) return g;
+  // (the eigensolver's rounding, relative to A's norm: a rod's stiff axial modes set it)
+  const double rounding = 64.0 * std::numeric_limits<double>::epsilon() * A.cwiseAbs().rowwise().sum().maxCoeff();
+  for (int i = 0; i < 2 * n; ++i) {
+    const std::complex<double> s = es.eigenvalues()(i);
+    if (!(s.real() > std::max({floor, 1e-6 * std::abs(s), rounding}))) continue;
+    if (std::abs(s.imag()) > 1e-6 * std::abs(s)) {
+      if (s.imag() > 0) ++g.growing_pairs;
+      if (s.real() > g.rate) {
+        g.rate = s.real(), g.hz = std::abs(s.imag()) / (2.0 * M_PI);
+        g.flutter_mode = es.eigenvectors().col(i).head(n).real();
+      }
+    } else {
+      ++g.diverging;
+      if (-s.real() * s.real() < g.divergence_omega2) {
+        g.divergence_omega2 = -s.real() * s.real();
+        g.divergence_mode = es.eigenvectors().col(i).head(n).real();
+      }
+    }
+  }
+  return g;
+}
+
 void state_space(Linearization& L) {
   const int n = static_cast<int>(L.M.rows()), nu = static_cast<int>(L.Bu.cols());
   if (n == 0) {  // nothing moves (every motion held by constraints): no modes (Eigen's solvers fail on 0 x 0)
@@ -102,6 +136,7 @@ void state_space(Linearization& L) {
       L.damping_ratios(i) = w > 0 ? x.dot(L.D * x) / (2.0 * w) + 0.0 : std::nan("");  // (+ 0: not -0)
       if (L.omega2(i) < -L.neutral_omega2 && unstable(x, Ks)) ++L.unstable_modes;
     }
+    L.diverging_modes = L.unstable_modes;
   } else {
     // (follower loads) a real mode's quotient x'Kt x = x'Ks x (its eigenvector's real part)
     Eigen::EigenSolver<MatX> es(lu.solve(L.Kt));
@@ -109,13 +144,34 @@ void state_space(Linearization& L) {
     for (int i = 0; i < n; ++i) modes.emplace_back(es.eigenvalues()(i).real(), es.eigenvectors().col(i).real());
     std::sort(modes.begin(), modes.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
     L.modes.resize(n, n);
+    L.damping_ratios.resize(n);
     for (int i = 0; i < n; ++i) {
       const double mass = modes[i].second.dot(L.M * modes[i].second);
       L.modes.col(i) = mass > 0 ? VecX(modes[i].second / std::sqrt(mass)) : modes[i].second;
       L.omega2(i) = modes[i].first;
-      L.frequencies_hz(i) = modes[i].first > 0 ? std::sqrt(modes[i].first) / (2.0 * M_PI) : 0.0;
-      if (modes[i].first < -L.neutral_omega2 && unstable(modes[i].second, Ks)) ++L.unstable_modes;
+      const double w = modes[i].first > 0 ? std::sqrt(modes[i].first) : 0.0;
+      L.frequencies_hz(i) = w / (2.0 * M_PI);
+      const VecX x = L.modes.col(i);
+      L.damping_ratios(i) = w > 0 ? x.dot(L.D * x) / (2.0 * w) + 0.0 : std::nan("");
     }
+    // stability from the damped state matrix, which the damping decides where the loads turn with
+    // the structure (outside probe BR: a rod under a follower end moment with viscosity 6e3 Pa s
+    // grew at 0.0034 1/s in its own run, and had been read stable from M^-1 Kt's real parts):
+    // divergence, a real eigenvalue above the floor; flutter, a growing complex pair
+    // (where constraint rows held rigid carry loads, the smooth forces are out of balance and their
+    // stiffness unsymmetric whatever the loads, a contact's friction at a pin too: divergence is
+    // judged from the real modes' quotients as before, below the noise)
+    if (L.Kt_held.size() > 0) {
+      for (int i = 0; i < n; ++i)
+        if (modes[i].first < -L.neutral_omega2 && unstable(modes[i].second, Ks)) ++L.unstable_modes;
+      L.diverging_modes = L.unstable_modes;
+      return;
+    }
+    const GrowthModes g = growth_modes(L.M, L.Kt, L.D, std::sqrt(std::max(L.neutral_omega2, 0.0)));
+    L.diverging_modes = g.diverging;
+    L.unstable_modes = g.diverging + g.growing_pairs;
+    L.flutter_rate = g.rate;
+    L.flutter_hz = g.hz;
   }
 }
 

@@ -14,9 +14,18 @@ struct Linearization {
   VecX frequencies_hz;  // undamped natural frequencies, ascending (from Kt x = w^2 M x; an unstable
                         // mode, w^2 < 0, shows as 0 Hz: see omega2 and unstable_modes)
   VecX omega2;          // the eigenvalues w^2 [1/s^2], ascending, signed (real parts if Kt is unsymmetric)
-  int unstable_modes = 0;  // modes with w^2 below the noise (unstable_mode): the equilibrium is unstable
-  VecX damping_ratios;  // modal damping x^T D x / (2 w x^T M x) of those modes (NaN for w = 0);
-                        // empty when Kt is not symmetric (follower loads)
+  int unstable_modes = 0;  // modes with w^2 below the noise (unstable_mode), and where Kt is not
+                           // symmetric (follower loads) oscillations that grow (flutter): the
+                           // equilibrium is unstable
+  VecX damping_ratios;  // modal damping x^T D x / (2 w x^T M x) of those modes (NaN for w = 0; where
+                        // Kt is not symmetric, of the real parts of their eigenvectors)
+  // Where Kt is not symmetric: the largest real part of A's complex eigenvalues [1/s] (> 0: an
+  // oscillation that grows, flutter; its frequency Im / 2 pi in flutter_hz), 0 where Kt is symmetric
+  double flutter_rate = 0.0, flutter_hz = 0.0;
+  // of unstable_modes, those that fall away without oscillating (omega^2 < 0 where Kt is symmetric;
+  // where it is not, real eigenvalues of A above the floor): listed first in omega2 where their
+  // omega^2 is negative
+  int diverging_modes = 0;
   MatX modes;           // their eigenvectors (columns, in the order of omega2; x^T M x = 1), in the
                         // coordinates below (real parts where Kt is not symmetric)
   // Constrained coordinates (a MuJoCo scene's equality constraints held rigid): dq = basis y, the
@@ -70,6 +79,24 @@ bool unstable_mode_fd(const VecX& x, const MatX& K, const MatX& M, double noise,
 // ax' N ax: the bound of x'E x for |x| <= ax entrywise and noise |E_ij| <= N_ij (or N_ji: E's
 // symmetric part is what the eigenproblems use).
 double noise_bound(const VecX& ax, const MatX& N);
+
+// Stability of an equilibrium under loads that turn with the structure (follower loads: Kt not
+// symmetric), where the symmetric part of Kt decides nothing (outside probe BR: a rod bent into a
+// half circle by a follower end moment, stable, has a negative one; with little damping it
+// flutters, as Ziegler's column does). From the eigenvalues s of the state matrix
+// [[0, I], [-M^-1 K, -M^-1 D]]: the largest real part of the complex ones (flutter, `rate` and its
+// frequency |Im s| / 2 pi in `hz`) and of the real ones (divergence, returned as omega^2 = -s^2 in
+// `divergence_omega2`, 0 where none is positive), each counted where it exceeds `floor`, 1e-6 |s|
+// and 64 eps |A| (the eigensolver's rounding on a matrix whose stiff modes reach 1e12 1/s^2: a
+// slower growth of a stiff rod's mode is not seen).
+struct GrowthModes {
+  double rate = 0.0, hz = 0.0;   // the fastest-growing oscillation (rate > 0: flutter)
+  double divergence_omega2 = 0.0;  // < 0: the fastest monotone fall, -s^2
+  int growing_pairs = 0, diverging = 0;  // how many of each
+  VecX flutter_mode, divergence_mode;  // their displacements (real parts)
+  bool unstable() const { return growing_pairs + diverging > 0; }
+};
+GrowthModes growth_modes(const MatX& M, const MatX& K, const MatX& D, double floor);
 
 // Linearises at d.q (call equilibrium() first) and d.ctrl.
 Linearization linearize(const Model& m, Data& d);

@@ -4,6 +4,7 @@
 #include "scene_statics.hpp"
 
 #include <algorithm>
+#include <complex>
 #include <cfloat>
 #include <cmath>
 #include <cstdio>
@@ -776,12 +777,17 @@ bool falls_when_tapped(const Scene& s, SceneData& sd, VectorXd& mode, double& om
 // probe AG's rod twisted 11 times past Greenhill's load by a weld came back straight and
 // "converged".)
 bool stable_equilibrium(StaticProblem& p, const Scene& s, SceneData& sd, double lambda, double& omega2_min,
-                        VectorXd* mode = nullptr, bool constraints = false) {
+                        VectorXd* mode = nullptr, bool constraints = false, cosserat::GrowthModes* flutter = nullptr) {
   const int n = p.nv();
   omega2_min = 0.0;
+  if (flutter) *flutter = {};
   if (n == 0) return true;
   MatrixXd Kt, J, Kc, noise, Kc_noise;
   p.stiffness(lambda, Kt, &noise);
+  // loads that turn with the structure make the stiffness at a smooth equilibrium unsymmetric
+  // (where constraint rows carry load the smooth forces are not in balance, and their stiffness is
+  // unsymmetric whatever the loads: judged as before, from the symmetric part and the noise)
+  const bool follower = !constraints && (Kt - Kt.transpose()).norm() > 2e-6 * Kt.norm();
   MatrixXd N = MatrixXd::Identity(n, n);
   if (constraints) {
     try {
@@ -815,16 +821,31 @@ bool stable_equilibrium(StaticProblem& p, const Scene& s, SceneData& sd, double 
   const MatrixXd KN = N.transpose() * Kt * N;
   const MatrixXd KcN = constraints ? MatrixXd(N.transpose() * Kc * N) : MatrixXd();
   const MatrixXd Ks = 0.5 * (KN + KN.transpose());
-  Eigen::GeneralizedSelfAdjointEigenSolver<MatrixXd> es(Ks, M);
-  if (es.info() != Eigen::Success) return true;  // M not positive definite: no verdict
-  const VectorXd& w = es.eigenvalues();
-  omega2_min = w(0);
   // under gravity, a fall slower than an e-folding time of 1000 sqrt(extent / g) is no instability
   // to act on: outside probe AI's capsule lying on a floor, held at one contact, had a neutral
   // direction at omega^2 = -1e-7 1/s^2, the noise of a stiffness that is all noise there (no
   // elastic forces, gravity's constant), and was reported unstable
   const double slowest = slowest_fall(s.m);
   const MatrixXd absN = N.cwiseAbs();
+  if (follower) {
+    // Loads that turn with the structure (follower loads: site actuators without a refsite): the
+    // symmetric part of K decides nothing (outside probe BR: a rod bent into a half circle by a
+    // follower end moment, stable in its own damped run, had a negative one and was refused), nor
+    // do M^-1 K's eigenvalues alone: the damping decides (cosserat::growth_modes, the damped state
+    // matrix's eigenvalues above the slowest fall: divergence where real, flutter where complex).
+    MatrixXd D;
+    p.damping(D);
+    const cosserat::GrowthModes g = cosserat::growth_modes(M, KN, N.transpose() * D * N, std::sqrt(slowest));
+    omega2_min = g.divergence_omega2;
+    if (!g.unstable()) return true;
+    if (flutter && g.growing_pairs > 0) *flutter = g;
+    if (mode) *mode = N * (g.diverging > 0 ? g.divergence_mode : g.flutter_mode);
+    return false;
+  }
+  Eigen::GeneralizedSelfAdjointEigenSolver<MatrixXd> es(Ks, M);
+  if (es.info() != Eigen::Success) return true;  // M not positive definite: no verdict
+  const VectorXd& w = es.eigenvalues();
+  omega2_min = w(0);
   for (int i = 0; i < w.size() && w(i) < -slowest; ++i)
     if (cosserat::unstable_mode_fd(es.eigenvectors().col(i), Ks, M,
                                    cosserat::noise_bound(absN * es.eigenvectors().col(i).cwiseAbs(), noise),
@@ -1676,7 +1697,8 @@ SceneStaticsResult equilibrium_of_held(const Scene& s, SceneData& sd, const Scen
     StaticProblem p(s, sd, opt.progress);
     double w2 = 0.0;
     VectorXd mode;
-    const bool stable = stable_equilibrium(p, s, sd, 1.0, w2, &mode, rows);
+    cosserat::GrowthModes flutter;
+    const bool stable = stable_equilibrium(p, s, sd, 1.0, w2, &mode, rows, &flutter);
     mju_zero(d->qvel, m->nv);
     forward(s, sd);
     if (stable) return res;
@@ -1687,13 +1709,18 @@ SceneStaticsResult equilibrium_of_held(const Scene& s, SceneData& sd, const Scen
     }
     res.converged = false;
     res.omega2_min = w2;
+    res.flutter_rate = flutter.rate;
+    res.flutter_hz = flutter.hz;
     // the verdict first, then how it was reached (outside probe BL: "NOT converged ... (residual
     // 1.50e-14)" led a 600-character line that came to the instability at its end)
-    char w2_text[32];
-    std::snprintf(w2_text, sizeof w2_text, "%.6g", w2);
-    res.message = std::string("the search settled in an unstable equilibrium (omega^2_min = ") + w2_text +
-                  " 1/s^2: the scene would fall away from it) and found no stable one; start from a perturbed state, "
-                  "e.g. a keyframe. How: " + res.message;
+    char w2_text[160];
+    if (flutter.rate > 0)
+      std::snprintf(w2_text, sizeof w2_text, "flutter: an oscillation of %.4g Hz grows at %.4g 1/s, fed by loads that turn with the scene", flutter.hz, flutter.rate);
+    else
+      std::snprintf(w2_text, sizeof w2_text, "omega^2_min = %.6g 1/s^2: the scene would fall away from it", w2);
+    res.message = std::string("the search settled in an unstable equilibrium (") + w2_text +
+                  ") and found no stable one; start from a perturbed state, e.g. a keyframe" +
+                  (flutter.rate > 0 ? ", or damp the scene more" : "") + ". How: " + res.message;
     return res;
   }
 }

@@ -58,6 +58,9 @@ struct SceneStaticsResult {
   double scale = 0.0;     // force scale: max(|qfrc_passive|, |loads|, |qfrc_constraint|)
   int constraint_rows = 0;  // active constraint rows (contacts, limits, equalities) at the end
   double omega2_min = 0.0;  // Newton with opt.stable: smallest eigenvalue of Kt x = omega^2 M x [1/s^2]
+  // where the loads turn with the structure (Kt not symmetric) and the equilibrium found flutters:
+  // the growth rate [1/s] and frequency [Hz] of its fastest-growing oscillation (0: none)
+  double flutter_rate = 0.0, flutter_hz = 0.0;
   int unstable_steps_refused = 0;  // load steps refused because their equilibrium was unstable
   std::string message;
 };

@@ -352,3 +352,47 @@ TEST(Linearize, InvertedPendulumHasOneUnstableMode) {
     EXPECT_NEAR(L.frequencies_hz(0), up > 0 ? 0.0 : std::sqrt(g / l) / (2 * M_PI), 1e-6);
   }
 }
+
+// Ziegler's double pendulum (two rigid bars of length l, springs c at both joints, masses 2m at the
+// middle joint and m at the tip, a follower force P along the second bar): the follower load makes
+// Kt unsymmetric, and stability is the damped state matrix's. Undamped it flutters from
+// P = (7/2 - sqrt 2) c / l = 2.0858 c / l; with vanishing joint damping from 41/28 c / l = 1.4643
+// (Ziegler's paradox: a little damping lowers the flutter load by 30%). The symmetric part of Kt,
+// or M^-1 Kt's real parts, which decided before (outside probe BR), see neither.
+TEST(Linearize, ZieglersPendulumFluttersWhereItsDampingSays) {
+  const double m = 1.0, l = 1.0, c = 1.0;
+  auto verdict = [&](double P, double b) {
+    Linearization L;
+    L.M = MatX(2, 2);
+    L.M << 3 * m * l * l, m * l * l, m * l * l, m * l * l;
+    L.Kt = MatX(2, 2);
+    L.Kt << 2 * c - P * l, P * l - c, -c, c;
+    L.D = MatX(2, 2);
+    L.D << 2 * b, -b, -b, b;
+    L.Bu = MatX::Zero(2, 0);
+    state_space(L);
+    EXPECT_EQ(L.damping_ratios.size(), 2);
+    return L;
+  };
+  EXPECT_EQ(verdict(2.08, 0.0).unstable_modes, 0);  // below 7/2 - sqrt 2 = 2.0858
+  const Linearization undamped = verdict(2.09, 0.0);
+  EXPECT_EQ(undamped.unstable_modes, 1);
+  EXPECT_GT(undamped.flutter_rate, 0.0);
+  EXPECT_GT(undamped.flutter_hz, 0.0);
+  EXPECT_EQ(undamped.diverging_modes, 0);
+  EXPECT_EQ(verdict(1.45, 1e-3).unstable_modes, 0);  // below 41/28 = 1.4643
+  EXPECT_EQ(verdict(1.50, 1e-3).unstable_modes, 1);  // above it: flutter, which the undamped pendulum does not show
+  EXPECT_EQ(verdict(1.50, 0.0).unstable_modes, 0);
+  // a divergence: a static load beyond the springs (P = 3c/l as a dead load, Kt symmetric)
+  Linearization dead;
+  dead.M = MatX(2, 2);
+  dead.M << 3, 1, 1, 1;
+  dead.Kt = MatX(2, 2);
+  dead.Kt << 2 - 3.0, -1, -1, 1 - 3.0;
+  dead.D = MatX::Zero(2, 2);
+  dead.Bu = MatX::Zero(2, 0);
+  state_space(dead);
+  EXPECT_EQ(dead.unstable_modes, dead.diverging_modes);
+  EXPECT_GT(dead.unstable_modes, 0);
+  EXPECT_EQ(dead.flutter_rate, 0.0);
+}

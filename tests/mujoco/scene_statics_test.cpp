@@ -1721,3 +1721,62 @@ TEST(SceneStatics, EquilibriumTakesTheControlCallback) {
   EXPECT_TRUE(r.converged);
   EXPECT_NEAR(sd.d->qpos[g_dof], g_kp * g_target / (EI * l + g_kp), 1e-9);
 }
+
+namespace {
+// A clamped rod (L = 1 m, EI = 7.854e-3 N m^2) with a follower moment at its tip: a site actuator
+// without a refsite, its gear about the tip section's y axis (MuJoCo's site transmission turns it
+// with the site), `viscosity` Pa s.
+std::string follower_moment_rod(const std::string& viscosity) {
+  return R"(<mujoco><option timestep="0.002" gravity="0 0 0"/><worldbody>
+    <cosserat name="r" length="1" sections="16" strain="kl" radius="0.01" density="1000" young="1e6" poisson="0.5"
+              viscosity=")" + viscosity + R"("><site name="t" at="1"/></cosserat></worldbody>
+    <actuator><general name="mom" site="t" gear="0 0 0 0 1 0"/></actuator></mujoco>)";
+}
+}  // namespace
+
+// A follower end moment M bends a rod into an arc of radius EI / M, stable where the scene's own
+// damped run settles on it; its stiffness is unsymmetric, and the symmetric part's negative
+// eigenvalue had the equilibrium refused from M L / EI = 2.14 on (outside probe BR: the half circle,
+// M = pi EI / L, "no stable equilibrium"). Its stability is the damped state matrix's: with the
+// rod's viscosity 6e5 Pa s the half circle and the full circle are stable (the probe's runs settle
+// on both, a tap decays); with 6e3 Pa s the arc at M L / EI = 2.105 flutters at 0.52 Hz (the
+// probe's 1000 s run grew at 0.0034 1/s; linearize had read it stable), as Ziegler's paradox has it.
+TEST(SceneStatics, FollowerLoadsAreJudgedByTheDampedDynamics) {
+  const double EI = 1e6 * M_PI * 1e-8 / 4;
+  {
+    auto s = load_scene_string(follower_moment_rod("6e5"), kPath);
+    SceneData sd(*s);
+    for (const double turns : {0.5, 1.0}) {
+      SCOPED_TRACE(turns);
+      sd.d->ctrl[0] = 2 * M_PI * turns * EI;
+      const SceneStaticsResult r = equilibrium(*s, sd);
+      ASSERT_TRUE(r.converged) << r.message;
+      EXPECT_EQ(r.flutter_rate, 0.0);
+      const int tip = mj_name2id(s->m, mjOBJ_SITE, "t");
+      const Vec3 p(sd.d->site_xpos + 3 * tip);
+      // the arc of radius 1 / (2 pi turns) from the origin along x, bending about y (towards -z)
+      const double R = 1.0 / (2 * M_PI * turns);
+      EXPECT_LT((p - Vec3(R * std::sin(1.0 / R), 0, -R * (1 - std::cos(1.0 / R)))).norm(), 1e-6) << p.transpose();
+      const SceneLinearization L = linearize(*s, sd);
+      EXPECT_EQ(L.unstable_modes, 0);
+    }
+  }
+  auto s = load_scene_string(follower_moment_rod("6e3"), kPath);
+  SceneData sd(*s);
+  sd.d->ctrl[0] = 2.105 * EI;
+  SceneStaticsOptions unjudged;
+  unjudged.stable = false;
+  ASSERT_TRUE(equilibrium(*s, sd, unjudged).converged);
+  const SceneLinearization L = linearize(*s, sd);
+  EXPECT_EQ(L.unstable_modes, 1);
+  EXPECT_EQ(L.diverging_modes, 0);
+  EXPECT_NEAR(L.flutter_hz, 0.52, 0.01);
+  EXPECT_GT(L.flutter_rate, 0.002);
+  EXPECT_LT(L.flutter_rate, 0.006);
+  EXPECT_EQ(L.damping_ratios.size(), L.omega2.size());
+  // equilibrium says so
+  const SceneStaticsResult r = equilibrium(*s, sd);
+  EXPECT_FALSE(r.converged);
+  EXPECT_GT(r.flutter_rate, 0.0);
+  EXPECT_NE(r.message.find("flutter"), std::string::npos) << r.message;
+}
