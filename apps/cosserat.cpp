@@ -116,11 +116,18 @@ void write_json(const std::string& path, const json& report) {
     return;
   }
   std::ofstream f = open_output(path);
-  f << j.dump(2) << "\n";
+  // (the reason from the write that failed: a report larger than the stream's buffer fails while
+  // written, a smaller one at the close)
   errno = 0;
-  f.close();
+  f << j.dump(2) << "\n";
+  int reason = f ? 0 : errno;
+  if (f) {
+    errno = 0;
+    f.close();
+    reason = errno;
+  }
   // (the option named: outside probe BB)
-  if (!f) fail("--json: cannot write " + path + (errno ? " (" + std::string(std::strerror(errno)) + ")" : ""));
+  if (!f) fail("--json: cannot write " + path + (reason ? " (" + std::string(std::strerror(reason)) + ")" : ""));
 }
 
 // ---------------------------------------------------------------------------- scene outputs --
@@ -399,8 +406,8 @@ std::string friction_on_stretching_rods_warning(Integrator in) {
 }
 
 // Relative energy drift: the largest |E - E0| over the energy the run exchanges between its forms
-// (exchanged(): the largest kinetic plus elastic energy seen, plus the range of the gravitational
-// energy, without the motion of the whole scene's centre of mass). E0 is
+// (exchanged(): the largest kinetic plus elastic energy seen without the motion of the whole
+// scene's centre of mass, plus the range of that motion's energy and the gravitational one). E0 is
 // no scale: it is zero for a rod released straight at the origin, and the gravitational energy's
 // datum moves it (outside probe BL: the same cantilever clamped at z = 0, 0.5 m and 100 m read
 // drifts of 0.19, 2.5e-5 and 1.2e-7 over the larger of |E0| and that energy, while backward Euler
@@ -417,9 +424,10 @@ class EnergyTracker {
     max_gain_ = std::max(max_gain_, total - initial_);
     max_loss_ = std::max(max_loss_, initial_ - total);
     max_internal_ = std::max(max_internal_, e.kinetic - e.translational + e.elastic);
-    if (n_ == 1) translational_min_ = translational_max_ = e.translational;
-    translational_min_ = std::min(translational_min_, e.translational);
-    translational_max_ = std::max(translational_max_, e.translational);
+    const double outer = e.translational + e.gravity;
+    if (n_ == 1) outer_min_ = outer_max_ = outer;
+    outer_min_ = std::min(outer_min_, outer);
+    outer_max_ = std::max(outer_max_, outer);
     gravity_min_ = std::min(gravity_min_, e.gravity);
     gravity_max_ = std::max(gravity_max_, e.gravity);
   }
@@ -428,13 +436,13 @@ class EnergyTracker {
   // the kinetic energy at the last sample: whether the run came to rest (outside probe BL)
   double final_kinetic() const { return final_kinetic_; }
   // the energy the run exchanged between its forms (kinetic, elastic, gravitational): the largest
-  // kinetic and elastic energy seen, the kinetic less the centre of mass's motion, plus the ranges of
-  // that motion's and of the gravitational energy. Neither a datum nor a uniform velocity moves it
+  // kinetic and elastic energy seen, the kinetic less the centre of mass's motion, plus the range of
+  // that motion's energy and the gravitational one together. Neither a datum, nor a uniform
+  // velocity, nor a free fall moves it: a free scene's centre of mass keeps the sum of the two
   // (outside probe BP: a free scene boosted by 3.7 m/s read a drift of 8.5e-3 without a warning
-  // where at rest its integrator's 63% loss was warned about).
-  double exchanged() const {
-    return max_internal_ + (translational_max_ - translational_min_) + (gravity_max_ - gravity_min_);
-  }
+  // where at rest its integrator's 63% loss was warned about; outside probe BT: the same scene
+  // falling read 2.4e-4, the scale 300 J of its fall). A clamped rod's swing moves it with the rest.
+  double exchanged() const { return max_internal_ + (outer_max_ - outer_min_); }
   double max_rel_drift() const {
     const double ref = exchanged() > 0 ? exchanged() : std::abs(initial_);
     return ref > 0 ? max_dev_ / ref : 0.0;
@@ -456,7 +464,7 @@ class EnergyTracker {
  private:
   long n_ = 0;
   double initial_ = 0, final_ = 0, final_kinetic_ = 0, max_dev_ = 0, max_gain_ = 0, max_loss_ = 0, max_internal_ = 0, stored0_ = 0,
-         translational_min_ = 0, translational_max_ = 0, gravity_min_ = 0, gravity_max_ = 0;
+         outer_min_ = 0, outer_max_ = 0, gravity_min_ = 0, gravity_max_ = 0;
 };
 
 // A body as messages name it: its name, "world", or "#id" where it has none.
@@ -709,7 +717,8 @@ int cmd_run(int argc, char** argv) {
     if (!stretching.empty() && !rubbed)
       for (int c = 0; c < s.data().d->ncon && !rubbed; ++c) {
         const mjContact& con = s.data().d->contact[c];
-        rubbed = con.dim >= 3 && con.exclude == 0 && (stretching[con.geom1] || stretching[con.geom2]);
+        // (with friction above MuJoCo's floor mjMINMU: outside probe BT, a frictionless slope had been warned about)
+        rubbed = con.dim >= 3 && con.friction[0] > 10 * mjMINMU && con.exclude == 0 && (stretching[con.geom1] || stretching[con.geom2]);
       }
     if (k % every == 0 || k == s.steps()) {
       if (!s.observe()) {
@@ -762,12 +771,17 @@ int cmd_run(int argc, char** argv) {
     // most steps contact events, taken as linearised backward Euler steps: the scheme asked for was
     // hardly used (outside probe BS: a crawling rod's friction rows change state every step; under
     // trapezoidal and genalpha its 5000 steps gave implicit's numbers at 8-13 times its cost)
-    if (s.integrator() != Integrator::Implicit && ns.events > k / 2) {
+    // (counted in the pieces the steps were taken in: adaptive substeps, or split halves; outside
+    // probe BT: "1111 of the 400 steps")
+    const auto& as = s.data().adapt_stats;
+    const bool substeps = s.scene().step_tol > 0 && as.substeps > 0;
+    const long pieces = substeps ? as.substeps : k + ns.splits;
+    if (s.integrator() != Integrator::Implicit && ns.events > pieces / 2) {
       std::snprintf(b, sizeof b,
-                    "%ld of the %ld steps were contact events (a contact, limit or friction changing state), each "
+                    "%ld of the %ld %s were contact events (a contact, limit or friction changing state), each "
                     "taken as a linearised backward Euler step: --integrator %s was used in the rest only; "
                     "--integrator implicit gives nearly the same run at a fraction of the cost",
-                    ns.events, k, cosserat::integrator_name(s.integrator()));
+                    ns.events, pieces, substeps ? "substeps" : "steps", cosserat::integrator_name(s.integrator()));
       warnings.push_back(b);
     }
     if (ns.unconverged > 0) {
@@ -958,12 +972,14 @@ struct Equilibrium {
   std::unique_ptr<mj::SceneData> data;
   mj::SceneStaticsResult result;
 
-  Equilibrium(const std::string& path, const StateOptions& state, double relaxation_time = 30.0)
+  // stable = false: any equilibrium, stable or not (SceneStaticsOptions::stable)
+  Equilibrium(const std::string& path, const StateOptions& state, double relaxation_time = 30.0, bool stable = true)
       : scene(load(path)), data(std::make_unique<mj::SceneData>(*scene)) {
     state.apply(*scene, *data);
     Progress progress("equilibrium", 1);
     mj::SceneStaticsOptions opt;
     opt.relaxation_time = relaxation_time;
+    opt.stable = stable;
     opt.progress = [&progress](const std::string& where) { progress.note(where); };
     try {
       result = mj::equilibrium(*scene, *data, opt);
@@ -1106,7 +1122,19 @@ int cmd_linearize(int argc, char** argv) {
   lopt.rigid_contacts = contacts_as_pins;
   if (contacts_as_pins && without_equalities)
     fail("--contacts-as-pins holds the equality constraints rigid too: it cannot go with --without-equalities");
-  const Equilibrium eq(pos->front(), state, relaxation_time);
+  std::unique_ptr<Equilibrium> found = std::make_unique<Equilibrium>(pos->front(), state, relaxation_time);
+  // no stable equilibrium, where the search found unstable ones (a column past its flutter load):
+  // linearised at an equilibrium found without the stability test, whose instability the modes
+  // then show (outside probe BT: Beck's column past its flutter load read "no static equilibrium")
+  std::string unstable_note;
+  if (!found->result.converged && (found->result.omega2_min < 0 || found->result.flutter_rate > 0)) {
+    auto any = std::make_unique<Equilibrium>(pos->front(), state, relaxation_time, false);
+    if (any->result.converged) {
+      unstable_note = "no stable equilibrium: linearised at an unstable one, found without the stability test";
+      found = std::move(any);
+    }
+  }
+  const Equilibrium& eq = *found;
   if (!eq.result.converged) fail("no static equilibrium to linearise about: " + eq.result.message);
   const mj::SceneLinearization lin = [&] {
     Progress progress("linearize", 1);  // (cleared before the output)
@@ -1174,6 +1202,7 @@ int cmd_linearize(int argc, char** argv) {
     json warnings = json::array();
     if (!constraint_warning.empty()) warnings.push_back(constraint_warning);
     for (const auto& w : open_warnings) warnings.push_back(w);
+    if (!unstable_note.empty()) warnings.push_back(unstable_note);
     if (divergent > 0)
       warnings.push_back(std::to_string(divergent) + " unstable mode(s) (omega2 < 0): the equilibrium is unstable");
     if (lin.flutter_rate > 0) {
@@ -1217,6 +1246,7 @@ int cmd_linearize(int argc, char** argv) {
     if (!constraint_note.empty()) std::printf("%s\n", constraint_note.c_str());
     if (!constraint_warning.empty()) std::printf("warning: %s\n", constraint_warning.c_str());
     for (const auto& w : open_warnings) std::printf("warning: %s\n", w.c_str());
+    if (!unstable_note.empty()) std::printf("warning: %s\n", unstable_note.c_str());
     if (divergent > 0)
       std::printf("warning: %d unstable mode(s) (omega^2 < 0, listed first): the equilibrium is unstable\n", divergent);
     if (lin.flutter_rate > 0) std::printf("warning: %s\n", flutter_text.c_str());

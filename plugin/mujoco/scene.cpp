@@ -2204,8 +2204,37 @@ static void check_owner(const Scene& s, const SceneData& sd) {
     throw std::invalid_argument("a SceneData steps with the Scene it was made from (SceneData(scene)), not another");
 }
 
+// Scene::user for the scope of a step or an evaluation: taken by the first call on a thread, kept
+// through its nested calls, released at its end; a call from another thread meanwhile is refused.
+class SceneUse {
+ public:
+  explicit SceneUse(const Scene& s) : s_(s) {
+    const std::thread::id me = std::this_thread::get_id();
+    std::thread::id free;
+    if (s.user.compare_exchange_strong(free, me)) {
+      taken_ = true;
+      return;
+    }
+    if (free != me)
+      throw std::logic_error(
+          "two threads step or evaluate one Scene at once: a step writes the rod capsules into the Scene's mjModel, "
+          "so each thread needs a Scene of its own (load_scene in each); the SceneData of one Scene can be stepped "
+          "in turn on one thread");
+  }
+  ~SceneUse() {
+    if (taken_) s_.user.store(std::thread::id());
+  }
+  SceneUse(const SceneUse&) = delete;
+  SceneUse& operator=(const SceneUse&) = delete;
+
+ private:
+  const Scene& s_;
+  bool taken_ = false;
+};
+
 void forward(const Scene& s, SceneData& sd, Need need) {
   check_owner(s, sd);
+  const SceneUse use(s);
   const mjModel* m = s.m;
   mjData* d = sd.d;
   // the constraint model of the step a substep belongs to (SceneData::constraint_timestep)
@@ -4225,6 +4254,7 @@ Status step(const Scene& s, SceneData& sd, Integrator method) {
     ~InStep() { sd.in_step = false, sd.step_sensors_done = false; }
   } in_step(sd);
   check_owner(s, sd);
+  const SceneUse use(s);
   save_state(sd.step_start, m, d);
   std::copy(d->qacc_warmstart, d->qacc_warmstart + m->nv, sd.step_start_warmstart.begin());
   sd.step_compression = {};
@@ -4292,15 +4322,26 @@ SceneEnergy energy(const Scene& s, SceneData& sd) {
   // MuJoCo's springs, as mj_energyPos counts them (outside probe W: ball and free joint springs
   // had been left out)
   e.elastic += quadratic_spring_energy(s.m, d) + nonlinear_springs(m, d, nullptr, nullptr);
+  // (only where everything that moves hangs from free joints, whose trees keep their momentum
+  // without contacts: a clamped rod's centre of mass swings with the rest of its motion)
   double mass = 0.0;
-  for (int b = 1; b < m->nbody; ++b)
-    if (m->body_weldid[b] != 0) mass += m->body_mass[b];  // (not the bodies welded to the world)
-  for (size_t r = 0; r < s.rods.size(); ++r) {
+  bool free = true;
+  auto floats = [m](int b) {
+    const int root = m->body_rootid[b];
+    return m->body_jntnum[root] > 0 && m->jnt_type[m->body_jntadr[root]] == mjJNT_FREE;
+  };
+  for (int b = 1; b < m->nbody && free; ++b) {
+    if (m->body_weldid[b] == 0) continue;  // (welded to the world: does not move)
+    free = floats(b);
+    mass += m->body_mass[b];
+  }
+  for (size_t r = 0; r < s.rods.size() && free; ++r) {
+    free = floats(s.rods[r].base_body);
     double rod_mass = 0.0;
     cosserat::center_of_mass(s.rods[r].model, sd.rod[r], &rod_mass);
     mass += rod_mass;
   }
-  if (mass > 0) e.translational = 0.5 * momentum(s, sd).tail<3>().squaredNorm() / mass;
+  if (free && mass > 0) e.translational = 0.5 * momentum(s, sd).tail<3>().squaredNorm() / mass;
   return e;
 }
 

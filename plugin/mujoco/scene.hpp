@@ -10,9 +10,11 @@
 // see one system.
 #pragma once
 
+#include <atomic>
 #include <limits>
 #include <memory>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include <mujoco/mujoco.h>
@@ -108,6 +110,10 @@ struct Scene {
   ~Scene();
 
   mjModel* m = nullptr;
+  // the thread stepping or evaluating this scene now (step and forward): two threads at once would
+  // write its rod capsules into one mjModel, and each read the other's; the second is refused
+  // with std::logic_error (outside probe AB: it had given wrong results without an error)
+  mutable std::atomic<std::thread::id> user{};
   std::vector<RodBinding> rods;   // ordered by base body id: outer rods before rods hanging on them
   std::vector<int> geom_rod;      // per MuJoCo geom: rod index or -1
   std::vector<int> geom_index;    // per MuJoCo geom: index into that rod's geoms
@@ -545,9 +551,9 @@ void abandon_step(SceneData& sd, const std::string& reason);
 // Energies of the whole scene (after forward): rods (core) plus MuJoCo's rigid bodies.
 struct SceneEnergy {
   double kinetic = 0, gravity = 0, elastic = 0;
-  // the part of `kinetic` that moves the centre of mass of everything that can move, |P|^2 / 2M
-  // (Koenig; P the scene's momentum, M the mass of its bodies and rods): in a scene moving as a
-  // whole, energy no exchange within it touches
+  // the part of `kinetic` that moves the centre of mass, |P|^2 / 2M (Koenig; P the scene's
+  // momentum, M the mass of its bodies and rods), where everything that moves hangs from free
+  // joints (0 otherwise): in a scene moving as a whole, energy no exchange within it touches
   double translational = 0;
   double total() const { return kinetic + gravity + elastic; }
 };

@@ -452,9 +452,8 @@ void patch_cfrc_int(const Scene& s, SceneData& sd) {
 // com-based about c. That is the part of the section beyond X: its inertial wrench (gravity
 // counted as the world's acceleration) integrated over [X, X1] by the section's own mass rule laid
 // on that stretch (its Gauss points, or Gauss-Lobatto's ends and middle), at each point's own motion
-// (cross_section_motion), and the external loads of its mass nodes (fluid drag) in proportion to
-// their stretches beyond X (the nodes' length weights laid end to end from the section's start),
-// each at the mean of the centre line over its part. With the Gauss-Lobatto rule the end node is
+// (cross_section_motion). (The rods' fluid drag acts through their joints, as MuJoCo's own fluid
+// forces do through qfrc_passive: cfrc_int counts neither.) With the Gauss-Lobatto rule the end node is
 // shared with the next section: the part of its inertial wrench that stands for this section's
 // stretch is taken out of F first. At X = X0 the rule is the section's own (the same points and
 // weights): a site at a section's start reads the node wrenches as the rod's base does.
@@ -465,7 +464,6 @@ void patch_cfrc_int(const Scene& s, SceneData& sd) {
 Vec6 rod_wrench_beyond_section_end(const Scene& s, const SceneData& sd, int site, const mjtNum* c) {
   const int r = s.site_rod[site], si = s.site_section[site];
   const cosserat::Model& m = s.rods[r].model;
-  const cosserat::Data& rd = sd.rod[r];
   const cosserat::Section& sec = m.sections[si];
   const cosserat::Rod& rod = m.rods[0];
   const double X = s.rods[r].decl.sites[s.site_index[site]].X, X1 = sec.X0 + sec.length;
@@ -490,26 +488,6 @@ Vec6 rod_wrench_beyond_section_end(const Scene& s, const SceneData& sd, int site
     thread_local std::vector<double> gx, gw;
     cosserat::gauss_legendre01(nq, gx, gw);
     for (int j = 0; j < nq; ++j) sum += inertial(X + gx[j] * len, gw[j] * len);
-  }
-  // the external loads of the section's own mass nodes, each over its stretch beyond X
-  double begin = sec.X0 + (sec.end_weight > 0.0 ? sec.end_weight * sec.length : 0.0);
-  for (int k = sec.first_node; k < sec.end_node; ++k) {
-    const cosserat::Node& n = m.nodes[k];
-    const double dX = n.dX, end = begin + dX;
-    if (dX > 0 && end > X && !(rd.f_ext_body[k].isZero(0.0) && rd.f_ext_world[k].isZero(0.0))) {
-      const Mat3 Rt = rd.g[k].R.transpose();
-      Vec6 ext = rd.f_ext_body[k];  // body frame, as the rnea subtracts it
-      ext.head<3>() += Rt * rd.f_ext_world[k].head<3>();
-      ext.tail<3>() += Rt * rd.f_ext_world[k].tail<3>();
-      Vec6 own = -coAd_apply(com_frame(rd.g[k], c), ext);
-      const double from = std::max(begin, X);
-      // (the mean of the centre line over that part, by 2 Gauss points: exact where it is cubic)
-      const double mid = 0.5 * (from + end), half = 0.5 / std::sqrt(3.0) * (end - from);
-      const Vec3 p_mean = 0.5 * (cosserat::rod_pose(m, rd, 0, mid - half).u + cosserat::rod_pose(m, rd, 0, mid + half).u);
-      own.head<3>() += (p_mean - rd.g[k].u).cross(Vec3(own.tail<3>()));
-      sum += (end - from) / dX * own;
-    }
-    if (dX > 0) begin = end;
   }
   return sum;
 }

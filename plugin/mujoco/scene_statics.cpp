@@ -862,6 +862,7 @@ struct UnstableState {
   std::vector<mjtNum> qpos;
   double lambda = 0.0;
   VectorXd mode;
+  cosserat::GrowthModes flutter;  // where it flutters (loads that turn with the scene)
   bool found() const { return !qpos.empty(); }
 };
 
@@ -918,10 +919,11 @@ bool solve_smooth(StaticProblem& p, const Scene& s, SceneData& sd, const SceneSt
                    cosserat::load_factor_text(target) + ", " + std::to_string(res.iterations) + " iterations so far");
     double w2 = 0.0;
     VectorXd mode;
+    cosserat::GrowthModes flutter;
     bool converged = newton(p, target, opt, res), refused = false;
-    if (converged && opt.stable && !stable_equilibrium(p, s, sd, target, w2, &mode)) {
+    if (converged && opt.stable && !stable_equilibrium(p, s, sd, target, w2, &mode, false, &flutter)) {
       refused = true;
-      if (!unstable.found() || target >= unstable.lambda) unstable = {p.qpos(), target, mode};
+      if (!unstable.found() || target >= unstable.lambda) unstable = {p.qpos(), target, mode, flutter};
     }
     if (converged && !refused) {
       lam = target;
@@ -1655,6 +1657,19 @@ SceneStaticsResult equilibrium_of_held(const Scene& s, SceneData& sd, const Scen
       std::copy(q_newton.begin(), q_newton.end(), d->qpos);
       res.message += q_newton == q_start ? "; the positions reported are the start's"
                                          : "; the positions reported are Newton's last converged load step";
+      // the continuation stopped where the equilibria begin to flutter, which no relaxation settles
+      // (outside probe BT: Beck's column past its flutter load, an exact straight equilibrium, read
+      // "no static equilibrium")
+      if (unstable.found() && unstable.flutter.rate > 0 && res.flutter_rate == 0.0) {
+        res.flutter_rate = unstable.flutter.rate;
+        res.flutter_hz = unstable.flutter.hz;
+        char b[240];
+        std::snprintf(b, sizeof b,
+                      "the equilibria the load continuation found flutter (at load factor %s an oscillation of %.4g Hz "
+                      "grows at %.4g 1/s, fed by loads that turn with the scene; more damping or less load holds it); ",
+                      cosserat::load_factor_text(unstable.lambda).c_str(), unstable.flutter.hz, unstable.flutter.rate);
+        res.message = b + res.message;
+      }
     }
     forward(s, sd);
     res.constraint_rows = load_bearing_rows(d);

@@ -1780,3 +1780,42 @@ TEST(SceneStatics, FollowerLoadsAreJudgedByTheDampedDynamics) {
   EXPECT_GT(r.flutter_rate, 0.0);
   EXPECT_NE(r.message.find("flutter"), std::string::npos) << r.message;
 }
+
+// Beck's column: a clamped rod under a tangential follower force at its tip (a site actuator along
+// the tip's tangent, pushing back), straight at every load. Undamped it flutters from Beck's
+// P = 20.05 EI / L^2; with Kelvin-Voigt damping, however small, from about 10.94 EI / L^2 (the
+// destabilising effect of damping, Ziegler's paradox; outside probe BT's tapped runs grew from
+// 11.2 on). `linearize` at the straight column says which; `equilibrium` past the damped load
+// names the flutter (it had read "no static equilibrium", the straight column exact).
+TEST(SceneStatics, BecksColumnFluttersAtBecksLoadOrZieglersWithDamping) {
+  const double EI = 1e6 * M_PI * 1e-8 / 4, L = 0.5, unit = EI / (L * L);
+  auto column = [](const char* viscosity) {
+    return std::string(R"(<mujoco><option gravity="0 0 0"/><worldbody>
+      <cosserat name="rod" euler="0 -90 0" length="0.5" sections="8" strain="ikl" radius="0.01" density="1000"
+                young="1e6" poisson="0.5" viscosity=")") + viscosity + R"(" contype="0" conaffinity="0"/></worldbody>
+      <actuator><general name="P" site="rod/tip" gear="-1 0 0 0 0 0"/></actuator></mujoco>)";
+  };
+  auto flutters = [&](const char* viscosity, double P) {
+    auto s = load_scene_string(column(viscosity), kPath);
+    SceneData sd(*s);
+    sd.d->ctrl[0] = P * unit;
+    forward(*s, sd);  // the straight column: an equilibrium at every load
+    const SceneLinearization L = linearize(*s, sd);
+    EXPECT_EQ(L.diverging_modes, 0);
+    return L.flutter_rate > 0;
+  };
+  EXPECT_FALSE(flutters("0", 19.0));
+  EXPECT_TRUE(flutters("0", 22.0));  // (8 sections: from 20.4-21.0)
+  EXPECT_FALSE(flutters("1e4", 10.0));
+  EXPECT_TRUE(flutters("1e4", 12.0));  // (from 10.8-11.5)
+  EXPECT_TRUE(flutters("1e4", 19.0));  // below Beck's load: the paradox
+  auto s = load_scene_string(column("1e4"), kPath);
+  SceneData sd(*s);
+  sd.d->ctrl[0] = 14.0 * unit;
+  SceneStaticsOptions quick;
+  quick.relaxation_time = 2.0;
+  const SceneStaticsResult r = equilibrium(*s, sd, quick);
+  EXPECT_FALSE(r.converged);
+  EXPECT_GT(r.flutter_rate, 0.0);
+  EXPECT_NE(r.message.find("flutter"), std::string::npos) << r.message;
+}

@@ -5,9 +5,13 @@
 
 #include <gtest/gtest.h>
 
+#include <atomic>
+#include <chrono>
 #include <cmath>
 #include <cstring>
+#include <stdexcept>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "dynamics.hpp"
@@ -234,6 +238,46 @@ TEST(Scene, ActivationsStayWithinTheirRangeUnderEveryIntegrator) {
   EXPECT_NEAR(sd.d->qpos[0], raw->qpos[0], 1e-15);
   EXPECT_GT(std::abs(raw->qpos[0]), 1e-5);
   mj_deleteData(raw);
+}
+
+// Two threads stepping SceneData of one Scene at once would each write their rod capsules into the
+// Scene's mjModel and read the other's (outside probe AB: wrong results without an error): the
+// second is refused while the first is inside a step (held there by its control callback), and
+// steps in turn on one thread, or from either thread once the other is done, go on.
+std::atomic<int> held_phase{0};
+TEST(Scene, TwoThreadsSteppingOneSceneAtOnceAreRefused) {
+  auto s = load_scene_string(R"(<mujoco><option gravity="0 0 -9.81"/><worldbody>
+    <cosserat name="rod" pos="0 0 1" length="0.3" sections="3" strain="kl" radius="0.01" young="1e6"/></worldbody>
+    <actuator><motor joint="rod/s0/kz"/></actuator></mujoco>)",
+                             kPath);
+  SceneData a(*s), b(*s);
+  held_phase = 0;
+  mjcb_control = [](const mjModel*, mjData*) {
+    if (held_phase == 0) {
+      held_phase = 1;  // inside the first thread's step: wait for the other's attempt
+      for (int k = 0; k < 20000 && held_phase == 1; ++k) std::this_thread::sleep_for(std::chrono::microseconds(100));
+    }
+  };
+  std::thread first([&] { EXPECT_EQ(step(*s, a), Status::Ok); });
+  while (held_phase == 0) std::this_thread::sleep_for(std::chrono::microseconds(100));
+  std::string refused;
+  std::thread second([&] {
+    try {
+      step(*s, b);
+    } catch (const std::logic_error& e) {
+      refused = e.what();
+    }
+    held_phase = 2;
+  });
+  second.join();
+  first.join();
+  mjcb_control = nullptr;
+  EXPECT_NE(refused.find("two threads step or evaluate one Scene at once"), std::string::npos) << refused;
+  // in turn, from either thread: fine
+  std::thread later([&] { EXPECT_EQ(step(*s, b), Status::Ok); });
+  later.join();
+  EXPECT_EQ(step(*s, a), Status::Ok);
+  forward(*s, b);
 }
 
 // After a step, d->sensordata holds the sensors of the step's start state, as after mj_step,
