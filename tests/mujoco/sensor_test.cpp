@@ -691,14 +691,38 @@ TEST(Sensors, NoiseIsAddedToTheSensorsTheRodsEvaluateAgain) {
   EXPECT_LT(std::sqrt(sum2[2] / n), 0.115);
 }
 
+// A free hub (the scene's head, its body left open) and a weight for a rod's tip.
+const char* kFreeHub = R"(<mujoco><option gravity="0 0 -9.81"/><worldbody>
+    <body name="hub" pos="0 0 1"><freejoint/><inertial pos="0.01 0 0" mass="0.05" diaginertia="1e-5 2e-5 3e-5"/>)";
+const char* kTipWeight = R"(<body name="weight"><geom type="sphere" pos="0.01 0 0" size="0.01" mass="0.03"/></body>)";
+
+// The sensors of a scene with a rigid rod against those of its native twin, a free hub moving and
+// turned (its first 7 qpos, 6 qvel), to 1e-9.
+void expect_sensors_as_native(const std::string& rod_xml, const std::string& native_xml, int nsensordata) {
+  auto sr = load_scene_string(rod_xml, "/tmp/cosserat_sensor_test.xml");
+  auto sn = load_scene_string(native_xml, "/tmp/cosserat_sensor_test.xml");
+  SceneData dr(*sr), dn(*sn);
+  const double qvel[6] = {0.1, -0.2, 0.3, 1.0, 2.0, -0.5};
+  for (SceneData* sd : {&dr, &dn}) {
+    sd->d->qpos[3] = std::cos(0.3);
+    sd->d->qpos[5] = std::sin(0.3);
+    for (int i = 0; i < 6; ++i) sd->d->qvel[i] = qvel[i];
+  }
+  forward(*sr, dr);
+  forward(*sn, dn);
+  ASSERT_EQ(sr->m->nsensordata, nsensordata);
+  for (int i = 0; i < nsensordata; ++i) {
+    const double ref = dn.d->sensordata[i];
+    EXPECT_NEAR(dr.d->sensordata[i], ref, 1e-9 * std::max(1.0, std::abs(ref))) << i;
+  }
+}
+
 // Subtree sensors count the rods' mass: a rigid rod (with a weight at its tip) on a free hub against
 // the native body with its inertia, at a moving state, for the hub's and the world's subtrees.
 TEST(Sensors, SubtreeSensorsCountTheRodLikeTheNativeBody) {
   const double m = 1000.0 * M_PI * 0.01 * 0.01 * 0.3;
   const double ixx = 0.5 * m * 1e-4, iyy = 0.25 * m * 1e-4 + m * 0.09 / 12.0;
-  const std::string head = R"(<mujoco><option gravity="0 0 -9.81"/><worldbody>
-    <body name="hub" pos="0 0 1"><freejoint/><inertial pos="0.01 0 0" mass="0.05" diaginertia="1e-5 2e-5 3e-5"/>)";
-  const std::string tip = R"(<body name="weight"><geom type="sphere" pos="0.01 0 0" size="0.01" mass="0.03"/></body>)";
+  const std::string head = kFreeHub, tip = kTipWeight;
   const std::string tail = R"(</body></worldbody><sensor>
     <subtreecom body="hub"/><subtreelinvel body="hub"/><subtreeangmom body="hub"/>
     <subtreecom body="world"/><subtreelinvel body="world"/><subtreeangmom body="world"/>
@@ -712,22 +736,7 @@ TEST(Sensors, SubtreeSensorsCountTheRodLikeTheNativeBody) {
       R"(<body name="rod" pos="0.02 0 0"><inertial pos="0.15 0 0" mass="%.17g" diaginertia="%.17g %.17g %.17g"/>
       <body name="tipframe" pos="0.3 0 0">%s</body></body>)",
       m, ixx, iyy, iyy, tip.c_str());
-  auto sr = load_scene_string(head + rod + tail, "/tmp/cosserat_sensor_test.xml");
-  auto sn = load_scene_string(head + native + tail, "/tmp/cosserat_sensor_test.xml");
-  SceneData dr(*sr), dn(*sn);
-  const double qvel[6] = {0.1, -0.2, 0.3, 1.0, 2.0, -0.5};
-  for (SceneData* sd : {&dr, &dn}) {
-    sd->d->qpos[3] = std::cos(0.3);
-    sd->d->qpos[5] = std::sin(0.3);
-    for (int i = 0; i < 6; ++i) sd->d->qvel[i] = qvel[i];
-  }
-  forward(*sr, dr);
-  forward(*sn, dn);
-  ASSERT_EQ(sr->m->nsensordata, 21);
-  for (int i = 0; i < 21; ++i) {
-    const double ref = dn.d->sensordata[i];
-    EXPECT_NEAR(dr.d->sensordata[i], ref, 1e-9 * std::max(1.0, std::abs(ref))) << i;
-  }
+  expect_sensors_as_native(head + rod + tail, head + native + tail, 21);
 }
 
 // Subtree sensors on a section's proxy count the rod beyond the section's end (the proxies stand at
@@ -737,9 +746,7 @@ TEST(Sensors, SubtreeSensorsCountTheRodLikeTheNativeBody) {
 TEST(Sensors, SubtreeSensorsOnASectionCountTheRodBeyondIt) {
   const double m = 1000.0 * M_PI * 0.01 * 0.01 * 0.1;  // a section's
   const double ixx = 0.5 * m * 1e-4, iyy = 0.25 * m * 1e-4 + m * 0.01 / 12.0;
-  const std::string head = R"(<mujoco><option gravity="0 0 -9.81"/><worldbody>
-    <body name="hub" pos="0 0 1"><freejoint/><inertial pos="0.01 0 0" mass="0.05" diaginertia="1e-5 2e-5 3e-5"/>)";
-  const std::string tip = R"(<body name="weight"><geom type="sphere" pos="0.01 0 0" size="0.01" mass="0.03"/></body>)";
+  const std::string head = kFreeHub, tip = kTipWeight;
   const std::string tail = R"(</body></worldbody><sensor>
     <subtreecom body="S0"/><subtreelinvel body="S0"/><subtreeangmom body="S0"/>
     <subtreecom body="S1"/><subtreelinvel body="S1"/><subtreeangmom body="S1"/>
@@ -750,29 +757,13 @@ TEST(Sensors, SubtreeSensorsOnASectionCountTheRodBeyondIt) {
   const std::string native = std::string(R"(<body name="rod" pos="0.02 0 0">)") + section + R"(<body name="p1" pos="0.1 0 0">)" +
                              section + R"(<body name="p2" pos="0.1 0 0">)" + section + R"(<body name="p3" pos="0.1 0 0">)" +
                              tip + "</body></body></body></body>";
-  auto sn = load_scene_string(replace_all(replace_all(replace_all(head + native + tail, "S0", "p1"), "S1", "p2"), "S2", "p3"),
-                              "/tmp/cosserat_sensor_test.xml");
   for (const char* rule : {"", R"( quadrature="lobatto")"}) {
     SCOPED_TRACE(rule);
     const std::string rod = std::string(R"(<cosserat name="rod" pos="0.02 0 0" length="0.3" sections="3" strain="rigid" )") +
                             R"(radius="0.01" density="1000")" + rule + ">" + tip + "</cosserat>";
-    auto sr = load_scene_string(
+    expect_sensors_as_native(
         replace_all(replace_all(replace_all(head + rod + tail, "S0", "rod/s0"), "S1", "rod/s1"), "S2", "rod/s2"),
-        "/tmp/cosserat_sensor_test.xml");
-    SceneData dr(*sr), dn(*sn);
-    const double qvel[6] = {0.1, -0.2, 0.3, 1.0, 2.0, -0.5};
-    for (SceneData* sd : {&dr, &dn}) {
-      sd->d->qpos[3] = std::cos(0.3);
-      sd->d->qpos[5] = std::sin(0.3);
-      for (int i = 0; i < 6; ++i) sd->d->qvel[i] = qvel[i];
-    }
-    forward(*sr, dr);
-    forward(*sn, dn);
-    ASSERT_EQ(sr->m->nsensordata, 27);
-    for (int i = 0; i < 27; ++i) {
-      const double ref = dn.d->sensordata[i];
-      EXPECT_NEAR(dr.d->sensordata[i], ref, 1e-9 * std::max(1.0, std::abs(ref))) << i;
-    }
+        replace_all(replace_all(replace_all(head + native + tail, "S0", "p1"), "S1", "p2"), "S2", "p3"), 27);
   }
 }
 
