@@ -519,7 +519,7 @@ class MotionTracker {
 // What in the scene moves energy in or out of the mechanical energy `run` tracks (damping, actuators,
 // fluid forces, contacts made during the run, equality constraints): with any of them the drift
 // above measures that exchange, not the integrator (a swimmer driven from rest reads 1.00).
-std::vector<std::string> energy_exchanges(const mj::Scene& sc, bool touched) {
+std::vector<std::string> energy_exchanges(const mj::Scene& sc, bool touched, bool limited) {
   const mjModel* m = sc.m;
   std::vector<std::string> out;
   bool rod_damping = false;
@@ -533,6 +533,14 @@ std::vector<std::string> energy_exchanges(const mj::Scene& sc, bool touched) {
   if (m->nu > 0 && !(m->opt.disableflags & mjDSBL_ACTUATION)) out.push_back("actuators");
   if (sc.fluid.active || (passive && (m->opt.density > 0 || m->opt.viscosity > 0))) out.push_back("fluid");
   if (touched) out.push_back("contacts");
+  // friction loss and limits take energy too (outside probe BV: a pendulum with friction loss and
+  // one stopped by a joint limit had been warned about as numerical damping)
+  const bool rows = !(m->opt.disableflags & mjDSBL_CONSTRAINT);
+  bool frictionloss = false;
+  for (int i = 0; i < m->nv; ++i) frictionloss = frictionloss || m->dof_frictionloss[i] > 0;
+  for (int i = 0; i < m->ntendon; ++i) frictionloss = frictionloss || m->tendon_frictionloss[i] > 0;
+  if (rows && frictionloss && !(m->opt.disableflags & mjDSBL_FRICTIONLOSS)) out.push_back("friction loss");
+  if (rows && limited) out.push_back("limits");
   // (outside probe BI: listed under <flag equality="disable"/> and constraint="disable" too)
   bool active_equality = false;
   for (int e = 0; e < m->neq; ++e) active_equality = active_equality || m->eq_active[e];
@@ -638,6 +646,11 @@ int cmd_run(int argc, char** argv) {
   const auto pos = cl.parse(argc, argv);
   if (!pos) return 0;
   if (csv == "-" && json_path == "-") fail("--csv - and --json - both ask for stdout: give one of them a file");
+  // (outside probe BV: the JSON had overwritten the CSV, quietly)
+  if (!csv.empty() && csv != "-" && !json_path.empty() &&
+      (csv == json_path || (std::filesystem::exists(csv) && std::filesystem::exists(json_path) &&
+                            std::filesystem::equivalent(csv, json_path))))
+    fail("--csv and --json name the same file (" + csv + "): give them different files");
   check_writable("--csv", csv);
   check_writable("--json", json_path);
 
@@ -684,6 +697,7 @@ int cmd_run(int argc, char** argv) {
 
   EnergyTracker energy;
   MotionTracker motion;
+  const double start_time = s.time();
   Progress progress("run", s.steps(), "step");
   const auto t0 = std::chrono::steady_clock::now();
   s.observe();
@@ -702,7 +716,8 @@ int cmd_run(int argc, char** argv) {
       deepest_geom2 = s.data().d->contact[c].geom2;
     }
   long k = 0;
-  bool diverged = false, touched = false;
+  bool diverged = false, touched = false, limited = false;
+  long last_row = 0;  // the step of the CSV's last row
   // friction on the capsules of rod sections that stretch or shear, under a step that leaves their
   // vibration undamped (friction_on_stretching_rods_warning)
   const std::vector<char> stretching = undamped_stretching_capsules(s.scene(), s.integrator());
@@ -714,6 +729,8 @@ int cmd_run(int argc, char** argv) {
     }
     ++k;
     touched = touched || s.data().d->ncon > 0;
+    for (int i = 0; i < s.data().d->nefc && !limited; ++i)
+      limited = s.data().d->efc_type[i] == mjCNSTR_LIMIT_JOINT || s.data().d->efc_type[i] == mjCNSTR_LIMIT_TENDON;
     if (!stretching.empty() && !rubbed)
       for (int c = 0; c < s.data().d->ncon && !rubbed; ++c) {
         const mjContact& con = s.data().d->contact[c];
@@ -728,12 +745,14 @@ int cmd_run(int argc, char** argv) {
       energy.add(s.energy());
       motion.add(s.scene().m, s.data().d);
       write_row(energy.final());
+      last_row = k;
     }
     progress.update(k, s.time());
   }
-  if (diverged) {  // the state was restored to the last good step
+  if (diverged) {  // the state was restored to the last good step: the CSV's last row (outside probe BV)
     s.observe();
     energy.add(s.energy());
+    if (last_row != k) write_row(energy.final());
   }
   const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   if (csv_out && !csv_out->flush()) fail("--csv: cannot write " + (csv == "-" ? std::string("stdout") : csv));
@@ -815,7 +834,7 @@ int cmd_run(int argc, char** argv) {
                   body_name(m, m->geom_bodyid[deepest_geom1]).c_str(), body_name(m, m->geom_bodyid[deepest_geom2]).c_str(), start_depth, start_depth / m->stat.extent);
     warnings.push_back(b);
   }
-  const std::vector<std::string> exchanges = energy_exchanges(s.scene(), touched);
+  const std::vector<std::string> exchanges = energy_exchanges(s.scene(), touched, limited);
   // a closed scene whose energy grew: the integrator supplied it
   if (exchanges.empty() && !diverged && energy.max_rel_gain() > 0.1) {
     const Integrator in = s.integrator();
@@ -878,7 +897,8 @@ int cmd_run(int argc, char** argv) {
   const bool dissipative =
       !exchanges.empty() && start_depth <= 1e-3 * s.scene().m->stat.extent &&
       std::all_of(exchanges.begin(), exchanges.end(), [](const std::string& x) {
-        return x == "contacts" || x == "rod damping" || x == "joint or tendon damping";
+        return x == "contacts" || x == "rod damping" || x == "joint or tendon damping" || x == "friction loss" ||
+               x == "limits";
       });
   if (dissipative && !diverged && energy.max_rel_gain() > 1.0) {
     const Integrator in = s.integrator();
@@ -918,7 +938,8 @@ int cmd_run(int argc, char** argv) {
     j["integrator"] = integrator_name(s.integrator());
     j["timestep"] = s.timestep();
     j["steps"] = k;
-    j["sim_time"] = s.time();
+    j["sim_time"] = s.time();       // the simulated time at the end (MuJoCo's d->time, the CSV's)
+    j["start_time"] = start_time;   // at the start: a keyframe's time, else 0
     j["wall_time"] = wall;
     j["energy"] = {{"initial", energy.initial()}, {"final", energy.final()}, {"final_kinetic", energy.final_kinetic()},
                    {"max_rel_drift", energy.max_rel_drift()}, {"exchanged_by", exchanges}};
@@ -940,10 +961,13 @@ int cmd_run(int argc, char** argv) {
   if (json_path != "-" && csv != "-") {  // stdout carries the JSON or the CSV alone
     std::string exchanged;  // the drift is the integrator's only in a closed scene
     for (const auto& e : exchanges) exchanged += (exchanged.empty() ? "; not conserved here: " : ", ") + e;
-    std::printf("simulated %.6g s in %ld steps (%s, h = %g s) in %.3f s wall; energy %.6g -> %.6g J (max drift %.2e%s), "
+    // (the time simulated, and from where where a keyframe starts the clock: outside probe BV, a
+    // key at t = 1 had a 0.5 s run read "simulated 1.5 s")
+    const std::string from = start_time != 0.0 ? " (t = " + format_g(start_time) + " to " + format_g(s.time()) + " s)" : "";
+    std::printf("simulated %.6g s%s in %ld steps (%s, h = %g s) in %.3f s wall; energy %.6g -> %.6g J (max drift %.2e%s), "
                 "kinetic at the end %.3g J\n",
-                s.time(), k, integrator_name(s.integrator()), s.timestep(), wall, energy.initial(), energy.final(),
-                energy.max_rel_drift(), exchanged.c_str(), energy.final_kinetic());
+                s.time() - start_time, from.c_str(), k, integrator_name(s.integrator()), s.timestep(), wall, energy.initial(),
+                energy.final(), energy.max_rel_drift(), exchanged.c_str(), energy.final_kinetic());
     if (s.scene().newton_for(s.integrator()) > 0) {
       const auto& ns = s.data().newton_stats;
       std::printf("newton: %.2f corrections per step, %ld steps split, %ld unconverged", k > 0 ? double(ns.iterations) / double(k) : 0.0,

@@ -1181,6 +1181,43 @@ TEST_F(Cli, NumericalDampingIsWarnedAboutInAFreeSceneMovingAsAWhole) {
   EXPECT_GT(drifts[1], 0.6 * drifts[0]);
 }
 
+// What a batch script relies on (outside probe BV): friction loss and limits are counted among what
+// takes energy (a pendulum slowed by friction loss, or stopped by a joint limit, had been warned
+// about as numerical damping, "--integrator midpoint keeps the energy"); --csv and --json naming one
+// file are refused (the JSON had overwritten the CSV); a run that diverges ends its CSV at the last
+// good step, as the JSON does; a run from a keyframe with a time says how long it simulated.
+TEST_F(Cli, BatchOutputsNameWhatTakesEnergyAndKeepTheirRows) {
+  for (const std::string joint : {R"(frictionloss="0.5")", R"(limited="true" range="-30 30")"}) {
+    SCOPED_TRACE(joint);
+    const fs::path model = scratch() / "pendulum.xml";
+    std::ofstream(model) << R"(<mujoco><option timestep="0.001" gravity="0 0 -9.81"/><worldbody>
+      <body name="arm" pos="0 0 1"><joint name="hinge" type="hinge" axis="0 1 0" )" << joint << R"(/>
+        <geom name="bob" type="sphere" size="0.05" pos="0.5 0 0" mass="1"/></body></worldbody>
+      <keyframe><key name="start" time="1" qpos="1.0" qvel="0.5"/></keyframe></mujoco>)";
+    const Result r = cosserat("run '" + model.string() + "' --key start --duration 2");
+    EXPECT_EQ(r.status, 0) << r.err;
+    EXPECT_EQ(r.out.find("the energy fell"), std::string::npos) << r.out;
+    EXPECT_NE(r.out.find(joint[0] == 'f' ? "not conserved here: friction loss" : "not conserved here: limits"),
+              std::string::npos)
+        << r.out;
+    EXPECT_NE(r.out.find("simulated 2 s (t = 1 to 3 s) in 2000 steps"), std::string::npos) << r.out;
+  }
+  const fs::path same = scratch() / "same.out";
+  const Result both = cosserat("run '" + kCantilever + "' --duration 0.01 --csv '" + same.string() + "' --json '" +
+                               same.string() + "'");
+  EXPECT_EQ(both.status, 1);
+  EXPECT_NE(both.err.find("--csv and --json name the same file"), std::string::npos) << both.err;
+  // rk4 at 2 ms diverges on the cantilever within a few steps: the CSV's last row is the JSON's state
+  const fs::path csv = scratch() / "diverged.csv", json_file = scratch() / "diverged.json";
+  const Result dv = cosserat("run '" + kCantilever + "' --integrator rk4 --timestep 0.002 --duration 0.5 --every 2 --csv '" +
+                             csv.string() + "' --json '" + json_file.string() + "'");
+  EXPECT_EQ(dv.status, 1) << dv.out;
+  const auto rows = lines(read_text(csv));
+  ASSERT_GE(rows.size(), 2u);
+  const double last_time = std::stod(split(rows.back(), ',').at(0));
+  EXPECT_DOUBLE_EQ(last_time, json::parse(read_text(json_file))["sim_time"].get<double>());
+}
+
 // A soft rod sliding down a slope steeper than its friction angle accelerates at Coulomb's
 // g (sin a - mu cos a) under the default step, whether its sections stretch or not; under an explicit
 // step its sections' undamped axial vibration takes friction away (outside probe BS: 7-18% fast for
