@@ -29,8 +29,14 @@ inline std::string format_g(double v) {
 
 // "warning: <msg>" on stderr, once per process whatever the number of calls (render applies the
 // start state once to frame the run and again to draw it: outside probe BO saw each twice).
-inline void warn_once(const std::string& msg) {
+// The warnings warn_once has said, for the JSON reports (outside probe BV: a clamped --ctrl was
+// said on stderr only, and the report recorded the control asked for).
+inline std::vector<std::string>& said_warnings() {
   static std::vector<std::string> said;
+  return said;
+}
+inline void warn_once(const std::string& msg) {
+  std::vector<std::string>& said = said_warnings();
   if (std::find(said.begin(), said.end(), msg) != said.end()) return;
   said.push_back(msg);
   std::cerr << "warning: " << msg << "\n";

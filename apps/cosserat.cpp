@@ -947,7 +947,9 @@ int cmd_run(int argc, char** argv) {
     if (with_sensors) add_sensors(j, sensors, s.data().d);
     j["diverged"] = diverged;
     if (diverged) j["reason"] = s.data().warning;  // also the first warning
-    j["warnings"] = warnings;
+    json all = warnings;
+    for (const auto& w : said_warnings()) all.push_back(w);  // (said on stderr as they arose)
+    j["warnings"] = all;
     if (adaptive)
       j["adaptive"] = {{"step_tol", s.scene().step_tol}, {"substeps", as.substeps}, {"rejected", as.rejected},
                        {"kept_at_min", as.kept_at_min}, {"finest_step", s.timestep() / (1 << as.finest)}};
@@ -1082,7 +1084,9 @@ int cmd_equilibrium(int argc, char** argv) {
   for (const auto& w : warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
   if (!json_path.empty()) {
     json j = eq.report();
-    if (!warnings.empty()) j["warnings"] = warnings;
+    json all = warnings;  // (an empty list where there are none: the same keys in every report)
+    for (const auto& w : said_warnings()) all.push_back(w);
+    j["warnings"] = all;
     add_positions(j, out, *eq.data);
     if (with_sensors) add_sensors(j, sensors, eq.data->d);
     write_json(json_path, j);
@@ -1233,7 +1237,8 @@ int cmd_linearize(int argc, char** argv) {
       warnings.push_back(flutter_text);
       j["flutter"] = {{"growth_rate", lin.flutter_rate}, {"frequency_hz", lin.flutter_hz}};
     }
-    if (!warnings.empty()) j["warnings"] = warnings;
+    for (const auto& w : said_warnings()) warnings.push_back(w);
+    j["warnings"] = warnings;
     if (modes > 0) {
       const Outputs named = named_outputs(*eq.scene);
       json list = json::array();
@@ -1364,8 +1369,9 @@ int cmd_compare(int argc, char** argv) {
   state.add_to(cl);
   cl.options.push_back(text_option("--json", "F", "write {sites, bodies: {name: {max, rms}}, swimming_speed, ...} ('-': stdout)", json_path));
   cl.details =
-      "Positions are sampled every max(h_A, h_B) (linear interpolation between steps: a model whose\n"
-      "step does not divide the duration is simulated one step past it); deviations are\n"
+      "Positions are sampled about every max(h_A, h_B), in equal parts of the duration (JSON\n"
+      "sample_interval; linear interpolation between steps: a model whose step does not divide the\n"
+      "duration is simulated one step past it); deviations are\n"
       "|p_A - p_B|. The swimming speed of a free body is |mean velocity of its position| over the\n"
       "second half of the run. Both models step with one integrator: --integrator, else implicit when\n"
       "either has rods (euler when neither has). Exit status 1 when either simulation diverges; the\n"
