@@ -993,6 +993,12 @@ int cmd_run(int argc, char** argv) {
 }
 
 // Loads a model and solves its static equilibrium; shared by `equilibrium` and `linearize`.
+// What closes an equality constraint left open under load (outside probe BU: solref="0.002 1" had
+// been suggested where it was already set, and heavier bodies for strain joints, which have none).
+const std::string kCloseIt =
+    "a stiffer solref (its time constant down to twice the step, e.g. solref=\"0.002 1\" at 1 ms) or a "
+    "solimp nearer 1 (e.g. solimp=\"0.99 0.999 0.001\") closes it, and where it joins bodies, heavier ones";
+
 struct Equilibrium {
   std::unique_ptr<mj::Scene> scene;
   std::unique_ptr<mj::SceneData> data;
@@ -1079,8 +1085,7 @@ int cmd_equilibrium(int argc, char** argv) {
   if (eq.result.converged)
     for (const std::string& o : mj::open_equalities(*eq.scene, *eq.data))
       warnings.push_back(o + " at the equilibrium: MuJoCo's constraints are soft (solref, solimp and the inertia of "
-                             "what it joins), and this is the equilibrium with it open; a stiffer solref (e.g. "
-                             "solref=\"0.002 1\") or heavier bodies close it");
+                             "what it joins), and this is the equilibrium with it open; " + kCloseIt);
   for (const auto& w : warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
   if (!json_path.empty()) {
     json j = eq.report();
@@ -1200,8 +1205,7 @@ int cmd_linearize(int argc, char** argv) {
   if (lin.constraint_rows > 0)
     for (const std::string& o : mj::open_equalities(*eq.scene, *eq.data))
       open_warnings.push_back(o + " at the equilibrium (MuJoCo's constraints are soft: solref, solimp and the inertia "
-                                  "of what it joins); the linearisation holds it rigid there, open: a stiffer solref "
-                                  "(e.g. solref=\"0.002 1\") or heavier bodies close it");
+                                  "of what it joins); the linearisation holds it rigid there, open: " + kCloseIt);
   // the modes with omega^2 < 0 (listed first), and a growing oscillation where the loads turn with
   // the structure (outside probe BR: a follower-loaded rod's flutter had been read stable)
   const int divergent = lin.diverging_modes;

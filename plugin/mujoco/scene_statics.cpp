@@ -1593,8 +1593,14 @@ SceneStaticsResult equilibrium_of_held(const Scene& s, SceneData& sd, const Scen
   forward(s, sd);
   const FullResidual r = full_residual(s, sd);
   res.constraint_rows = load_bearing_rows(d);
-  const bool constrained =
-      res.constraint_rows > 0 && r.loaded && r.constraint > std::max(1e-8, 100 * opt.tolerance) * r.scale;
+  // (rows that carry load with no generalised force: outside probe BU's inextensible rod pushed 1 cm
+  // short by a weld at its tip, straight, whose tip cannot move along the rod at first order, had
+  // been reported a converged stable column, where it buckles)
+  bool axial = false;
+  for (int i = 0; i < d->nefc && !axial; ++i)
+    axial = d->efc_type[i] == mjCNSTR_EQUALITY && std::abs(d->efc_force[i]) > std::max(1e-8, 100 * opt.tolerance) * r.scale;
+  const bool constrained = res.constraint_rows > 0 && r.loaded &&
+                           (r.constraint > std::max(1e-8, 100 * opt.tolerance) * r.scale || axial);
   if (res.converged && !constrained && !through && !opens) return res;
   const std::string why =
       constrained ? std::to_string(res.constraint_rows) +
@@ -1830,7 +1836,7 @@ std::vector<std::string> open_equalities(const Scene& s, const SceneData& sd) {
     std::snprintf(buf, sizeof buf, "equality constraint %s%s%s (%s) is open by %.3g %s", name && *name ? "'" : "#",
                   name && *name ? name : std::to_string(e).c_str(), name && *name ? "'" : "", type,
                   gap[e] * (angle[e] ? 1e-3 : length),
-                  angle[e] ? "rad" : "length units (MuJoCo's measure of its violation)");
+                  angle[e] ? "rad" : "(MuJoCo's measure of its violation: metres, or the strain's units on strain joints)");
     out.push_back(buf);
   }
   return out;

@@ -1819,3 +1819,24 @@ TEST(SceneStatics, BecksColumnFluttersAtBecksLoadOrZieglersWithDamping) {
   EXPECT_GT(r.flutter_rate, 0.0);
   EXPECT_NE(r.message.find("flutter"), std::string::npos) << r.message;
 }
+
+// An inextensible rod pushed 1 cm short by a weld at its tip buckles: straight, its tip cannot move
+// along the rod at first order, so the weld's large axial force has no generalised component, and
+// the equilibrium had been reported a converged, stable straight column (outside probe BU; its
+// linearisation held rigid finds 12 unstable modes). The clamped-clamped elastica with an end
+// shortening D << L bows by sqrt(4 L D) / pi at its middle (0.0637 m; the scene's own tapped run:
+// 0.0633).
+TEST(SceneStatics, AnInextensibleRodPushedShortByAWeldBuckles) {
+  auto s = load_scene_string(R"(<mujoco><option timestep="0.001" gravity="0 0 0"/><worldbody>
+    <cosserat name="r" length="1" sections="8" strain="ikl" radius="0.01" density="1000" young="1e7" poisson="0.5"
+              viscosity="1e4" contype="0" conaffinity="0"><site name="mid" at="0.5"/></cosserat></worldbody>
+    <equality><weld name="w" body1="r/s7" relpose="-0.99 0 0 1 0 0 0" solref="0.002 1"/></equality></mujoco>)",
+                             kPath);
+  SceneData sd(*s);
+  const SceneStaticsResult r = equilibrium(*s, sd);
+  ASSERT_TRUE(r.converged) << r.message;
+  const int mid = mj_name2id(s->m, mjOBJ_SITE, "mid");
+  const Vec3 p(sd.d->site_xpos + 3 * mid);
+  const double bow = std::hypot(p.y(), p.z());
+  EXPECT_NEAR(bow, std::sqrt(4 * 1.0 * 0.01) / M_PI, 0.02 * 0.0637) << p.transpose();
+}
