@@ -2204,33 +2204,24 @@ static void check_owner(const Scene& s, const SceneData& sd) {
     throw std::invalid_argument("a SceneData steps with the Scene it was made from (SceneData(scene)), not another");
 }
 
-// Scene::user for the scope of a step or an evaluation: taken by the first call on a thread, kept
-// through its nested calls, released at its end; a call from another thread meanwhile is refused.
-class SceneUse {
- public:
-  explicit SceneUse(const Scene& s) : s_(s) {
-    const std::thread::id me = std::this_thread::get_id();
-    std::thread::id free;
-    if (s.user.compare_exchange_strong(free, me)) {
-      taken_ = true;
-      return;
-    }
-    if (free != me)
-      throw std::logic_error(
-          "two threads step or evaluate one Scene at once: a step writes the rod capsules into the Scene's mjModel, "
-          "so each thread needs a Scene of its own (load_scene in each); the SceneData of one Scene can be stepped "
-          "in turn on one thread");
-  }
-  ~SceneUse() {
-    if (taken_) s_.user.store(std::thread::id());
-  }
-  SceneUse(const SceneUse&) = delete;
-  SceneUse& operator=(const SceneUse&) = delete;
 
- private:
-  const Scene& s_;
-  bool taken_ = false;
-};
+SceneUse::SceneUse(const Scene& s) : s_(s) {
+  const std::thread::id me = std::this_thread::get_id();
+  std::thread::id free;
+  if (s.user.compare_exchange_strong(free, me)) {
+    taken_ = true;
+    return;
+  }
+  if (free != me)
+    throw std::logic_error(
+        "two threads step or evaluate one Scene at once: a step writes the rod capsules into the Scene's mjModel, "
+        "so each thread needs a Scene of its own (load_scene in each); the SceneData of one Scene can be stepped "
+        "in turn on one thread");
+}
+
+SceneUse::~SceneUse() {
+  if (taken_) s_.user.store(std::thread::id());
+}
 
 void forward(const Scene& s, SceneData& sd, Need need) {
   check_owner(s, sd);
@@ -2891,9 +2882,9 @@ bool add_outer_in_tree(const mjModel* m, mjtNum* A, const mjtNum* u, double c, s
 
 // Which active rows (in MuJoCo's quadratic state, on rods) factor_implicit freezes with its matrix
 // (add_constraint_terms): none; every row (the Newton schemes); the equality rows; or the equality
-// rows, the active limits and the friction rows of elliptic cones, and should one of those tie two
-// branches of the tree, the equality rows alone (the linearised steps).
-enum class FrozenRows { None, All, Equalities, EqualitiesLimitsAndEllipticFriction };
+// rows and the friction rows of elliptic cones, and should one of those tie two branches of the
+// tree, the equality rows alone (the linearised steps).
+enum class FrozenRows { None, All, Equalities, EqualitiesAndEllipticFriction };
 
 // Whether efc row i is a friction row of an elliptic cone (a contact's rows after its normal one).
 bool elliptic_friction_row(const mjData* d, int i) {
@@ -2935,10 +2926,11 @@ void add_constraint_terms(const mjModel* m, const char* strain, SceneData& sd, m
     if (equalities_only && d->efc_type[i] != mjCNSTR_EQUALITY) continue;
     // the linearised steps hold the friction rows of elliptic cones, not the normal rows nor the
     // pyramid's (outside probe BO: held, those damped a soft rod's bounce from 62 to 14 mm and
-    // braked, even blew up, a rod rolling on a pyramidal cone), and the active limits (outside
-    // probe BU: a stiff rod hanging from a taut tendon limit bounced on it at 41.7 Hz for ever)
-    if (which == FrozenRows::EqualitiesLimitsAndEllipticFriction && d->efc_type[i] != mjCNSTR_EQUALITY &&
-        !elliptic_friction_row(d, i) && d->efc_type[i] != mjCNSTR_LIMIT_JOINT && d->efc_type[i] != mjCNSTR_LIMIT_TENDON)
+    // braked, even blew up, a rod rolling on a pyramidal cone), nor the limits (held, they settled
+    // outside probe BU's stiff rod hanging from a taut tendon limit, which bounces on it for ever,
+    // but took a rod hitting its strain limits in motion 48 mm off its course, against 5 mm: probe BW)
+    if (which == FrozenRows::EqualitiesAndEllipticFriction && d->efc_type[i] != mjCNSTR_EQUALITY &&
+        !elliptic_friction_row(d, i))
       continue;
     const mjtNum* u = sparse ? row : d->efc_J + static_cast<size_t>(i) * nv;
     int last = -1, count = 0;
@@ -2972,7 +2964,7 @@ void add_constraint_terms(const mjModel* m, const char* strain, SceneData& sd, m
       for (int k = d->efc_J_rowadr[i]; k < d->efc_J_rowadr[i] + d->efc_J_rownnz[i]; ++k) row[d->efc_J_colind[k]] = 0.0;
     if (across) {  // a row across two branches: the terms would be partial, none are taken
       sd.frozen_D.clear();
-      if (which == FrozenRows::EqualitiesLimitsAndEllipticFriction)
+      if (which == FrozenRows::EqualitiesAndEllipticFriction)
         add_constraint_terms(m, strain, sd, A, hD, hK, FrozenRows::Equalities);
       return;
     }
@@ -3261,7 +3253,7 @@ void filter_activations(const Scene& s, SceneData& sd, const mjtNum* act0, const
 //   A a = M qacc - theta h K v,   q+ = q + h (v + theta h a),  v+ = v + h a.
 // theta = 1 (Implicit) is linearised backward Euler; theta = 1/2 (Trapezoidal) the trapezoidal rule
 // on the same linearisation: no numerical damping of the linear modes.
-// contacts: the elliptic cones' friction rows too (FrozenRows::EqualitiesLimitsAndEllipticFriction), as
+// contacts: the elliptic cones' friction rows too (FrozenRows::EqualitiesAndEllipticFriction), as
 // the linearised `implicit` and `trapezoidal --newton 0` steps take them (not the Newton schemes'
 // event steps and first iterates, whose contacts change within the step: the pushed rod's stopping
 // distance under `midpoint` went from within 0.3% of Coulomb's to 1-3% long with them)
@@ -3276,8 +3268,8 @@ void implicit_step(const Scene& s, SceneData& sd, bool rods = true, double theta
     mju_copy(sd.qacc_tmp.data(), d->qfrc_smooth, nv);
   else
     mj_mulM(m, d, sd.qacc_tmp.data(), d->qacc);
-  // the active rows on rods in MuJoCo's quadratic state (equalities; with `contacts` also active
-  // limits and the friction rows of elliptic cones), implicit as the Newton schemes' matrix takes them: their force
+  // the active rows on rods in MuJoCo's quadratic state (equalities; with `contacts` also the
+  // friction rows of elliptic cones), implicit as the Newton schemes' matrix takes them: their force
   // at the step's end, linearised, -D (J a + B J v+ + K I r+), less the start's, leaves
   // D J'(J a0) - theta h D K I J'(J v) on the right-hand side. Friction rows since the forty-seventh
   // session (outside probe BM: torsional friction at a soft rod's end, its force from MuJoCo's solve
@@ -3287,7 +3279,7 @@ void implicit_step(const Scene& s, SceneData& sd, bool rods = true, double theta
   const bool rows = rods && !smooth_only(sd) && (contacts ? d->nefc > 0 : d->ne > 0);
   factor_implicit(s, sd, rods, theta, theta * theta,
                   !rows      ? FrozenRows::None
-                  : contacts ? FrozenRows::EqualitiesLimitsAndEllipticFriction
+                  : contacts ? FrozenRows::EqualitiesAndEllipticFriction
                              : FrozenRows::Equalities);
   if (rods) subtract_stiffness(s, sd, th, d->qvel, sd.qacc_tmp.data());
   if (rows) {

@@ -447,6 +447,22 @@ struct SceneData {
   Mat6X fluid_cols;
 };
 
+// Scene::user for the scope of a step, an evaluation, or a statics solve (which change the
+// mjModel for their whole run: gravity scaled, dampers off): taken by the first call on a thread,
+// kept through its nested calls, released at its end; a call from another thread meanwhile throws
+// std::logic_error.
+class SceneUse {
+ public:
+  explicit SceneUse(const Scene& s);
+  ~SceneUse();
+  SceneUse(const SceneUse&) = delete;
+  SceneUse& operator=(const SceneUse&) = delete;
+
+ private:
+  const Scene& s_;
+  bool taken_ = false;
+};
+
 // The warning for such a collapse (rod, section, stretch, time), or "" when none happened.
 std::string collapse_warning(const Scene& s, const SceneData& sd);
 

@@ -1473,11 +1473,13 @@ bool relax(const Scene& s, SceneData& sd, const std::vector<mjtNum>& q_start, co
 }  // namespace
 
 double static_force(const Scene& s, SceneData& sd, double lambda, VectorXd& f) {
+  const SceneUse use(s);
   StaticProblem p(s, sd);
   return p.force(lambda, f);
 }
 
 void tangent_stiffness(const Scene& s, SceneData& sd, double lambda, MatrixXd& Kt) {
+  const SceneUse use(s);
   StaticProblem p(s, sd);
   p.stiffness(lambda, Kt);
 }
@@ -1521,6 +1523,7 @@ SceneStaticsResult equilibrium_of_held(const Scene& s, SceneData& sd, const Scen
 }  // namespace
 
 SceneStaticsResult equilibrium(const Scene& s, SceneData& sd, const SceneStaticsOptions& opt) {
+  const SceneUse use(s);  // (it changes the mjModel for its whole run: outside probe BW)
   const std::vector<int> floating = floating_joints(s.m);
   SceneStaticsResult res;
   res.message = floating_body_pushed(s, sd, floating, opt.tolerance, "at the start");
@@ -1749,6 +1752,7 @@ SceneStaticsResult equilibrium_of_held(const Scene& s, SceneData& sd, const Scen
 }  // namespace
 
 SceneLinearization linearize(const Scene& s, SceneData& sd, const SceneLinearizeOptions& opt) {
+  const SceneUse use(s);
   const PreciseCollisions precise(s.m);
   const mjModel* m = s.m;
   const int n = m->nv, nu = m->nu;

@@ -2,6 +2,7 @@
 // with: MuJoCo's own mj_step on rod-free scenes, native MuJoCo bodies on rigid rods, and the
 // standalone solver core on soft-rigid trees without contact.
 #include "scene.hpp"
+#include "scene_statics.hpp"
 
 #include <gtest/gtest.h>
 
@@ -260,12 +261,17 @@ TEST(Scene, TwoThreadsSteppingOneSceneAtOnceAreRefused) {
   };
   std::thread first([&] { EXPECT_EQ(step(*s, a), Status::Ok); });
   while (held_phase == 0) std::this_thread::sleep_for(std::chrono::microseconds(100));
-  std::string refused;
+  std::string refused, refused_statics;
   std::thread second([&] {
     try {
       step(*s, b);
     } catch (const std::logic_error& e) {
       refused = e.what();
+    }
+    try {  // a statics solve changes the mjModel for its whole run (outside probe BW)
+      equilibrium(*s, b);
+    } catch (const std::logic_error& e) {
+      refused_statics = e.what();
     }
     held_phase = 2;
   });
@@ -273,6 +279,7 @@ TEST(Scene, TwoThreadsSteppingOneSceneAtOnceAreRefused) {
   first.join();
   mjcb_control = nullptr;
   EXPECT_NE(refused.find("two threads step or evaluate one Scene at once"), std::string::npos) << refused;
+  EXPECT_NE(refused_statics.find("two threads step or evaluate one Scene at once"), std::string::npos) << refused_statics;
   // in turn, from either thread: fine
   std::thread later([&] { EXPECT_EQ(step(*s, b), Status::Ok); });
   later.join();
