@@ -368,7 +368,7 @@ int snapshot_command(int argc, char** argv) {
     CommandLine cl{"snapshot", "simulate until --time and write one picture (PNG)", {"MODEL.xml"}, {},
                    "Rendering is headless (OSMesa): no display is needed.\n", "MODEL.xml --out F.png [options]"};
     cl.options.push_back(text_option("--out", "F.png", "the picture (its directory is created)", o.out));
-    cl.options.push_back(number("--time", "t", "simulated time of the picture [s], at the step nearest it (the time drawn is printed; default 0: the initial state)", time, 0));
+    cl.options.push_back(number("--time", "t", "simulated time of the picture [s] after the start, at the step nearest it (the time drawn is printed; default 0: the initial state; from a keyframe with a time, run's CSV and --ctrl-file count that time on top)", time, 0));
     o.add_to(cl);
     const auto pos = cl.parse(argc - 1, argv + 1);  // after the command name
     if (!pos) return 0;
