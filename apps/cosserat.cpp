@@ -104,6 +104,19 @@ std::vector<std::string>& command_line() {
   return args;
 }
 
+// A report's warnings: `w` and those said on stderr as they arose (warn_once: a clamped --ctrl), an
+// empty list where there are none (the same keys in every report).
+json report_warnings(std::vector<std::string> w) {
+  const std::vector<std::string>& said = said_warnings();
+  w.insert(w.end(), said.begin(), said.end());
+  return w;
+}
+
+// Whether efc row i is a joint or tendon limit.
+bool limit_row(const mjData* d, int i) {
+  return d->efc_type[i] == mjCNSTR_LIMIT_JOINT || d->efc_type[i] == mjCNSTR_LIMIT_TENDON;
+}
+
 // Writes j to path ('-': stdout), after a "command" entry with the command line. A write that
 // fails, also at the final flush (a full disk: a small report sits in the stream's buffer until
 // then), is a failure naming the path and the reason.
@@ -729,8 +742,7 @@ int cmd_run(int argc, char** argv) {
   double start_limit_energy = 0.0;
   for (int i = 0; i < s.data().d->nefc; ++i) {
     const mjData* d0 = s.data().d;
-    if ((d0->efc_type[i] != mjCNSTR_LIMIT_JOINT && d0->efc_type[i] != mjCNSTR_LIMIT_TENDON) || !(d0->efc_pos[i] < 0) ||
-        !(d0->efc_R[i] > 0))
+    if (!limit_row(d0, i) || !(d0->efc_pos[i] < 0) || !(d0->efc_R[i] > 0))
       continue;
     const double k = d0->efc_KBIP[4 * i] * d0->efc_KBIP[4 * i + 2] / d0->efc_R[i];
     start_limit_energy += 0.5 * k * d0->efc_pos[i] * d0->efc_pos[i];
@@ -749,8 +761,7 @@ int cmd_run(int argc, char** argv) {
     }
     ++k;
     touched = touched || s.data().d->ncon > 0;
-    for (int i = 0; i < s.data().d->nefc && !limited; ++i)
-      limited = s.data().d->efc_type[i] == mjCNSTR_LIMIT_JOINT || s.data().d->efc_type[i] == mjCNSTR_LIMIT_TENDON;
+    for (int i = 0; i < s.data().d->nefc && !limited; ++i) limited = limit_row(s.data().d, i);
     if (!stretching.empty() && !rubbed)
       for (int c = 0; c < s.data().d->ncon && !rubbed; ++c) {
         const mjContact& con = s.data().d->contact[c];
@@ -973,9 +984,7 @@ int cmd_run(int argc, char** argv) {
     if (with_sensors) add_sensors(j, sensors, s.data().d);
     j["diverged"] = diverged;
     if (diverged) j["reason"] = s.data().warning;  // also the first warning
-    json all = warnings;
-    for (const auto& w : said_warnings()) all.push_back(w);  // (said on stderr as they arose)
-    j["warnings"] = all;
+    j["warnings"] = report_warnings(warnings);
     if (adaptive)
       j["adaptive"] = {{"step_tol", s.scene().step_tol}, {"substeps", as.substeps}, {"rejected", as.rejected},
                        {"kept_at_min", as.kept_at_min}, {"finest_step", s.timestep() / (1 << as.finest)}};
@@ -1117,9 +1126,7 @@ int cmd_equilibrium(int argc, char** argv) {
   for (const auto& w : warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
   if (!json_path.empty()) {
     json j = eq.report();
-    json all = warnings;  // (an empty list where there are none: the same keys in every report)
-    for (const auto& w : said_warnings()) all.push_back(w);
-    j["warnings"] = all;
+    j["warnings"] = report_warnings(warnings);
     add_positions(j, out, *eq.data);
     if (with_sensors) add_sensors(j, sensors, eq.data->d);
     write_json(json_path, j);
@@ -1269,8 +1276,7 @@ int cmd_linearize(int argc, char** argv) {
       warnings.push_back(flutter_text);
       j["flutter"] = {{"growth_rate", lin.flutter_rate}, {"frequency_hz", lin.flutter_hz}};
     }
-    for (const auto& w : said_warnings()) warnings.push_back(w);
-    j["warnings"] = warnings;
+    j["warnings"] = report_warnings(warnings);
     if (modes > 0) {
       const Outputs named = named_outputs(*eq.scene);
       json list = json::array();

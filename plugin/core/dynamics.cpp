@@ -400,21 +400,30 @@ Energy energy(const Model& m, const Data& d) {
   return e;
 }
 
+Vec6 node_momentum(const Model& m, const Data& d, int k) { return coAd_apply(d.g[k], m.nodes[k].inertia * d.eta[k]); }
+
+double node_mass(const Model& m, const Data& d, int k, Vec3* com) {
+  const Mat6& I = m.nodes[k].inertia;
+  const double mass = I(3, 3);
+  if (com && mass > 0) *com = d.g[k].act(unskew(I.topRightCorner<3, 3>()) / mass);
+  return mass;
+}
+
 Vec6 momentum(const Model& m, const Data& d) {
   Vec6 h = Vec6::Zero();
-  for (size_t i = 0; i < m.nodes.size(); ++i) h += coAd_apply(d.g[i], m.nodes[i].inertia * d.eta[i]);
+  for (int i = 0; i < static_cast<int>(m.nodes.size()); ++i) h += node_momentum(m, d, i);
   return h;
 }
 
 Vec3 center_of_mass(const Model& m, const Data& d, double* total) {
   double mt = 0.0;
   Vec3 c = Vec3::Zero();
-  for (size_t i = 0; i < m.nodes.size(); ++i) {
-    const Mat6& I = m.nodes[i].inertia;
-    const double mass = I(3, 3);
+  for (int i = 0; i < static_cast<int>(m.nodes.size()); ++i) {
+    Vec3 ci;
+    const double mass = node_mass(m, d, i, &ci);
     if (mass <= 0) continue;
     mt += mass;
-    c += mass * d.g[i].act(unskew(I.topRightCorner<3, 3>()) / mass);
+    c += mass * ci;
   }
   if (total) *total = mt;
   return mt > 0 ? Vec3(c / mt) : c;

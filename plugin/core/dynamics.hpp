@@ -59,6 +59,10 @@ struct Energy {
 Energy energy(const Model& m, const Data& d);
 // Total spatial momentum [angular about the world origin; linear] in world axes. After fwd_velocity.
 Vec6 momentum(const Model& m, const Data& d);
+// Node k's share of the two: its spatial momentum (as momentum's), and its mass, with the world
+// position of its centre of mass in `com` where it has mass.
+Vec6 node_momentum(const Model& m, const Data& d, int k);
+double node_mass(const Model& m, const Data& d, int k, Vec3* com = nullptr);
 // World position of the centre of mass of everything, and the total mass.
 Vec3 center_of_mass(const Model& m, const Data& d, double* total_mass = nullptr);
 

@@ -57,15 +57,19 @@ bool unstable_mode_fd(const VecX& x, const MatX& K, const MatX& M, double noise,
 
 double noise_bound(const VecX& ax, const MatX& N) { return ax.dot(N * ax); }
 
-GrowthModes growth_modes(const MatX& M, const MatX& K, const MatX& D, double floor) {
-  GrowthModes g;
-  const int n = static_cast<int>(M.rows());
-  if (n == 0) return g;
-  Eigen::PartialPivLU<MatX> lu(M);
+MatX state_matrix(const Eigen::PartialPivLU<MatX>& M, const MatX& K, const MatX& D) {
+  const int n = static_cast<int>(K.rows());
   MatX A = MatX::Zero(2 * n, 2 * n);
   A.topRightCorner(n, n).setIdentity();
-  A.bottomLeftCorner(n, n) = -lu.solve(K);
-  A.bottomRightCorner(n, n) = -lu.solve(D);
+  A.bottomLeftCorner(n, n) = -M.solve(K);
+  A.bottomRightCorner(n, n) = -M.solve(D);
+  return A;
+}
+
+GrowthModes growth_modes(const MatX& A, double floor) {
+  GrowthModes g;
+  const int n = static_cast<int>(A.rows()) / 2;
+  if (n == 0) return g;
   Eigen::EigenSolver<MatX> es(A);
   if (es.info() != Eigen::Success) return g;
   // (the eigensolver's rounding, relative to A's norm: a rod's stiff axial modes set it)
@@ -101,10 +105,7 @@ void state_space(Linearization& L) {
     return;
   }
   Eigen::PartialPivLU<MatX> lu(L.M);
-  L.A = MatX::Zero(2 * n, 2 * n);
-  L.A.topRightCorner(n, n).setIdentity();
-  L.A.bottomLeftCorner(n, n) = -lu.solve(L.Kt);
-  L.A.bottomRightCorner(n, n) = -lu.solve(L.D);
+  L.A = state_matrix(lu, L.Kt, L.D);
   L.B = MatX::Zero(2 * n, nu);
   L.B.bottomRows(n) = lu.solve(L.Bu);
 
@@ -167,7 +168,7 @@ void state_space(Linearization& L) {
       L.diverging_modes = L.unstable_modes;
       return;
     }
-    const GrowthModes g = growth_modes(L.M, L.Kt, L.D, std::sqrt(std::max(L.neutral_omega2, 0.0)));
+    const GrowthModes g = growth_modes(L.A, std::sqrt(std::max(L.neutral_omega2, 0.0)));
     L.diverging_modes = g.diverging;
     L.unstable_modes = g.diverging + g.growing_pairs;
     L.flutter_rate = g.rate;

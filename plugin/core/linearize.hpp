@@ -4,6 +4,8 @@
 // with Kt the tangent stiffness (elastic + geometric stiffness of gravity, loads and actuation).
 #pragma once
 
+#include <Eigen/LU>
+
 #include "model.hpp"
 
 namespace cosserat {
@@ -96,7 +98,10 @@ struct GrowthModes {
   VecX flutter_mode, divergence_mode;  // their displacements (real parts)
   bool unstable() const { return growing_pairs + diverging > 0; }
 };
-GrowthModes growth_modes(const MatX& M, const MatX& K, const MatX& D, double floor);
+GrowthModes growth_modes(const MatX& A, double floor);
+
+// The state matrix [[0, I], [-M^-1 K, -M^-1 D]] (M factorised).
+MatX state_matrix(const Eigen::PartialPivLU<MatX>& M, const MatX& K, const MatX& D);
 
 // Linearises at d.q (call equilibrium() first) and d.ctrl.
 Linearization linearize(const Model& m, Data& d);

@@ -82,6 +82,9 @@ std::string fmt_g(double v) {
   return buf;
 }
 
+// MuJoCo 2.2's default solimp of joint limits (dmin dmax width midpoint power)
+constexpr const char* kDefaultSolimp = "0.9 0.95 0.001 0.5 2";
+
 std::string fmt3(double x, double y, double z) { return fmt(x) + " " + fmt(y) + " " + fmt(z); }
 
 bool is(const XMLElement* e, std::string_view name) { return e && name == e->Name(); }
@@ -732,14 +735,13 @@ RodInput Preprocessor::read_rod(XMLElement* cosserat, const std::string& parent_
     r.pass_through(attr, lo, hi, rod.limit);
   }
   // a solimplimit of 3 or 4 numbers: MuJoCo takes the rest from the joint's class, so the rest of
-  // MuJoCo's default (0.9 0.95 0.001 0.5 2) is written out here, never a <default><joint>'s
+  // MuJoCo's default (kDefaultSolimp) is written out here, never a <default><joint>'s
   for (auto& [name, value] : rod.limit)
     if (name == "solimplimit") {
-      const char* rest[] = {"0.5", "2"};
-      std::istringstream in(value);
-      int n = 0;
-      for (std::string word; in >> word;) ++n;
-      for (int k = std::max(n, 3); k < 5; ++k) value += std::string(" ") + rest[k - 3];
+      std::istringstream given(value), fallback(kDefaultSolimp);
+      std::string word;
+      while (given >> word) fallback >> word;  // (skips as many of the default's numbers as were given)
+      while (fallback >> word) value += " " + word;
     }
   for (auto [attr, lo, hi] : {std::tuple{"contype", 1, 1}, {"conaffinity", 1, 1}, {"condim", 1, 1},
                               {"friction", 1, 3}, {"solref", 2, 2}, {"solimp", 3, 5}, {"margin", 1, 1},
@@ -978,7 +980,7 @@ XMLElement* new_slide_joint(XMLDocument& doc, const std::string& name, const Att
                       // the strain limits' softness is the rod's or MuJoCo's default, never a
                       // <default><joint>'s (outside probe BQ: a main default's solreflimit moved a
                       // limited rod's resting tip by 0.12 m); `limit` replaces these
-                      {"solreflimit", "0.02 1"}, {"solimplimit", "0.9 0.95 0.001 0.5 2"}},
+                      {"solreflimit", "0.02 1"}, {"solimplimit", kDefaultSolimp}},
                      limit);  // strainrange: limited, range, and the rod's solreflimit / solimplimit
 }
 

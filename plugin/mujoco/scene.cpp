@@ -2204,7 +2204,6 @@ static void check_owner(const Scene& s, const SceneData& sd) {
     throw std::invalid_argument("a SceneData steps with the Scene it was made from (SceneData(scene)), not another");
 }
 
-
 SceneUse::SceneUse(const Scene& s) : s_(s) {
   const std::thread::id me = std::this_thread::get_id();
   std::thread::id free;

@@ -110,8 +110,8 @@ struct Scene {
   ~Scene();
 
   mjModel* m = nullptr;
-  // the thread stepping or evaluating this scene now (step and forward): two threads at once would
-  // write its rod capsules into one mjModel, and each read the other's; the second is refused
+  // the thread stepping, evaluating or solving the statics of this scene now (SceneUse): two
+  // threads at once would write into one mjModel, and each read the other's; the second is refused
   // with std::logic_error (outside probe AB: it had given wrong results without an error)
   mutable std::atomic<std::thread::id> user{};
   std::vector<RodBinding> rods;   // ordered by base body id: outer rods before rods hanging on them

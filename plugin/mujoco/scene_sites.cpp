@@ -254,14 +254,14 @@ Subtree subtree_with_rods(const Scene& s, const SceneData& sd, int b, bool veloc
     if (part.first < 0) continue;
     const cosserat::Model& rm = s.rods[r].model;
     const cosserat::Data& rd = sd.rod[r];
-    auto add = [&](int k, double w) {
-      const Mat6& I = rm.nodes[k].inertia;
-      const double mass = w * I(3, 3);
+    auto add = [&](int k, double w) {  // node k, a fraction w of it
+      Vec3 com;
+      const double mass = w * cosserat::node_mass(rm, rd, k, &com);
       if (mass <= 0) return;
       st.mass += mass;
-      mc += mass * rd.g[k].act(unskew(I.topRightCorner<3, 3>()) / I(3, 3));
+      mc += mass * com;
       if (velocities) {
-        const Vec6 h = w * coAd_apply(rd.g[k], Vec6(I * rd.eta[k]));
+        const Vec6 h = w * cosserat::node_momentum(rm, rd, k);
         P += h.tail<3>();
         L_origin += h.head<3>();
       }

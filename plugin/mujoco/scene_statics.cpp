@@ -835,7 +835,8 @@ bool stable_equilibrium(StaticProblem& p, const Scene& s, SceneData& sd, double 
     // matrix's eigenvalues above the slowest fall: divergence where real, flutter where complex).
     MatrixXd D;
     p.damping(D);
-    const cosserat::GrowthModes g = cosserat::growth_modes(M, KN, N.transpose() * D * N, std::sqrt(slowest));
+    const cosserat::GrowthModes g =
+        cosserat::growth_modes(cosserat::state_matrix(M.partialPivLu(), KN, N.transpose() * D * N), std::sqrt(slowest));
     omega2_min = g.divergence_omega2;
     if (!g.unstable()) return true;
     if (flutter && g.growing_pairs > 0) *flutter = g;
@@ -1599,11 +1600,11 @@ SceneStaticsResult equilibrium_of_held(const Scene& s, SceneData& sd, const Scen
   // (rows that carry load with no generalised force: outside probe BU's inextensible rod pushed 1 cm
   // short by a weld at its tip, straight, whose tip cannot move along the rod at first order, had
   // been reported a converged stable column, where it buckles)
+  const double loaded_force = std::max(1e-8, 100 * opt.tolerance) * r.scale;
   bool axial = false;
   for (int i = 0; i < d->nefc && !axial; ++i)
-    axial = d->efc_type[i] == mjCNSTR_EQUALITY && std::abs(d->efc_force[i]) > std::max(1e-8, 100 * opt.tolerance) * r.scale;
-  const bool constrained = res.constraint_rows > 0 && r.loaded &&
-                           (r.constraint > std::max(1e-8, 100 * opt.tolerance) * r.scale || axial);
+    axial = d->efc_type[i] == mjCNSTR_EQUALITY && std::abs(d->efc_force[i]) > loaded_force;
+  const bool constrained = res.constraint_rows > 0 && r.loaded && (r.constraint > loaded_force || axial);
   if (res.converged && !constrained && !through && !opens) return res;
   const std::string why =
       constrained ? std::to_string(res.constraint_rows) +
