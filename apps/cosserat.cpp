@@ -1413,7 +1413,8 @@ int cmd_compare(int argc, char** argv) {
       "|p_A - p_B|. The swimming speed of a free body is |mean velocity of its position| over the\n"
       "second half of the run. Both models step with one integrator: --integrator, else implicit when\n"
       "either has rods (euler when neither has). Exit status 1 when either simulation diverges; the\n"
-      "deviations are then those of the samples both reached (JSON: samples, compared_until).\n";
+      "deviations are then those of the samples both reached (JSON: samples, compared_until,\n"
+      "diverged_models: \"A\", \"B\" or both).\n";
   const auto pos = cl.parse(argc, argv);
   if (!pos) return 0;
   check_writable("--json", json_path);
@@ -1498,6 +1499,8 @@ int cmd_compare(int argc, char** argv) {
     progress.update(k, t);
   }
   const bool diverged = a.diverged || b.diverged;
+  // both can diverge by one sample: name both (the message had named A alone)
+  const char* which = a.diverged && b.diverged ? "A and B" : a.diverged ? "A" : "B";
   const double span = sim.duration * (n - half) / n;
   auto speeds = [&](const Sampler& s, const std::vector<int>& fr, const std::vector<Vec3>& p0, const std::vector<Vec3>& p1) {
     json j = json::object();
@@ -1513,7 +1516,12 @@ int cmd_compare(int argc, char** argv) {
   j["timestep"] = {a.sim.timestep(), b.sim.timestep()};
   j["samples"] = samples;
   j["sample_interval"] = sim.duration / n;
-  if (diverged) j["compared_until"] = until;
+  if (diverged) {
+    j["compared_until"] = until;
+    j["diverged_models"] = json::array();
+    if (a.diverged) j["diverged_models"].push_back("A");
+    if (b.diverged) j["diverged_models"].push_back("B");
+  }
   j["sites"] = json::object();
   j["bodies"] = json::object();
   for (const auto& p : pairs) j[p.site ? "sites" : "bodies"][p.name] = {{"max", p.max}, {"rms", std::sqrt(p.sum2 / samples)}};
@@ -1528,8 +1536,7 @@ int cmd_compare(int argc, char** argv) {
     std::printf("integrator: %s (both models), time steps %g s (A) and %g s (B)\n", integrator_name(a.sim.integrator()),
                 a.sim.timestep(), b.sim.timestep());
     if (diverged)
-      std::printf("compared up to t = %g s (%ld of %ld samples), where %s diverged\n", until, samples, n + 1,
-                  a.diverged ? "A" : "B");
+      std::printf("compared up to t = %g s (%ld of %ld samples), where %s diverged\n", until, samples, n + 1, which);
     std::printf("%-8s %-28s %14s %14s\n", "kind", "name", "max dev [m]", "rms dev [m]");
     for (const auto& p : pairs)
       std::printf("%-8s %-28s %14.6g %14.6g\n", p.site ? "site" : "body", p.name.c_str(), p.max, std::sqrt(p.sum2 / samples));
@@ -1541,8 +1548,12 @@ int cmd_compare(int argc, char** argv) {
   for (const auto& l : a.sim.scene().load_warnings) loaded.push_back("A: " + l);
   for (const auto& l : b.sim.scene().load_warnings) loaded.push_back("B: " + l);
   print_warnings(json_path == "-" ? stderr : stdout, warnings, loaded);
-  if (diverged) fail(std::string("simulation of ") + (a.diverged ? "A" : "B") + " diverged: " +
-                     (a.diverged ? a.sim.data().warning : b.sim.data().warning));
+  if (diverged) {
+    std::string why;
+    if (a.diverged) why = "A: " + a.sim.data().warning;
+    if (b.diverged) why += (why.empty() ? "B: " : "; B: ") + b.sim.data().warning;
+    fail(std::string("simulation of ") + which + " diverged (" + why + ")");
+  }
   return 0;
 }
 

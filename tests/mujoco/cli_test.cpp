@@ -539,6 +539,7 @@ TEST_F(Cli, CompareAfterADivergenceCountsTheSamplesComparedAndNamesTheModelWarne
   EXPECT_NE(r.err.find("simulation of B diverged"), std::string::npos) << r.err;
   const json j = json::parse(read_text(out));
   EXPECT_TRUE(j["diverged"].get<bool>());
+  EXPECT_EQ(j["diverged_models"], json::array({"B"}));
   const long samples = j["samples"].get<long>();
   const double until = j["compared_until"].get<double>();
   EXPECT_GE(samples, 2);
@@ -549,6 +550,23 @@ TEST_F(Cli, CompareAfterADivergenceCountsTheSamplesComparedAndNamesTheModelWarne
   EXPECT_LE(rms, max);
   EXPECT_GE(rms, max / std::sqrt(static_cast<double>(samples)));  // the largest deviation is one of the samples
   for (const auto& w : j["warnings"]) EXPECT_NE(w.get<std::string>().rfind("A: ", 0), 0u) << w;
+}
+
+// Both models diverging at one sample are both named (the message had named A alone: outside
+// probe BV).
+TEST_F(Cli, CompareNamesBothModelsWhenBothDiverge) {
+  std::string xml = read_text(kCantilever);
+  const size_t at = xml.find(R"(timestep="0.001")");
+  ASSERT_NE(at, std::string::npos);
+  const fs::path b = scratch() / "b.xml", out = scratch() / "c.json";
+  std::ofstream(b) << std::string(xml).replace(at, 16, R"(timestep="0.004")");
+  const Result r = cosserat("compare '" + b.string() + "' '" + b.string() + "' --integrator rk4 --duration 1 --json '" +
+                            out.string() + "'");
+  ASSERT_EQ(r.status, 1) << r.err;
+  EXPECT_NE(r.err.find("simulation of A and B diverged (A: "), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("; B: "), std::string::npos) << r.err;
+  const json j = json::parse(read_text(out));
+  EXPECT_EQ(j["diverged_models"], json::array({"A", "B"}));
 }
 
 // A model with rods and one without: 'implicit' is the rods' linearised backward Euler on the first
