@@ -43,26 +43,41 @@ Vec6 step_twist(const Node& n, const Eigen::Ref<const VecX>& qi, Mat6X* G) {
   Vec6 xa = n.xibar_a, xb = n.xibar_b;
   const double c = kZanna * n.h * n.h;
   if (n.sparse_basis) {  // (GVS with a selecting basis: the products below without their zeros)
-    for (int k = 0; k < n.ndof; ++k) xa(n.basis_row[k]) += n.basis_a(k) * qi(k), xb(n.basis_row[k]) += n.basis_b(k) * qi(k);
+    Vec6 xm = n.xibar_a;  // the mean strain over the step
+    for (int k = 0; k < n.ndof; ++k) {
+      const int r = n.basis_row[k];
+      xa(r) += n.basis_a(k) * qi(k), xb(r) += n.basis_b(k) * qi(k), xm(r) += n.basis_m(k) * qi(k);
+    }
     if (G) {
-      // G = h/2 (Phi_a + Phi_b) + c (ad_{xa} Phi_b - ad_{xb} Phi_a): column k is column r of
-      // ad_y, y = c (b_k xa - a_k xb) (ad is linear in its argument), r the dof's strain component
+      // G = h Phi_m + c (ad_{xa} Phi_b - ad_{xb} Phi_a): column k is column r of ad_y,
+      // y = c (b_k xa - a_k xb) (ad is linear in its argument), r the dof's strain component
       for (int k = 0; k < n.ndof; ++k) {
         const int r = n.basis_row[k];
         G->col(k) = ad_column((c * n.basis_b(k)) * xa - (c * n.basis_a(k)) * xb, r);
-        (*G)(r, k) += 0.5 * n.h * (n.basis_a(k) + n.basis_b(k));
+        (*G)(r, k) += n.h * n.basis_m(k);
       }
     }
-    return 0.5 * n.h * (xa + xb) + c * ad_apply(xa, xb);
+    return n.h * xm + c * ad_apply(xa, xb);
   }
-  if (n.ndof > 0) {
-    xa.noalias() += n.Phi_a * qi;
-    xb.noalias() += n.Phi_b * qi;
+  Vec6 Om;
+  if (n.commutator) {  // GVS: the exact integral of the strain (model.hpp)
+    Om = n.xibar_a;
+    if (n.ndof > 0) {
+      xa.noalias() += n.Phi_a * qi;
+      xb.noalias() += n.Phi_b * qi;
+      Om.noalias() += n.Phi_m * qi;
+    }
+    Om = n.h * Om + c * ad_apply(xa, xb);
+  } else {
+    if (n.ndof > 0) {
+      xa.noalias() += n.Phi_a * qi;
+      xb.noalias() += n.Phi_b * qi;
+    }
+    Om = 0.5 * n.h * (xa + xb);
   }
-  Vec6 Om = 0.5 * n.h * (xa + xb);
-  if (n.commutator) Om += c * ad_apply(xa, xb);
   if (G && n.ndof > 0) {
-    G->noalias() = (0.5 * n.h) * (n.Phi_a + n.Phi_b);
+    if (n.commutator) G->noalias() = n.h * n.Phi_m;
+    else G->noalias() = (0.5 * n.h) * (n.Phi_a + n.Phi_b);
     if (n.commutator) {
       // d/dq ad_{xa} xb = ad_{xa} Phi_b - ad_{xb} Phi_a
       G->noalias() += c * (ad(xa) * n.Phi_b);
@@ -220,7 +235,7 @@ constexpr double kGauss = 0.28867513459481287;  // sqrt(3) / 6: Gauss points at 
 struct StepPoints {
   double h = 0.0;
   bool commutator = false;
-  double Pa[32], Pb[32];
+  double Pa[32], Pb[32], Pm[32];  // Pm: the mean over the step (the twist's linear term, model.hpp)
 };
 
 void step_points(const Section& sec, double Xp, double h, bool commutator, StepPoints& sp) {
@@ -228,6 +243,8 @@ void step_points(const Section& sec, double Xp, double h, bool commutator, StepP
   sp.commutator = commutator;
   legendre01(sec.order, (Xp + h * (0.5 - kGauss) - sec.X0) / sec.length, sp.Pa);
   legendre01(sec.order, (Xp + h * (0.5 + kGauss) - sec.X0) / sec.length, sp.Pb);
+  if (commutator) legendre01_mean(sec.order, (Xp - sec.X0) / sec.length, (Xp + h - sec.X0) / sec.length, sp.Pm);
+  else std::copy(sp.Pa, sp.Pa + sec.order + 1, sp.Pm);  // (PCS: P_0 = 1 everywhere)
 }
 
 // The Magnus twist of the step (model.hpp) and, if G is given, G = dOmega/dq (6 x ndof). xa, xb:
@@ -236,8 +253,8 @@ Vec6 step_twist_at(const Section& sec, const StepPoints& sp, const double* q, Ma
   xa = sec.basis_apply(sp.Pa, q) + sec.rest_strain;
   xb = sec.basis_apply(sp.Pb, q) + sec.rest_strain;
   const double c = kZanna * sp.h * sp.h;
-  Vec6 Om = 0.5 * sp.h * (xa + xb);
-  if (sp.commutator) Om += c * ad_apply(xa, xb);
+  Vec6 Om = sp.commutator ? Vec6(sp.h * (sec.basis_apply(sp.Pm, q) + sec.rest_strain) + c * ad_apply(xa, xb))
+                          : Vec6(0.5 * sp.h * (xa + xb));
   if (G) {  // G's first ndof columns (a larger G keeps its memory: scratch reused across sections)
     const int nb = sec.order + 1;
     if (G->cols() < sec.ndof) G->resize(6, sec.ndof);
@@ -247,7 +264,7 @@ Vec6 step_twist_at(const Section& sec, const StepPoints& sp, const double* q, Ma
       for (int k = 0; k < nb; ++k) {
         // d/dq ad_{xa} xb = ad_{xa} Phi_b - ad_{xb} Phi_a
         auto col = G->col(cc * nb + k);
-        col = (0.5 * sp.h * (sp.Pa[k] + sp.Pb[k])) * Bc;
+        col = (sp.commutator ? sp.h * sp.Pm[k] : 0.5 * sp.h * (sp.Pa[k] + sp.Pb[k])) * Bc;
         if (sp.commutator) col += c * (sp.Pb[k] * adaB - sp.Pa[k] * adbB);
       }
     }

@@ -51,6 +51,15 @@ void Section::basis(double X, Mat6X& Phi) const {
     for (int k = 0; k < nb; ++k) Phi.col(c * nb + k) = B.col(c) * P[k];
 }
 
+void Section::basis_mean(double Xa, double Xb, Mat6X& Phi) const {
+  const int nb = order + 1;
+  double P[32];
+  legendre01_mean(order, (Xa - X0) / length, (Xb - X0) / length, P);
+  Phi.setZero(6, ndof);
+  for (int c = 0; c < B.cols(); ++c)
+    for (int k = 0; k < nb; ++k) Phi.col(c * nb + k) = B.col(c) * P[k];
+}
+
 Vec6 Section::basis_apply(const double* P, const double* x) const {
   const int nb = order + 1;
   Vec6 out = Vec6::Zero();
@@ -178,6 +187,9 @@ int Model::add_rod(int parent, const SE3& placement, const RodSpec& spec) {
     // are the frames at the section's ends, which the neighbouring sections share
     require(!ss.lobatto || (ss.order == 0 && ss.quadrature == 0),
             "rod '" + spec.name + "': the Gauss-Lobatto mass rule is for PCS sections (order 0), without a Gauss point count");
+    require(ss.quadrature == 0 || ss.quadrature > ss.order || sec.ndof == 0,
+            "rod '" + spec.name + "': " + std::to_string(ss.quadrature) + " Gauss points for a section of order " +
+                std::to_string(ss.order) + ": the mass matrix needs at least order + 1");
     const bool lobatto = ss.lobatto;
     const int nq = lobatto ? 1 : ss.gauss_points();
     if (lobatto) gx = {0.5}, gw = {2.0 / 3.0};
@@ -221,6 +233,7 @@ int Model::add_rod(int parent, const SE3& placement, const RodSpec& spec) {
         sec.basis(Xprev + n.h * (0.5 + kSqrt3 / 6.0), n.Phi_b);
         n.xibar_a = n.xibar_b = sec.rest_strain;
         n.commutator = sec.order > 0;
+        if (n.commutator) sec.basis_mean(Xprev, X, n.Phi_m);
         if (k == nsub && (j < nq || w_end > 0.0)) {
           n.dX = (j < nq ? gw[j] : w_end) * sec.length;
           n.inertia = (n.dX * section_inertia_density(ss.material, rod.radius(X))).asDiagonal();
@@ -327,11 +340,12 @@ void Model::finalize() {
         for (int c = 0; c < n.ndof; ++c) n.select_row[c] = static_cast<signed char>(sec.B_row[c]);
     }
     n.sparse_basis = false;
-    if (n.ndof > 0 && n.commutator && n.section >= 0 && n.Phi_a.cols() == n.ndof && n.Phi_b.cols() == n.ndof) {
+    if (n.ndof > 0 && n.commutator && n.section >= 0 && n.Phi_a.cols() == n.ndof && n.Phi_b.cols() == n.ndof &&
+        n.Phi_m.cols() == n.ndof) {
       const Section& sec = sections[n.section];
       const int nb = sec.order + 1;
       n.basis_row.assign(n.ndof, -1);
-      n.basis_a = VecX::Zero(n.ndof), n.basis_b = VecX::Zero(n.ndof);
+      n.basis_a = VecX::Zero(n.ndof), n.basis_b = VecX::Zero(n.ndof), n.basis_m = VecX::Zero(n.ndof);
       n.sparse_basis = n.ndof == sec.ndof;
       for (int k = 0; k < n.ndof && n.sparse_basis; ++k) {
         const int r = sec.B_row[k / nb];
@@ -339,10 +353,10 @@ void Model::finalize() {
           n.sparse_basis = false;
           break;
         }
-        Vec6 ea = Vec6::Zero(), eb = Vec6::Zero();
-        ea(r) = n.Phi_a(r, k), eb(r) = n.Phi_b(r, k);
-        n.sparse_basis = n.Phi_a.col(k) == ea && n.Phi_b.col(k) == eb;
-        n.basis_row[k] = static_cast<signed char>(r), n.basis_a(k) = ea(r), n.basis_b(k) = eb(r);
+        Vec6 ea = Vec6::Zero(), eb = Vec6::Zero(), em = Vec6::Zero();
+        ea(r) = n.Phi_a(r, k), eb(r) = n.Phi_b(r, k), em(r) = n.Phi_m(r, k);
+        n.sparse_basis = n.Phi_a.col(k) == ea && n.Phi_b.col(k) == eb && n.Phi_m.col(k) == em;
+        n.basis_row[k] = static_cast<signed char>(r), n.basis_a(k) = ea(r), n.basis_b(k) = eb(r), n.basis_m(k) = em(r);
       }
     }
     n.same_step = -1;

@@ -2,6 +2,7 @@
 
 #include <cctype>
 #include <cmath>
+#include <stdexcept>
 #include <string>
 
 namespace cosserat {
@@ -108,6 +109,24 @@ void legendre01(int order, double x, double* P) {
   P[0] = 1.0;
   if (order >= 1) P[1] = z;
   for (int k = 2; k <= order; ++k) P[k] = ((2.0 * k - 1.0) * z * P[k - 1] - (k - 1.0) * P[k - 2]) / k;
+}
+
+void legendre01_mean(int order, double x0, double x1, double* P) {
+  // the rules of 1..16 points (orders up to 30), computed once
+  static const std::vector<std::vector<double>> rules = [] {
+    std::vector<std::vector<double>> r(2 * 17);
+    for (int n = 1; n <= 16; ++n) gauss_legendre01(n, r[2 * n], r[2 * n + 1]);
+    return r;
+  }();
+  if (order < 0 || order > 30) throw std::invalid_argument("legendre01_mean: order outside 0..30");
+  const int n = order / 2 + 1;
+  const std::vector<double>&x = rules[2 * n], &w = rules[2 * n + 1];
+  double Q[31];
+  for (int k = 0; k <= order; ++k) P[k] = 0.0;
+  for (int j = 0; j < n; ++j) {
+    legendre01(order, x0 + (x1 - x0) * x[j], Q);
+    for (int k = 0; k <= order; ++k) P[k] += w[j] * Q[k];
+  }
 }
 
 }  // namespace cosserat

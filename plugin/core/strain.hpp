@@ -42,5 +42,8 @@ int joint_dofs(JointType type);
 void gauss_legendre01(int n, std::vector<double>& x, std::vector<double>& w);
 // Shifted Legendre polynomials P_k(2x - 1), k = 0..order, at x in [0, 1].
 void legendre01(int order, double x, double* P);
+// Their means over [x0, x1] (the value at x0 when x1 == x0): exact, by a Gauss rule of
+// order / 2 + 1 points on the interval.
+void legendre01_mean(int order, double x0, double x1, double* P);
 
 }  // namespace cosserat

@@ -257,7 +257,7 @@ struct RodInput {
   RodDecl decl;                     // name, file, line, spec, parent_body (generated lists later)
   Attributes frame;                 // pos and orientation of "<rod>/base", verbatim
   Attributes geom;                  // attributes of every capsule, verbatim
-  int capsules = 2;                 // per section
+  int capsules = 0;                 // per section; 0: the default, 2 per PCS section, order + 2 per GVS one
   bool selfcollide = false;
   std::vector<double> section_end;  // X at the end of each section
   std::vector<RodSite> sites;       // user sites
@@ -374,6 +374,14 @@ SectionSpec read_section_spec(const Reader& r, SectionSpec s) {
     r.fail_attr("order", "must be 0 under quadrature=\"lobatto\" (the Gauss-Lobatto mass rule is for PCS sections); give "
                          "this section a Gauss point count");
   }
+  // fewer Gauss points than Legendre modes: the mass quadrature sees no inertia in some strain
+  // modes, a singular mass matrix (outside probe CA: MuJoCo's "Inertia matrix is too close to
+  // singular" 13870 times in a run, modes at 6.5e8 Hz, all without a load message)
+  if (s.quadrature > 0 && s.quadrature < s.order + 1 && mask_count(s.dofs) > 0)
+    r.fail_attr(r.has("quadrature") ? "quadrature" : "order",
+                "gives " + std::to_string(s.quadrature) + " Gauss points to a section of order " + std::to_string(s.order) +
+                    ": the mass quadrature needs at least order + 1 (" + std::to_string(s.order + 1) +
+                    ") points, or the mass matrix is singular in the higher strain modes (the default is order + 2)");
   return s;
 }
 
@@ -722,7 +730,11 @@ RodInput Preprocessor::read_rod(XMLElement* cosserat, const std::string& parent_
   r.check(!(r.has("wavelength") && r.has("drag")), "wavelength", "conflicts with 'drag' (give one of them)");
 
   // capsules and collision options
-  rod.capsules = r.integer("capsules", 2, 1);
+  // (not given: 2 per PCS section, order + 2 per GVS section, whose strain bends between two
+  // capsules' ends, where the contacts are: outside probe CA's rod of one order-6 section lay on a
+  // floor on its capsules' three ends and sagged 8.3 mm into it between them, `equilibrium` said
+  // converged and the touch read the weight)
+  rod.capsules = r.has("capsules") ? r.integer("capsules", 2, 1) : 0;
   r.check(rod.capsules <= kMaxCapsules, "capsules",
           "must be <= " + std::to_string(kMaxCapsules) + " per section, got " + r.text("capsules"));
   rod.selfcollide = r.boolean("selfcollide", false);
@@ -1067,9 +1079,10 @@ XMLElement* Preprocessor::build_rod(XMLDocument& doc, RodInput& rod) {
     d.proxies.push_back(prefix);
 
     // capsules along the chords of the rest shape, radius of the taper at their middle
-    for (int j = 0; j < rod.capsules; ++j) {
-      const double a = X0 + (Xe - X0) * j / rod.capsules;
-      const double b = j + 1 == rod.capsules ? Xe : X0 + (Xe - X0) * (j + 1) / rod.capsules;
+    const int capsules = rod.capsules > 0 ? rod.capsules : sec.order > 0 ? std::min(sec.order + 2, kMaxCapsules) : 2;
+    for (int j = 0; j < capsules; ++j) {
+      const double a = X0 + (Xe - X0) * j / capsules;
+      const double b = j + 1 == capsules ? Xe : X0 + (Xe - X0) * (j + 1) / capsules;
       const double radius =
           spec.radius_base + (spec.radius_tip - spec.radius_base) * 0.5 * (a + b) / spec.length;
       const std::string gn = prefix + "/g" + std::to_string(j);

@@ -142,6 +142,11 @@ std::vector<BadCase> bad_cases() {
       {"zero capsules", in_world(rod + R"( capsules="0"/>)"), 3, "'capsules' must be >= 1"},
       {"too many capsules", in_world(rod + R"( capsules="1000000"/>)"), 3, "'capsules' must be <= 100 per section"},
       {"too many Gauss points", in_world(rod + R"( quadrature="1000000"/>)"), 3, "'quadrature' must be <= 64 Gauss points"},
+      // fewer Gauss points than Legendre modes: a singular mass matrix (outside probe CA)
+      {"too few Gauss points for the order", in_world(rod + R"( order="3" quadrature="2"/>)"), 3,
+       "'quadrature' gives 2 Gauss points to a section of order 3: the mass quadrature needs at least order + 1 (4)"},
+      {"an order above a rod's Gauss points", in_world(rod + " quadrature=\"2\">\n<section order=\"2\"/>\n</cosserat>"), 4,
+       "'order' gives 2 Gauss points to a section of order 2"},
       // refused before the rewrite (which would first build O(sections^2) collision exclusions)
       {"sections beyond the parser's depth", in_world(rod + R"( sections="1000000"/>)"), 3,
        "'sections' is 1000000, but each section nests one body and MuJoCo 2.2.2's XML parser stops at 99"},
