@@ -1954,7 +1954,7 @@ SceneData::SceneData(const Scene& s) : owner(&s) {
   K_rows.assign(static_cast<size_t>(s.m->ntendon + s.m->nu) * nv, 0);
   K_row_coef.assign(s.m->ntendon + s.m->nu, 0);
   {  // one row per tendon and actuator (its damping and spring together: add_row_terms)
-    const size_t r = static_cast<size_t>(s.m->ntendon + s.m->nu);
+    const size_t r = static_cast<size_t>(s.m->ntendon + s.m->nu + 6 * s.m->neq);
     W_rows.assign(r * nv, 0);
     W_Z.assign(r * nv, 0);
     W_coef.assign(r, 0);
@@ -1968,6 +1968,7 @@ SceneData::SceneData(const Scene& s) : owner(&s) {
     frozen_c.reserve(rows);
     frozen_kI.reserve(rows);
     frozen_begin.reserve(rows + 1);
+    frozen_across.reserve(rows);
     frozen_val.reserve(rows * std::min(nv, 64));
     frozen_dof.reserve(rows * std::min(nv, 64));
     frozen_row.assign(nv, 0.0);
@@ -2903,7 +2904,11 @@ bool elliptic_friction_row(const mjData* d, int i) {
 // branches, an arm pressing a free object, would leave the terms partial: none are taken, and
 // rows on rigid bodies alone keep the previous iteration; with them the shipped octopus arm's
 // object on its table took twice the corrections). Elliptic cones' rows (their state is the
-// cone's) stay out. Without these terms a wire of short sections lying on a floor split every step
+// cone's) stay out. The linearised steps' equality rows that tie two branches (a weld closing a
+// loop of rods: two rods clamped to two walls and welded tip to tip, a parallel robot's platform)
+// are held by the Woodbury rows (sd.W_rows) instead: explicit, they had pumped energy into every
+// such loop at any step (outside probe BY: a tapped loop from 1e-4 J to 0.09 J in 5 s, a damped
+// parallel robot released from rest to 10.8 J, all without a warning). Without these terms a wire of short sections lying on a floor split every step
 // (outside probe AA: 300 corrections and 15 splits per 1 ms step under trapezoidal, midpoint and
 // genalpha; now 27 and 1).
 void add_constraint_terms(const mjModel* m, const char* strain, SceneData& sd, mjtNum* A, double hD, double hK,
@@ -2914,11 +2919,14 @@ void add_constraint_terms(const mjModel* m, const char* strain, SceneData& sd, m
   const bool sparse = mj_isSparse(m);
   std::vector<int>& nz = sd.tree_nz;
   mjtNum* row = sd.frozen_row.data();
+  const int w0 = sd.W_nrows;  // the Woodbury rows of tendons and actuators (add_row_terms)
+  const int w_room = static_cast<int>(sd.W_coef.size());
   sd.frozen_D.clear();
   sd.frozen_c.clear();
   sd.frozen_kI.clear();
   sd.frozen_val.clear();
   sd.frozen_dof.clear();
+  sd.frozen_across.clear();
   sd.frozen_begin.assign(1, 0);
   for (int i = 0; i < d->nefc; ++i) {
     if (d->efc_state[i] != mjCNSTRSTATE_QUADRATIC || !(d->efc_D[i] > 0)) continue;
@@ -2944,8 +2952,17 @@ void add_constraint_terms(const mjModel* m, const char* strain, SceneData& sd, m
       for (int k = 0; k < nv; ++k)
         if (u[k] != 0.0) last = k, ++count;
     }
-    const int n = branch_dofs(m, u, last, count, nz);
-    const bool across = n < 0;
+    int n = branch_dofs(m, u, last, count, nz);
+    bool across = n < 0;
+    // an equality row closing a loop, held by the linearised steps: a Woodbury row
+    const bool woodbury = across && which != FrozenRows::All && d->efc_type[i] == mjCNSTR_EQUALITY &&
+                          sd.W_nrows < w_room;
+    if (woodbury) {
+      n = 0;
+      for (int k = 0; k <= last; ++k)
+        if (u[k] != 0.0) nz[n++] = k;
+      across = false;
+    }
     bool on_rod = false;  // (rows on rigid bodies only keep MuJoCo's treatment)
     for (int a = 0; a < n && !on_rod; ++a) on_rod = strain[nz[a]];
     if (!across && on_rod) {
@@ -2953,26 +2970,52 @@ void add_constraint_terms(const mjModel* m, const char* strain, SceneData& sd, m
       sd.frozen_D.push_back(d->efc_D[i]);
       sd.frozen_c.push_back(d->efc_D[i] * (1.0 + hD * kbip[1] + hK * kbip[0] * kbip[2]));
       sd.frozen_kI.push_back(d->efc_D[i] * kbip[0] * kbip[2]);
+      sd.frozen_across.push_back(woodbury);
       for (int a = 0; a < n; ++a) {
         sd.frozen_dof.push_back(nz[a]);
         sd.frozen_val.push_back(u[nz[a]]);
       }
       sd.frozen_begin.push_back(static_cast<int>(sd.frozen_dof.size()));
+      if (woodbury) {
+        std::copy(u, u + nv, sd.W_rows.begin() + static_cast<size_t>(sd.W_nrows) * nv);
+        sd.W_coef[sd.W_nrows++] = sd.frozen_c.back();
+      }
     }
     if (sparse)
       for (int k = d->efc_J_rowadr[i]; k < d->efc_J_rowadr[i] + d->efc_J_rownnz[i]; ++k) row[d->efc_J_colind[k]] = 0.0;
     if (across) {  // a row across two branches: the terms would be partial, none are taken
       sd.frozen_D.clear();
+      sd.W_nrows = w0;
       if (which == FrozenRows::EqualitiesAndEllipticFriction)
         add_constraint_terms(m, strain, sd, A, hD, hK, FrozenRows::Equalities);
       return;
     }
   }
   for (size_t r = 0; r < sd.frozen_D.size(); ++r) {
+    if (sd.frozen_across[r]) continue;  // (a Woodbury row)
     const int b0 = sd.frozen_begin[r];
     add_outer_on_branch(m, A, sd.frozen_dof.data() + b0, sd.frozen_begin[r + 1] - b0, sd.frozen_c[r],
                         [&](int a) { return sd.frozen_val[b0 + a]; });
   }
+}
+
+// The frozen rows held by the Woodbury rows, removed (factor_woodbury dropped its correction).
+void drop_woodbury_rows(SceneData& sd) {
+  size_t kept = 0, at = 0;
+  for (size_t r = 0; r < sd.frozen_D.size(); ++r) {
+    const int b0 = sd.frozen_begin[r], b1 = sd.frozen_begin[r + 1];
+    if (sd.frozen_across[r]) continue;
+    sd.frozen_D[kept] = sd.frozen_D[r], sd.frozen_c[kept] = sd.frozen_c[r], sd.frozen_kI[kept] = sd.frozen_kI[r];
+    sd.frozen_across[kept] = 0;
+    for (int k = b0; k < b1; ++k) sd.frozen_dof[at + (k - b0)] = sd.frozen_dof[k], sd.frozen_val[at + (k - b0)] = sd.frozen_val[k];
+    sd.frozen_begin[kept] = static_cast<int>(at);
+    at += b1 - b0;
+    ++kept;
+  }
+  sd.frozen_D.resize(kept), sd.frozen_c.resize(kept), sd.frozen_kI.resize(kept), sd.frozen_across.resize(kept);
+  sd.frozen_begin.resize(kept + 1);
+  sd.frozen_begin[kept] = static_cast<int>(at);
+  sd.frozen_dof.resize(at), sd.frozen_val.resize(at);
 }
 
 // y += scale sum coef[r] J_r'(J_r x) over the rows add_constraint_terms froze with the matrix
@@ -3121,6 +3164,8 @@ void factor_implicit(const Scene& s, SceneData& sd, bool rods, double cD, double
   if (frozen != FrozenRows::None) add_constraint_terms(m, s.dof_strain.data(), sd, A, hD, hK, frozen);
   factor_ldl(m, d, A, A, sd.A_LDiagInv.data(), s.dof_strain.data());  // (factor_mass: the rods keep their pivots)
   factor_woodbury(m, sd);
+  if (sd.W_nrows == 0 && std::find(sd.frozen_across.begin(), sd.frozen_across.end(), 1) != sd.frozen_across.end())
+    drop_woodbury_rows(sd);  // (dropped with the correction: explicit, as before)
 }
 
 // x = A^-1 y with the factor of factor_implicit: x = A_tree^-1 y - Z S^-1 U' A_tree^-1 y with the
