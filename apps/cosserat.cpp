@@ -1043,11 +1043,13 @@ struct Equilibrium {
   std::unique_ptr<mj::Scene> scene;
   std::unique_ptr<mj::SceneData> data;
   mj::SceneStaticsResult result;
+  std::vector<mjtNum> start_xpos;  // bodies' and sites' positions at the start (displacement())
 
   // stable = false: any equilibrium, stable or not (SceneStaticsOptions::stable)
   Equilibrium(const std::string& path, const StateOptions& state, double relaxation_time = 30.0, bool stable = true)
       : scene(load(path)), data(std::make_unique<mj::SceneData>(*scene)) {
     state.apply(*scene, *data);
+    start_xpos = positions();
     Progress progress("equilibrium", 1);
     mj::SceneStaticsOptions opt;
     opt.relaxation_time = relaxation_time;
@@ -1058,6 +1060,25 @@ struct Equilibrium {
     } catch (const MujocoError& e) {
       throw error_while(path, e, "computing the static equilibrium");
     }
+  }
+  // the bodies' and sites' positions (the rods' proxies at their section ends, their sites where
+  // the rods put them: the scene's poses, not mj_kinematics', which takes the strain joints for
+  // slides)
+  std::vector<mjtNum> positions() const {
+    const mjModel* m = scene->m;
+    mjData* d = data->d;
+    mj::fwd_inertia(*scene, *data, false);
+    std::vector<mjtNum> x(d->xpos, d->xpos + 3 * m->nbody);
+    x.insert(x.end(), d->site_xpos, d->site_xpos + 3 * m->nsite);
+    return x;
+  }
+  // the largest displacement of a body or site from the start (after forward at the result)
+  double displacement() const {
+    const std::vector<mjtNum> x = positions();
+    double big = 0.0;
+    for (size_t i = 0; i + 2 < x.size(); i += 3)
+      big = std::max(big, std::hypot(x[i] - start_xpos[i], x[i + 1] - start_xpos[i + 1], x[i + 2] - start_xpos[i + 2]));
+    return big;
   }
   json report() const {
     json j = {{"converged", result.converged}, {"iterations", result.iterations}, {"residual", result.residual},
@@ -1125,7 +1146,7 @@ int cmd_equilibrium(int argc, char** argv) {
   // opened its weld by 0.37 rad, and held less twist than the scene asked)
   std::vector<std::string> warnings;
   if (eq.result.converged)
-    for (const std::string& o : mj::open_equalities(*eq.scene, *eq.data))
+    for (const std::string& o : mj::open_equalities(*eq.scene, *eq.data, eq.displacement()))
       warnings.push_back(o + " at the equilibrium: MuJoCo's constraints are soft (solref, solimp and the inertia of "
                              "what it joins), and this is the equilibrium with it open; " + kCloseIt);
   for (const auto& w : warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
@@ -1243,7 +1264,7 @@ int cmd_linearize(int argc, char** argv) {
   // under load gave a first frequency 35% off the closed weld's)
   std::vector<std::string> open_warnings;
   if (lin.constraint_rows > 0)
-    for (const std::string& o : mj::open_equalities(*eq.scene, *eq.data))
+    for (const std::string& o : mj::open_equalities(*eq.scene, *eq.data, eq.displacement()))
       open_warnings.push_back(o + " at the equilibrium (MuJoCo's constraints are soft: solref, solimp and the inertia "
                                   "of what it joins); the linearisation holds it rigid there, open: " + kCloseIt);
   // the modes with omega^2 < 0 (listed first), and a growing oscillation where the loads turn with

@@ -1812,13 +1812,15 @@ SceneLinearization linearize(const Scene& s, SceneData& sd, const SceneLinearize
   return L;
 }
 
-std::vector<std::string> open_equalities(const Scene& s, const SceneData& sd) {
+std::vector<std::string> open_equalities(const Scene& s, const SceneData& sd, double displacement) {
   const mjModel* m = s.m;
   const mjData* d = sd.d;
   const std::vector<RowKey> keys = row_keys(d);
   std::vector<double> gap(m->neq, 0.0);
   std::vector<char> angle(m->neq, 0);
-  const double length = 1e-3 * std::max(m->stat.extent, 1e-3);
+  const double absolute = 1e-3 * std::max(m->stat.extent, 1e-3);
+  const bool relative = displacement > 0 && 5e-3 * displacement < absolute;
+  const double length = relative ? std::max(5e-3 * displacement, 1e-12) : absolute;
   for (int i = 0; i < d->nefc; ++i) {
     if (d->efc_type[i] != mjCNSTR_EQUALITY) continue;
     const int e = d->efc_id[i];
@@ -1837,12 +1839,18 @@ std::vector<std::string> open_equalities(const Scene& s, const SceneData& sd) {
                        : m->eq_type[e] == mjEQ_JOINT ? "joint"
                        : m->eq_type[e] == mjEQ_TENDON ? "tendon"
                                                       : "distance";
-    char buf[160];
+    char buf[400];
     std::snprintf(buf, sizeof buf, "equality constraint %s%s%s (%s) is open by %.3g %s", name && *name ? "'" : "#",
                   name && *name ? name : std::to_string(e).c_str(), name && *name ? "'" : "", type,
                   gap[e] * (angle[e] ? 1e-3 : length),
                   angle[e] ? "rad" : "(MuJoCo's measure of its violation: metres, or the strain's units on strain joints)");
-    out.push_back(buf);
+    std::string line = buf;
+    if (relative && !angle[e]) {
+      std::snprintf(buf, sizeof buf, ", %.2g%% of the largest displacement from the start (%.3g m), which it offsets",
+                    100.0 * gap[e] * length / displacement, displacement);
+      line += buf;
+    }
+    out.push_back(line);
   }
   return out;
 }
