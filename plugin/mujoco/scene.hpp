@@ -292,6 +292,10 @@ struct SceneData {
   // step from an earlier time starts a new run, dropping the last one's compression and divergence
   // records as reset() does.
   double last_step_end = -std::numeric_limits<double>::infinity();
+  // The start time of the step in which MuJoCo's contact or constraint buffers first filled in
+  // this run (divergence_hint: whether that came before the state blew up); NaN: not yet.
+  double buffers_full_at = std::numeric_limits<double>::quiet_NaN();
+  double run_start = std::numeric_limits<double>::quiet_NaN();  // the first step's start time in this run
   // The smallest axial stretch p_x of any extensible rod section seen by the steps since
   // construction, reset() or a step back in time (cosserat::min_axial_stretch of each step's last
   // forward evaluation), with the step's start time, the rod and its section (local index); kept

@@ -1697,6 +1697,38 @@ TEST(Scene, ADivergenceHintNamesTheRemedyInTheProgramsTerms) {
   EXPECT_EQ(full.rfind("try a smaller time step (m->opt.timestep), or more Newton corrections", 0), 0u) << full;
 }
 
+// Full contact buffers lead the advice unless they first filled in the last steps before the
+// divergence, as a blowing-up state makes contacts everywhere (outside probe CB: a pile of rods
+// gained energy for 0.35 s with its buffers a quarter full, filled them two steps before the
+// state went non-finite, and was told first to raise nconmax). The record is the step's
+// (SceneData::buffers_full_at, run_start); here set by hand on a diverged run.
+TEST(Scene, FullContactBuffersLeadTheAdviceOnlyWhenTheyCameFirst) {
+  auto s = load_scene_string(R"(<mujoco><option timestep="0.002"/><worldbody>
+    <cosserat name="rod" length="0.5" sections="4" strain="kl" radius="0.005" young="1e9"/>
+  </worldbody></mujoco>)",
+                             kPath);
+  SceneData sd(*s);
+  Status st = Status::Ok;
+  for (int k = 0; k < 500 && st == Status::Ok; ++k) st = step(*s, sd, Integrator::RK4);
+  ASSERT_EQ(st, Status::Diverged);
+  EXPECT_EQ(sd.run_start, 0.0);
+  EXPECT_TRUE(std::isnan(sd.buffers_full_at));  // (no contacts here)
+  const double t = sd.d->time;
+  sd.run_start = t - 1.0;  // a run of a second
+  sd.d->warning[mjWARN_CONTACTFULL].number = 3;
+  sd.buffers_full_at = t - 2 * s->m->opt.timestep;  // two steps before: a consequence
+  const std::string late = divergence_hint(*s, sd, Integrator::RK4, Vocabulary::CommandLine);
+  EXPECT_EQ(late.rfind("try a smaller --timestep", 0), 0u) << late;
+  EXPECT_NE(late.find("; MuJoCo's contact buffers also filled (3 times), first 2 steps before the divergence, likely as "
+                      "the state blew up; if contacts were dropped before that, raise <size nconmax"),
+            std::string::npos)
+      << late;
+  sd.buffers_full_at = t - 0.5;  // long before: contacts were dropped, bodies passed through
+  const std::string early = divergence_hint(*s, sd, Integrator::RK4, Vocabulary::CommandLine);
+  EXPECT_EQ(early.rfind("MuJoCo's contact buffers were full 3 times and contacts were dropped: raise <size", 0), 0u) << early;
+  sd.d->warning[mjWARN_CONTACTFULL].number = 0;
+}
+
 // Misuse of the API is refused, not undefined (outside probe BE): a SceneData stepped with another
 // Scene (it wrote past a heap buffer), a rod index out of range (rod_index's -1 for a misspelt name
 // crashed rod_frame); and a diverged step restores the constraint solver's warm start with the
