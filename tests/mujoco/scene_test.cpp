@@ -557,7 +557,13 @@ TEST(Scene, MujocoCompileErrorsPointAtTheUsersFileAndLine) {
   // its own; an outside probe had to find that out)
   expect_load_error("<mujoco>\n<worldbody>\n<body name=\"hub\">\n<freejoint/>\n"
                     "<cosserat name=\"rod\" length=\"0.3\" sections=\"2\"/>\n</body>\n</worldbody>\n</mujoco>\n",
-                    dir, "hub.xml", 3, "object 'hub'): a rod's mass is the rod's own, not its parent body's; give the body an <inertial>");
+                    dir, "hub.xml", 3, "object 'hub'): a rod's mass is the rod's own, not its parent body's; a massless body holding a rod needs an <inertial>");
+  // a body with a mass of its own below the floor, a micrometre-sized head in SI units: the hint
+  // says to scale the units, not to add mass (outside probe BZ: the mass it had offered slowed a
+  // bacterium's swimming 2600-fold)
+  expect_load_error("<mujoco>\n<worldbody>\n<body name=\"head\">\n<freejoint/>\n<geom size=\"5e-7\" density=\"1100\"/>\n"
+                    "<cosserat name=\"rod\" length=\"8e-6\" radius=\"1e-8\" sections=\"2\"/>\n</body>\n</worldbody>\n</mujoco>\n",
+                    dir, "head.xml", 3, "do not add mass, which changes its motion: write the model in scaled units");
   // under inertiafromgeom="false" the hub's geom adds no mass: the hint says so (probe P)
   expect_load_error("<mujoco>\n<compiler inertiafromgeom=\"false\"/>\n<worldbody>\n<body name=\"hub\">\n<joint/>\n"
                     "<geom size=\"0.02\"/>\n<cosserat name=\"rod\" length=\"0.3\" sections=\"2\"/>\n</body>\n</worldbody>\n</mujoco>\n",
