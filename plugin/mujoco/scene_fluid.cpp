@@ -158,9 +158,14 @@ void setup_fluid(Scene& s) {
       f.warnings.push_back("drag coefficients are given but <option viscosity> is 0: no fluid force at all");
     // (outside probe BG: 4.5 N of buoyancy on a rigid hub, and nothing on the rod, without a word)
     if (!mujoco && !s.rods.empty() && f.viscosity <= 0 && f.density > 0)
+      // (outside probe BZ: an octopus arm in water at Reynolds number 4000 followed the advice to a
+      // Stokes drag 600 times too small, and no buoyancy)
       f.warnings.push_back("<option density> without <option viscosity>: MuJoCo's own fluid model (buoyancy, quadratic "
-                           "drag) acts on the rigid bodies only; the rods feel no fluid force (give <option viscosity> "
-                           "for the plugin's Stokes fluid on rods and bodies)");
+                           "drag) acts on the rigid bodies only; the rods feel no fluid force, neither buoyancy nor "
+                           "drag. <option viscosity> gives the plugin's fluid on rods and bodies, which is Stokes flow "
+                           "(low Reynolds number: drag linear in the velocity, no buoyancy); for a rod in water at high "
+                           "Reynolds number there is no fluid model here (its buoyancy: scale its density or gravity by "
+                           "the net weight)");
     return;
   }
   m->opt.viscosity = 0.0;  // the plugin owns the fluid: MuJoCo's own model must not act as well
