@@ -234,8 +234,15 @@ void add_positions(json& j, const Outputs& o, const mj::SceneData& sd) {
 }
 
 void print_positions(const Outputs& o, const mj::SceneData& sd) {
-  auto line = [](const std::string& kind, const std::string& name, const Vec3& p) {
-    std::printf("  %-6s %-24s %12.6f %12.6f %12.6f\n", kind.c_str(), name.c_str(), p.x(), p.y(), p.z());
+  // six decimals of a metre, more for a scene of micrometres (outside probe BZ: a flagellum's
+  // positions read 0.000008), six significant digits of its largest coordinate
+  double big = 0.0;
+  for (const auto& n : o.sites) big = std::max(big, site_position(sd, n.id).cwiseAbs().maxCoeff());
+  for (const auto& n : o.bodies) big = std::max(big, body_position(sd, n.id).cwiseAbs().maxCoeff());
+  const int decimals = big > 0 && std::isfinite(big) ? std::clamp(5 - static_cast<int>(std::floor(std::log10(big))), 6, 15) : 6;
+  auto line = [decimals](const std::string& kind, const std::string& name, const Vec3& p) {
+    std::printf("  %-6s %-24s %*.*f %*.*f %*.*f\n", kind.c_str(), name.c_str(), decimals + 6, decimals, p.x(), decimals + 6,
+                decimals, p.y(), decimals + 6, decimals, p.z());
   };
   for (const auto& n : o.sites) line("site", n.name, site_position(sd, n.id));
   for (const auto& n : o.bodies) line("body", n.name, body_position(sd, n.id));
