@@ -1079,13 +1079,18 @@ struct Equilibrium {
     x.insert(x.end(), d->site_xpos, d->site_xpos + 3 * m->nsite);
     return x;
   }
-  // the largest displacement of a body or site from the start (after forward at the result)
-  double displacement() const {
+  // per body, the largest displacement of it and its sites from the start (after forward at the
+  // result)
+  std::vector<double> displacement() const {
+    const mjModel* m = scene->m;
     const std::vector<mjtNum> x = positions();
-    double big = 0.0;
-    for (size_t i = 0; i + 2 < x.size(); i += 3)
-      big = std::max(big, std::hypot(x[i] - start_xpos[i], x[i + 1] - start_xpos[i + 1], x[i + 2] - start_xpos[i + 2]));
-    return big;
+    std::vector<double> out(m->nbody, 0.0);
+    for (size_t i = 0; i + 2 < x.size(); i += 3) {
+      const int k = static_cast<int>(i / 3);
+      const int b = k < m->nbody ? k : m->site_bodyid[k - m->nbody];
+      out[b] = std::max(out[b], std::hypot(x[i] - start_xpos[i], x[i + 1] - start_xpos[i + 1], x[i + 2] - start_xpos[i + 2]));
+    }
+    return out;
   }
   json report() const {
     json j = {{"converged", result.converged}, {"iterations", result.iterations}, {"residual", result.residual},

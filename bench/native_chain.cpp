@@ -179,7 +179,9 @@ struct Converter {
 
       // joints at the body origin: springs of the rod around X_k
       {
-        const double r = radius_at(spec, Xk), A = kPi * r * r, I = kPi * r * r * r * r / 4, J = 2 * I;
+        double A, I;
+        cosserat::section_area_moments(sj.material, radius_at(spec, Xk), A, I);
+        const double J = 2 * I;
         const double E = sj.material.young, G = sj.material.shear_modulus(), mu = sj.material.viscosity;
         // the clamp factor on bending only: the chain's torsion and stretch are exact with 1/ds
         // (outside probe Q: doubling them too made the clamp's torsion too stiff to first order)
@@ -217,7 +219,10 @@ struct Converter {
       }
       // inertia of the segment [X_k, X_k + ds] (taper radius at its middle), capsule along its chord
       {
-        const double r = radius_at(spec, Xm), A = kPi * r * r, I = kPi * r * r * r * r / 4, J = 2 * I;
+        const double r = radius_at(spec, Xm);
+        double A, I;
+        cosserat::section_area_moments(sm.material, r, A, I);
+        const double J = 2 * I;
         const double rho = sm.material.density, mass = rho * A * ds;
         const SE3 half = rest_between(spec, Xk, Xm), end = rest_between(spec, Xk, Xk + ds);
         add(doc, b, "inertial",

@@ -24,8 +24,16 @@ Mat6 spatial_inertia(double m, const Vec3& c, const Mat3& Ic) {
   return I;
 }
 
+void section_area_moments(const RodMaterial& m, double r, double& A, double& I) {
+  const double k2 = m.hollow * m.hollow;
+  A = M_PI * r * r * (1.0 - k2);
+  I = M_PI * r * r * r * r / 4.0 * (1.0 - k2 * k2);
+}
+
 Vec6 section_stiffness(const RodMaterial& mat, double r) {
-  const double A = M_PI * r * r, I = M_PI * r * r * r * r / 4.0, J = 2.0 * I;
+  double A, I;
+  section_area_moments(mat, r, A, I);
+  const double J = 2.0 * I;
   const double G = mat.shear_modulus();
   Vec6 s;
   s << G * J, mat.young * I, mat.young * I, mat.young * A, G * A, G * A;
@@ -33,12 +41,16 @@ Vec6 section_stiffness(const RodMaterial& mat, double r) {
 }
 
 Vec6 section_inertia_density(const RodMaterial& mat, double r) {
-  const double A = M_PI * r * r, I = M_PI * r * r * r * r / 4.0, J = 2.0 * I;
+  double A, I;
+  section_area_moments(mat, r, A, I);
+  const double J = 2.0 * I;
   return mat.density * (Vec6() << J, I, I, A, A, A).finished();
 }
 
 Vec6 section_damping(const RodMaterial& mat, double r) {
-  const double A = M_PI * r * r, I = M_PI * r * r * r * r / 4.0, J = 2.0 * I;
+  double A, I;
+  section_area_moments(mat, r, A, I);
+  const double J = 2.0 * I;
   return mat.viscosity * (Vec6() << J, 3 * I, 3 * I, 3 * A, A, A).finished();
 }
 

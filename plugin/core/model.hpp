@@ -42,7 +42,8 @@ using MatX = Eigen::MatrixXd;
 // Spatial inertia at a frame's origin, angular first: [[I_o, m c~], [-m c~, m I]].
 Mat6 spatial_inertia(double mass, const Vec3& com, const Mat3& inertia_at_com);
 
-// Material and shape of one stretch of rod. Circular cross-section, linear taper of the radius.
+// Material and shape of one stretch of rod. Circular cross-section, linear taper of the radius;
+// a tube where `hollow` > 0.
 struct RodMaterial {
   double density = 1000.0;  // rho [kg/m^3]
   double young = 1e6;       // E [Pa]
@@ -52,8 +53,15 @@ struct RodMaterial {
   // initialisations {density, young, poisson, viscosity} keep their meaning; placed before
   // viscosity, it took the demo arm's viscosity for G = 2 Pa, and its equilibrium sagged 364 m.)
   double shear = 0.0;
+  // A tube: its inner radius over its outer one, 0 <= hollow < 1 (0: a solid rod). The section's
+  // area and second moments are the annulus's; the outer radius sets the contacts and the fluid.
+  double hollow = 0.0;
   double shear_modulus() const { return shear > 0 ? shear : young / (2.0 * (1.0 + poisson)); }
 };
+
+// Area A and second moment of area I (about a diameter; the polar one is 2 I) of the cross-section
+// of outer radius r: a disc, or the annulus of a tube (RodMaterial::hollow).
+void section_area_moments(const RodMaterial& m, double r, double& A, double& I);
 
 // The largest GVS order of a section, and so the most dofs a section can have (6 strains, each a
 // Legendre series of order + 1 terms): fixed-capacity scratch for per-section Jacobians.

@@ -257,7 +257,7 @@ struct RodInput {
   RodDecl decl;                     // name, file, line, spec, parent_body (generated lists later)
   Attributes frame;                 // pos and orientation of "<rod>/base", verbatim
   Attributes geom;                  // attributes of every capsule, verbatim
-  int capsules = 0;                 // per section; 0: the default, 2 per PCS section, order + 2 per GVS one
+  int capsules = 2;                 // per section
   bool selfcollide = false;
   std::vector<double> section_end;  // X at the end of each section
   std::vector<RodSite> sites;       // user sites
@@ -351,6 +351,10 @@ SectionSpec read_section_spec(const Reader& r, SectionSpec s) {
   r.check(!r.has("shear") || s.material.shear > 0, "shear", "must be positive (G in Pa)");
   s.material.viscosity = r.number("viscosity", s.material.viscosity);
   r.check(s.material.viscosity >= 0, "viscosity", "must be >= 0");
+  // a tube (outside probe BZ: a nitinol manipulator's tube could not be described)
+  s.material.hollow = r.number("hollow", s.material.hollow);
+  r.check(s.material.hollow >= 0 && s.material.hollow <= 0.99, "hollow",
+          "is the inner radius over the outer one: it must be in [0, 0.99] (0: a solid rod), got " + r.text("hollow"));
   if (r.text("quadrature") == "lobatto") {
     s.lobatto = true;
     s.quadrature = 0;
@@ -658,7 +662,7 @@ RodInput Preprocessor::read_rod(XMLElement* cosserat, const std::string& parent_
   const Reader r = reader(cosserat);
   r.allow_attributes({"name", "pos", "quat", "euler", "axisangle", "xyaxes", "zaxis", "length",
                       "sections", "strain", "dofs", "order", "reststrain", "radius", "density",
-                      "young", "poisson", "shear", "viscosity", "quadrature", "capsules", "selfcollide", "drag", "wavelength",
+                      "young", "poisson", "shear", "viscosity", "hollow", "quadrature", "capsules", "selfcollide", "drag", "wavelength",
                       "strainrange", "solreflimit", "solimplimit",
                       "contype", "conaffinity", "condim", "friction", "solref", "solimp", "margin",
                       "gap", "rgba", "group", "material", "class"});
@@ -730,11 +734,8 @@ RodInput Preprocessor::read_rod(XMLElement* cosserat, const std::string& parent_
   r.check(!(r.has("wavelength") && r.has("drag")), "wavelength", "conflicts with 'drag' (give one of them)");
 
   // capsules and collision options
-  // (not given: 2 per PCS section, order + 2 per GVS section, whose strain bends between two
-  // capsules' ends, where the contacts are: outside probe CA's rod of one order-6 section lay on a
-  // floor on its capsules' three ends and sagged 8.3 mm into it between them, `equilibrium` said
-  // converged and the touch read the weight)
-  rod.capsules = r.has("capsules") ? r.integer("capsules", 2, 1) : 0;
+  // (a GVS section with fewer than order + 2 is warned about once compiled: warn_gvs_capsules)
+  rod.capsules = r.integer("capsules", 2, 1);
   r.check(rod.capsules <= kMaxCapsules, "capsules",
           "must be <= " + std::to_string(kMaxCapsules) + " per section, got " + r.text("capsules"));
   rod.selfcollide = r.boolean("selfcollide", false);
@@ -788,7 +789,7 @@ void Preprocessor::read_sections(const Reader& r, RodInput& rod) {
     elements.push_back(c);
     const Reader s = reader(c);
     s.allow_attributes({"length", "strain", "dofs", "order", "reststrain", "density", "young", "poisson", "shear",
-                        "viscosity", "quadrature", "strainrange"});
+                        "viscosity", "hollow", "quadrature", "strainrange"});
     s.allow_children({});
     SectionSpec ss = read_section_spec(s, spec.section);
     // the rod's strain range reaches the components this section has; its own is checked against it
@@ -1079,7 +1080,7 @@ XMLElement* Preprocessor::build_rod(XMLDocument& doc, RodInput& rod) {
     d.proxies.push_back(prefix);
 
     // capsules along the chords of the rest shape, radius of the taper at their middle
-    const int capsules = rod.capsules > 0 ? rod.capsules : sec.order > 0 ? std::min(sec.order + 2, kMaxCapsules) : 2;
+    const int capsules = rod.capsules;
     for (int j = 0; j < capsules; ++j) {
       const double a = X0 + (Xe - X0) * j / capsules;
       const double b = j + 1 == capsules ? Xe : X0 + (Xe - X0) * (j + 1) / capsules;

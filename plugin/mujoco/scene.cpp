@@ -1111,6 +1111,45 @@ void warn_one_capsule_sections(Scene& s) {
   }
 }
 
+// A GVS section of order 2 or more bends between its capsules' ends, where MuJoCo finds a floor's
+// contacts: with fewer than order + 2 capsules a section lying on a floor sags into it between
+// them (outside probe CA: one section of order 6 on 2 capsules, 8.3 mm (0.83 r) deep, `equilibrium`
+// converged and the touch reading the weight; order 2: 3.1 mm). A default of order + 2 capsules
+// (this session's first answer) overflowed MuJoCo's default contact buffers on long rods and left
+// explicit <pair>s naming g0 and g1 covering part of each section (outside probe CC): warned
+// instead, once per rod, where its capsules can collide.
+void warn_gvs_capsules(Scene& s) {
+  const mjModel* m = s.m;
+  if (!s.may_collide) return;
+  for (const RodBinding& rb : s.rods) {
+    const auto& secs = rb.model.sections;
+    std::string which;
+    int order = 0, capsules = 0;
+    for (size_t i = 0; i < secs.size(); ++i) {
+      if (secs[i].order < 2 || secs[i].ndof == 0) continue;
+      int n = 0;
+      bool collides = false;
+      for (size_t g = 0; g < rb.decl.geoms.size(); ++g)
+        if (rb.decl.geoms[g].section == static_cast<int>(i)) {
+          ++n;
+          const int id = rb.geom_id[g];
+          collides = collides || m->geom_contype[id] || m->geom_conaffinity[id];
+        }
+      if (!collides || n >= secs[i].order + 2) continue;
+      which += (which.empty() ? "" : ", ") + std::to_string(i);
+      order = std::max(order, secs[i].order), capsules = n;
+    }
+    if (which.empty()) continue;
+    s.load_warnings.push_back(rb.decl.file + ":" + std::to_string(rb.decl.line) + ": <cosserat>: GVS section(s) " + which +
+                              " of order up to " + std::to_string(order) + " with " + std::to_string(capsules) +
+                              " capsules: a section of order 2 or more bends between its capsules' ends, where a floor's "
+                              "contacts are found, and lying on one it sags into it between them (one section of order 6 "
+                              "on 2 capsules: 0.83 of its radius deep); capsules=\"" + std::to_string(order + 2) +
+                              "\" (order + 2) keeps it within a tenth of a millimetre of its radius (more contacts: "
+                              "<size nconmax> may need raising)");
+  }
+}
+
 // Torsional and rolling friction (condim 4, 6) on soft rods' contacts under the pyramidal cone: the
 // linearised steps hold an elliptic cone's friction rows with their matrix, not the pyramid's edges
 // (outside probe BO: held, those braked and blew up rolling rods), and a soft rod's end twisted by
@@ -2711,6 +2750,7 @@ std::unique_ptr<Scene> compile(const Preprocessed& pre) {
     warn_overlapping_rods(*s, at_qpos0);  // (before anything else moves the rod capsules' sizes)
     warn_pyramidal_torsion(*s);
     warn_one_capsule_sections(*s);
+    warn_gvs_capsules(*s);
     avoid_sparse_newton_on_small_pivots(*s, at_qpos0);
     check_muscle_lengthranges(pre, *s);
   }

@@ -1812,22 +1812,31 @@ SceneLinearization linearize(const Scene& s, SceneData& sd, const SceneLinearize
   return L;
 }
 
-std::vector<std::string> open_equalities(const Scene& s, const SceneData& sd, double displacement) {
+std::vector<std::string> open_equalities(const Scene& s, const SceneData& sd, const std::vector<double>& displacement) {
   const mjModel* m = s.m;
   const mjData* d = sd.d;
   const std::vector<RowKey> keys = row_keys(d);
   std::vector<double> gap(m->neq, 0.0);
   std::vector<char> angle(m->neq, 0);
   const double absolute = 1e-3 * std::max(m->stat.extent, 1e-3);
-  const bool relative = displacement > 0 && 5e-3 * displacement < absolute;
-  const double length = relative ? std::max(5e-3 * displacement, 1e-12) : absolute;
+  // per constraint: the length its gap is measured against, and the displacement in the trees it
+  // joins (a connect's or weld's: their rows are lengths; a joint equality's may be a curvature)
+  std::vector<double> length(m->neq, absolute), moved(m->neq, 0.0);
+  if (static_cast<int>(displacement.size()) == m->nbody)
+    for (int e = 0; e < m->neq; ++e) {
+      if (m->eq_type[e] != mjEQ_CONNECT && m->eq_type[e] != mjEQ_WELD) continue;
+      const int r1 = m->body_rootid[m->eq_obj1id[e]], r2 = m->body_rootid[m->eq_obj2id[e]];
+      for (int b = 1; b < m->nbody; ++b)
+        if (m->body_rootid[b] == r1 || m->body_rootid[b] == r2) moved[e] = std::max(moved[e], displacement[b]);
+      if (moved[e] > 0 && 5e-3 * moved[e] < absolute) length[e] = std::max(5e-3 * moved[e], 1e-12);
+    }
   for (int i = 0; i < d->nefc; ++i) {
     if (d->efc_type[i] != mjCNSTR_EQUALITY) continue;
     const int e = d->efc_id[i];
     const bool rotation = (m->eq_type[e] == mjEQ_WELD && keys[i].row >= 3) ||
                           (m->eq_type[e] == mjEQ_JOINT && m->jnt_type[m->eq_obj1id[e]] != mjJNT_SLIDE);
     // (a weld's rotation rows hold the sine of half the angle: the angle, to first order, is twice)
-    const double v = (rotation && m->eq_type[e] == mjEQ_WELD ? 2.0 : 1.0) * std::abs(d->efc_pos[i]) / (rotation ? 1e-3 : length);
+    const double v = (rotation && m->eq_type[e] == mjEQ_WELD ? 2.0 : 1.0) * std::abs(d->efc_pos[i]) / (rotation ? 1e-3 : length[e]);
     if (v > gap[e]) gap[e] = v, angle[e] = rotation;
   }
   std::vector<std::string> out;
@@ -1842,12 +1851,12 @@ std::vector<std::string> open_equalities(const Scene& s, const SceneData& sd, do
     char buf[400];
     std::snprintf(buf, sizeof buf, "equality constraint %s%s%s (%s) is open by %.3g %s", name && *name ? "'" : "#",
                   name && *name ? name : std::to_string(e).c_str(), name && *name ? "'" : "", type,
-                  gap[e] * (angle[e] ? 1e-3 : length),
+                  gap[e] * (angle[e] ? 1e-3 : length[e]),
                   angle[e] ? "rad" : "(MuJoCo's measure of its violation: metres, or the strain's units on strain joints)");
     std::string line = buf;
-    if (relative && !angle[e]) {
-      std::snprintf(buf, sizeof buf, ", %.2g%% of the largest displacement from the start (%.3g m), which it offsets",
-                    100.0 * gap[e] * length / displacement, displacement);
+    if (length[e] < absolute && !angle[e]) {
+      std::snprintf(buf, sizeof buf, ", %.2g%% of the largest displacement from the start of what it joins (%.3g m)",
+                    100.0 * gap[e] * length[e] / moved[e], moved[e]);
       line += buf;
     }
     out.push_back(line);

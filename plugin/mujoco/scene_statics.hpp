@@ -119,12 +119,14 @@ SceneLinearization linearize(const Scene& s, SceneData& sd, const SceneLinearize
 // for a weld's rotation and a joint equality on hinges or balls. MuJoCo's constraints are soft (solref, solimp, and the inverse
 // weights of what they join: a light rod's weld can open by centimetres under load); linearize
 // holds them rigid where they are. One line per constraint, naming it and the gap. With
-// `displacement` (> 0: the largest displacement of a body or site from where the analysis started),
-// also a gap beyond 5e-3 of it: what a gap does to a result scales with the deformation, not the
-// scene (outside probe BY: a parallel robot's welds opened 0.5 mm under a load that moved its
-// platform 53 mm, which put the platform 4.5% off and its rotation 6x off without a word; a rod
-// pushed 1 cm short by a weld ended 8 mm short).
-std::vector<std::string> open_equalities(const Scene& s, const SceneData& sd, double displacement = 0.0);
+// `displacement` (per body, nbody: how far it and its sites moved from where the analysis started),
+// also a connect's or weld's gap beyond 5e-3 of the largest displacement in the kinematic trees it
+// joins: what a gap does to a result scales with the deformation, not the scene (outside probe BY:
+// a parallel robot's welds opened 0.5 mm under a load that moved its platform 53 mm, which put the
+// platform 4.5% off and its rotation 6x off without a word; a rod pushed 1 cm short by a weld
+// ended 8 mm short).
+std::vector<std::string> open_equalities(const Scene& s, const SceneData& sd,
+                                         const std::vector<double>& displacement = {});
 
 // The shape of mode k of L (from linearize at the current qpos; k in the order of L.omega2): the
 // direction dq = basis x_k in the tangent space of qpos, and the displacements it gives every

@@ -797,7 +797,7 @@ TEST_F(Cli, EqualitiesOpenAgainstTheDeformationAreWarnedAbout) {
   std::ofstream(stiff) << cosserat::testing::replace_all(xml, "WELD", R"(solref="0.004 1" solimp="0.9999 0.9999 0.001")");
   Result r = cosserat("equilibrium '" + soft.string() + "' --json '" + out.string() + "'");
   ASSERT_EQ(r.status, 0) << r.err;
-  EXPECT_NE(r.err.find("% of the largest displacement from the start ("), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("% of the largest displacement from the start of what it joins ("), std::string::npos) << r.err;
   json j = json::parse(read_text(out));
   EXPECT_EQ(j["warnings"].size(), 1u);
   EXPECT_LT(j["sites"]["beam/tip"][2].get<double>(), 1.0 - 4e-4);  // the weld's sag
@@ -810,7 +810,7 @@ TEST_F(Cli, EqualitiesOpenAgainstTheDeformationAreWarnedAbout) {
   EXPECT_NEAR(1.0 - j["sites"]["mid"][2].get<double>(), 1.02e-4, 0.08e-4);  // (8 sections)
   r = cosserat("linearize '" + soft.string() + "'");
   ASSERT_EQ(r.status, 0) << r.err;
-  EXPECT_NE(r.out.find("% of the largest displacement from the start ("), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("% of the largest displacement from the start of what it joins ("), std::string::npos) << r.out;
 }
 
 // linearize warns when it holds rigid an equality constraint that MuJoCo's soft rows left open at
@@ -1564,9 +1564,11 @@ TEST_F(Cli, MujocoErrorsEndARunAsADivergenceWithItsOutputs) {
   const Result r = cosserat("run '" + model + "' --integrator euler --duration 0.1 --csv '" + csv.string() +
                             "' --json '" + js.string() + "'");
   EXPECT_EQ(r.status, 1);
-  ASSERT_EQ(lines(r.err).size(), 2u) << r.err;
-  EXPECT_NE(lines(r.err)[0].find("the model asks for sparse Jacobians and keeps them"), std::string::npos) << r.err;
-  EXPECT_EQ(lines(r.err)[1].rfind("cosserat: simulation diverged: MuJoCo error: Rank-defficient Hessian", 0), 0u) << r.err;
+  // (its order-20 sections on 2 capsules are warned about too: warn_gvs_capsules)
+  ASSERT_EQ(lines(r.err).size(), 3u) << r.err;
+  EXPECT_NE(lines(r.err)[0].find("GVS section(s) 1, 2 of order up to 20 with 2 capsules"), std::string::npos) << r.err;
+  EXPECT_NE(lines(r.err)[1].find("the model asks for sparse Jacobians and keeps them"), std::string::npos) << r.err;
+  EXPECT_EQ(lines(r.err)[2].rfind("cosserat: simulation diverged: MuJoCo error: Rank-defficient Hessian", 0), 0u) << r.err;
   // the hint names the solver's stop first
   EXPECT_NE(r.err.find("(MuJoCo's sparse Newton constraint solver stops where a pivot"), std::string::npos) << r.err;
   const json j = json::parse(read_text(js));
@@ -1582,13 +1584,15 @@ TEST_F(Cli, MujocoErrorsEndARunAsADivergenceWithItsOutputs) {
   const Result c = cosserat("check '" + bad + "'");
   EXPECT_EQ(c.status, 1);
   // the loader's warnings about the rod (1 cm long, 2 cm thick; selfcollide, so its sections
-  // overlap each other; its small inertias under the sparse Newton solver), then the error
+  // overlap each other; its GVS sections on 2 capsules; its small inertias under the sparse Newton
+  // solver), then the error
   const std::vector<std::string> err = lines(c.err);
-  ASSERT_EQ(err.size(), 4u) << c.err;
+  ASSERT_EQ(err.size(), 5u) << c.err;
   EXPECT_EQ(err[0].rfind("warning: " + bad + ":4: <cosserat>: the rod is thicker than it is long", 0), 0u) << c.err;
   EXPECT_EQ(err[1].rfind("warning: " + bad + ":4: <cosserat name=\"arm\">: with selfcollide=\"true\" its own capsules overlap", 0), 0u) << c.err;
-  EXPECT_EQ(err[2].rfind("warning: " + bad + ":4: <cosserat name=\"arm\">: the inertia of strain coordinate", 0), 0u) << c.err;
-  EXPECT_EQ(err[3].rfind(bad + ": MuJoCo error: ", 0), 0u) << c.err;  // (no line: the whole model's)
+  EXPECT_EQ(err[2].rfind("warning: " + bad + ":4: <cosserat>: GVS section(s) 0, 1, 2 of order up to 4 with 2 capsules", 0), 0u) << c.err;
+  EXPECT_EQ(err[3].rfind("warning: " + bad + ":4: <cosserat name=\"arm\">: the inertia of strain coordinate", 0), 0u) << c.err;
+  EXPECT_EQ(err[4].rfind(bad + ": MuJoCo error: ", 0), 0u) << c.err;  // (no line: the whole model's)
 }
 
 // --newton-refresh reaches Scene::newton_refresh: on the undamped cantilever of the Newton tests
