@@ -142,6 +142,31 @@ TEST(SceneStatics, AShearModulusGivenOnItsOwnSetsTheTorsion) {
   }
 }
 
+// A tube (`hollow`: inner over outer radius, outside probe BZ's nitinol manipulator): the annulus's
+// area and second moments. Its clamped bending frequencies are Euler-Bernoulli's with
+// I = pi r^4 (1 - k^4) / 4 and A = pi r^2 (1 - k^2), its sag under its weight w L^4 / (8 EI); the
+// solid rod's first frequency is lower by sqrt((1 - k^2) / (1 - k^4)) = 1 / sqrt(1 + k^2).
+TEST(SceneStatics, ATubesSectionIsTheAnnulus) {
+  const double L = 0.3, r = 0.001, k = 0.8, E = 6e10, rho = 6450.0, g = 9.81;
+  const double I = M_PI * std::pow(r, 4) / 4 * (1 - std::pow(k, 4)), A = M_PI * r * r * (1 - k * k);
+  const std::string xml = R"(<mujoco><option gravity="0 0 -9.81"/><worldbody>
+    <cosserat name="t" length="0.3" sections="16" strain="kl" radius="0.001" density="6450" young="6e10" poisson="0.33"
+              HOLLOW contype="0" conaffinity="0"/></worldbody></mujoco>)";
+  auto tube = load_scene_string(cosserat::testing::replace_all(xml, "HOLLOW", "hollow=\"0.8\""), kPath);
+  auto solid = load_scene_string(cosserat::testing::replace_all(xml, "HOLLOW", ""), kPath);
+  SceneData st(*tube), ss(*solid);
+  ASSERT_TRUE(equilibrium(*tube, st).converged);
+  ASSERT_TRUE(equilibrium(*solid, ss).converged);
+  const double sag = rho * A * g * std::pow(L, 4) / (8 * E * I);  // 1.9 mm: linear theory holds
+  EXPECT_NEAR(-rod_frame(*tube, st, 0, L).u.z() / sag, 1.0, 5e-3);
+  const SceneLinearization lt = linearize(*tube, st), ls = linearize(*solid, ss);
+  const double f1 = 1.87510407 * 1.87510407 / (2 * M_PI * L * L) * std::sqrt(E * I / (rho * A));
+  EXPECT_NEAR(lt.frequencies_hz(0) / f1, 1.0, 5e-3);
+  EXPECT_NEAR(lt.frequencies_hz(0) / ls.frequencies_hz(0), std::sqrt(1 + k * k), 5e-3);
+  // out of range
+  EXPECT_THROW(load_scene_string(cosserat::testing::replace_all(xml, "HOLLOW", "hollow=\"1\""), kPath), std::exception);
+}
+
 // The scene's linearisation of the cantilever agrees with the core's, and its damping is the
 // rod's Kelvin-Voigt matrix plus MuJoCo's joint damping.
 TEST(SceneStatics, LinearizationMatchesCore) {
