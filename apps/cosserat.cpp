@@ -747,14 +747,14 @@ int cmd_run(int argc, char** argv) {
   // tendon limit violated at the start had its gain blamed on the integrator; probe BX: judged by
   // the violation's size instead, a bead 2 mm past a slide limit hid a pendulum's real gain), and
   // in equality constraints open at the start, which store it as limits do
-  double start_limit_energy = 0.0;
+  double start_row_energy = 0.0;
   for (int i = 0; i < s.data().d->nefc; ++i) {
     const mjData* d0 = s.data().d;
     const bool violated = limit_row(d0, i) ? d0->efc_pos[i] < 0 : d0->efc_type[i] == mjCNSTR_EQUALITY;
     if (!violated || !(d0->efc_R[i] > 0))
       continue;
     const double k = d0->efc_KBIP[4 * i] * d0->efc_KBIP[4 * i + 2] / d0->efc_R[i];
-    start_limit_energy += 0.5 * k * d0->efc_pos[i] * d0->efc_pos[i];
+    start_row_energy += 0.5 * k * d0->efc_pos[i] * d0->efc_pos[i];
   }
   long k = 0;
   bool diverged = false, touched = false, limited = false;
@@ -949,20 +949,18 @@ int cmd_run(int argc, char** argv) {
   // gained 1700 J, both without a word)
   const bool touching = std::find(exchanges.begin(), exchanges.end(), "contacts") != exchanges.end();
   if (dissipative && !diverged && energy.max_rel_gain() > (touching ? 1.0 : 0.1) &&
-      energy.max_gain() > 2.0 * start_limit_energy) {
+      energy.max_gain() > 2.0 * start_row_energy) {
     const Integrator in = s.integrator();
     const bool newton_scheme = in == Integrator::Trapezoidal || in == Integrator::Midpoint || in == Integrator::GeneralizedAlpha;
     std::string list;
     for (const auto& x : exchanges) list += (list.empty() ? "" : ", ") + x;
     // (dropped contacts let bodies into each other, whose soft rows then push them out: outside
     // probe CC's long rod on a floor gained 0.4 J with full buffers and was told the integrator did)
-    const mjData* dd = s.data().d;
-    const int full = dd->warning[mjWARN_CONTACTFULL].number + dd->warning[mjWARN_CNSTRFULL].number;
+    const int full = mj::full_buffer_count(s.data().d);
     const std::string why =
         full > 0 ? "MuJoCo's contact buffers were full " + std::to_string(full) +
-                       " times: contacts were dropped, and bodies that sank in were pushed out; raise <size nconmax=\"...\" "
-                       "njmax=\"...\"> (now " + std::to_string(s.scene().m->nconmax) + " and " +
-                       std::to_string(s.scene().m->njmax) + ")"
+                       " times: contacts were dropped, and bodies that sank in were pushed out; " +
+                       mj::raise_buffers_advice(s.scene().m)
                  : std::string("the integrator supplied it (") +
                        (newton_scheme ? "try a smaller --timestep, or --integrator implicit" : "try a smaller --timestep") + ")";
     char b[768];

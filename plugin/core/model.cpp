@@ -54,22 +54,23 @@ Vec6 section_damping(const RodMaterial& mat, double r) {
   return mat.viscosity * (Vec6() << J, 3 * I, 3 * I, 3 * A, A, A).finished();
 }
 
-void Section::basis(double X, Mat6X& Phi) const {
+void Section::basis_from(const double* P, Mat6X& Phi) const {
   const int nb = order + 1;
-  double P[32];
-  legendre01(order, (X - X0) / length, P);
   Phi.setZero(6, ndof);
   for (int c = 0; c < B.cols(); ++c)
     for (int k = 0; k < nb; ++k) Phi.col(c * nb + k) = B.col(c) * P[k];
 }
 
+void Section::basis(double X, Mat6X& Phi) const {
+  double P[32];
+  legendre01(order, (X - X0) / length, P);
+  basis_from(P, Phi);
+}
+
 void Section::basis_mean(double Xa, double Xb, Mat6X& Phi) const {
-  const int nb = order + 1;
   double P[32];
   legendre01_mean(order, (Xa - X0) / length, (Xb - X0) / length, P);
-  Phi.setZero(6, ndof);
-  for (int c = 0; c < B.cols(); ++c)
-    for (int k = 0; k < nb; ++k) Phi.col(c * nb + k) = B.col(c) * P[k];
+  basis_from(P, Phi);
 }
 
 Vec6 Section::basis_apply(const double* P, const double* x) const {

@@ -179,6 +179,8 @@ struct Section {
   void basis(double X, Mat6X& Phi) const;
   // Its mean over [Xa, Xb] (the basis at Xa when Xb == Xa).
   void basis_mean(double Xa, double Xb, Mat6X& Phi) const;
+  // The basis from Legendre weights P = [P_0 .. P_order] (basis, basis_mean).
+  void basis_from(const double* P, Mat6X& Phi) const;
   // Phi(X) x for the section's dof block x (strains, or strain rates), given the Legendre weights
   // P = [P_0 .. P_order]((X - X0)/length) (legendre01): no matrix is formed.
   Vec6 basis_apply(const double* P, const double* x) const;

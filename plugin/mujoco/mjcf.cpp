@@ -1080,10 +1080,9 @@ XMLElement* Preprocessor::build_rod(XMLDocument& doc, RodInput& rod) {
     d.proxies.push_back(prefix);
 
     // capsules along the chords of the rest shape, radius of the taper at their middle
-    const int capsules = rod.capsules;
-    for (int j = 0; j < capsules; ++j) {
-      const double a = X0 + (Xe - X0) * j / capsules;
-      const double b = j + 1 == capsules ? Xe : X0 + (Xe - X0) * (j + 1) / capsules;
+    for (int j = 0; j < rod.capsules; ++j) {
+      const double a = X0 + (Xe - X0) * j / rod.capsules;
+      const double b = j + 1 == rod.capsules ? Xe : X0 + (Xe - X0) * (j + 1) / rod.capsules;
       const double radius =
           spec.radius_base + (spec.radius_tip - spec.radius_base) * 0.5 * (a + b) / spec.length;
       const std::string gn = prefix + "/g" + std::to_string(j);

@@ -2799,6 +2799,13 @@ std::string collapse_warning(const Scene& s, const SceneData& sd) {
   return b;
 }
 
+int full_buffer_count(const mjData* d) { return d->warning[mjWARN_CONTACTFULL].number + d->warning[mjWARN_CNSTRFULL].number; }
+
+std::string raise_buffers_advice(const mjModel* m) {
+  return "raise <size nconmax=\"...\" njmax=\"...\"> (now " + std::to_string(m->nconmax) + " and " + std::to_string(m->njmax) +
+         "; a capsule on a plane makes 1-2 contacts of 1-6 constraint rows each)";
+}
+
 std::string divergence_hint(const Scene& s, const SceneData& sd, Integrator in, Vocabulary words) {
   const bool cli = words == Vocabulary::CommandLine;
   const std::string smaller_step = cli ? "a smaller --timestep" : "a smaller time step (m->opt.timestep)";
@@ -2841,9 +2848,8 @@ std::string divergence_hint(const Scene& s, const SceneData& sd, Integrator in, 
   // (unless they first filled in the last steps before the divergence, under 20 and the last 5% of
   // the run, as a blowing-up state makes contacts everywhere: outside probe CB's pile of rods gained energy for 0.35 s with its
   // buffers a quarter full, filled them in its last steps, and was told to raise nconmax first)
-  const int full = d->warning[mjWARN_CONTACTFULL].number + d->warning[mjWARN_CNSTRFULL].number;
-  const std::string raise = "raise <size nconmax=\"...\" njmax=\"...\"> (now " + std::to_string(m->nconmax) + " and " +
-                            std::to_string(m->njmax) + "; a capsule on a plane makes 1-2 contacts of 1-6 constraint rows each)";
+  const int full = full_buffer_count(d);
+  const std::string raise = raise_buffers_advice(m);
   const double steps_before = (d->time - sd.buffers_full_at) / m->opt.timestep;
   if (full > 0 && steps_before < 20 && d->time - sd.buffers_full_at < 0.05 * (d->time - sd.run_start))
     hint += "; MuJoCo's contact buffers also filled (" + std::to_string(full) + " times), first " +
@@ -4388,7 +4394,7 @@ Status step(const Scene& s, SceneData& sd, Integrator method) {
     back_to_step_start(sd);
     throw;
   }
-  if (std::isnan(sd.buffers_full_at) && d->warning[mjWARN_CONTACTFULL].number + d->warning[mjWARN_CNSTRFULL].number > 0)
+  if (std::isnan(sd.buffers_full_at) && full_buffer_count(d) > 0)
     sd.buffers_full_at = t;
   if (!state_finite(m, d)) {
     back_to_step_start(sd);

@@ -480,6 +480,10 @@ std::string collapse_warning(const Scene& s, const SceneData& sd);
 // program sets them (m->opt.timestep, Integrator::Implicit, Scene::newton_iterations) or as the
 // command line's options (--timestep, --integrator implicit, --newton).
 enum class Vocabulary { Cpp, CommandLine };
+// How many times MuJoCo's contact or constraint buffers were full (its warning counters since the
+// last reset), and the advice for it: raise <size nconmax njmax>, naming their values.
+int full_buffer_count(const mjData* d);
+std::string raise_buffers_advice(const mjModel* m);
 std::string divergence_hint(const Scene& s, const SceneData& sd, Integrator method,
                             Vocabulary words = Vocabulary::Cpp);
 
