@@ -44,6 +44,12 @@ namespace cosserat::mj {
 
 namespace {
 constexpr int kMaxNewtonMemory = 4;  // Scene::newton_memory is clamped to this
+// The Newton schemes' Woodbury rows for contact rows that tie two branches of the tree (a rod
+// pressing a free object): room for this many at first (12 pyramidal contacts of condim 3), grown
+// on demand up to nv more rows than the tendons', actuators' and equalities' (beyond that the
+// correction would cost more than a dense factorisation: the iteration matrix takes none of the
+// constraint rows, add_constraint_terms).
+constexpr int kLoopContactRows = 48;
 
 using Vec3m = Eigen::Map<Vec3>;
 using Mat3r = Eigen::Matrix<double, 3, 3, Eigen::RowMajor>;  // MuJoCo's xmat layout
@@ -1997,8 +2003,10 @@ SceneData::SceneData(const Scene& s) : owner(&s) {
   joint_K.assign(nv, 0);
   K_rows.assign(static_cast<size_t>(s.m->ntendon + s.m->nu) * nv, 0);
   K_row_coef.assign(s.m->ntendon + s.m->nu, 0);
-  {  // one row per tendon and actuator (its damping and spring together: add_row_terms)
-    const size_t r = static_cast<size_t>(s.m->ntendon + s.m->nu + 6 * s.m->neq);
+  {  // one row per tendon and actuator (its damping and spring together: add_row_terms), six per
+     // equality constraint and kLoopContactRows for contact rows across branches (add_constraint_terms)
+    const size_t r = static_cast<size_t>(s.m->ntendon + s.m->nu + 6 * s.m->neq +
+                                         (s.may_collide && !s.rods.empty() ? kLoopContactRows : 0));
     W_rows.assign(r * nv, 0);
     W_Z.assign(r * nv, 0);
     W_coef.assign(r, 0);
@@ -2943,7 +2951,7 @@ bool add_outer_in_tree(const mjModel* m, mjtNum* A, const mjtNum* u, double c, s
 
 // Which active rows (in MuJoCo's quadratic state, on rods) factor_implicit freezes with its matrix
 // (add_constraint_terms): none; every row (the Newton schemes); the equality rows; or the equality
-// rows and the friction rows of elliptic cones, and should one of those tie two branches of the
+// rows and the friction rows of elliptic cones, and should a friction row tie two branches of the
 // tree, the equality rows alone (the linearised steps).
 enum class FrozenRows { None, All, Equalities, EqualitiesAndEllipticFriction };
 
@@ -2951,6 +2959,22 @@ enum class FrozenRows { None, All, Equalities, EqualitiesAndEllipticFriction };
 bool elliptic_friction_row(const mjData* d, int i) {
   return d->efc_type[i] == mjCNSTR_CONTACT_ELLIPTIC && i > 0 && d->efc_type[i - 1] == mjCNSTR_CONTACT_ELLIPTIC &&
          d->efc_id[i - 1] == d->efc_id[i];
+}
+
+// Whether the Woodbury rows have room for one more (sd.W_*, grown where a scene's contacts need
+// more than SceneData made room for, up to nv rows more than its tendons, actuators and equalities).
+bool room_for_woodbury_row(const mjModel* m, SceneData& sd) {
+  const size_t have = sd.W_coef.size(), nv = static_cast<size_t>(m->nv);
+  if (static_cast<size_t>(sd.W_nrows) < have) return true;
+  const size_t cap = static_cast<size_t>(m->ntendon + m->nu + 6 * m->neq) + nv;
+  if (have >= cap) return false;
+  const size_t r = std::min(cap, std::max<size_t>(2 * have, kLoopContactRows));
+  sd.W_rows.resize(r * nv, 0.0);
+  sd.W_Z.resize(r * nv, 0.0);
+  sd.W_coef.resize(r, 0.0);
+  sd.W_S.resize(r * r, 0.0);
+  sd.W_t.resize(r, 0.0);
+  return true;
 }
 
 // The Newton schemes' terms of the constraint rows. A row in MuJoCo's quadratic state (equality
@@ -2961,17 +2985,19 @@ bool elliptic_friction_row(const mjData* d, int i) {
 // matrix's evaluation, kept with it (SceneData::frozen_*), so that the correction sees the same
 // terms as the matrix while contacts come and go between iterates (taken from each iterate's rows
 // instead, the corrections grew on impacts and split more steps). Taken: the rows acting on a rod's
-// strain dofs, and only where every quadratic row lies on one branch of the tree (a row across two
-// branches, an arm pressing a free object, would leave the terms partial: none are taken, and
-// rows on rigid bodies alone keep the previous iteration; with them the shipped octopus arm's
-// object on its table took twice the corrections). Elliptic cones' rows (their state is the
-// cone's) stay out. The linearised steps' equality rows that tie two branches (a weld closing a
-// loop of rods: two rods clamped to two walls and welded tip to tip, a parallel robot's platform)
-// are held by the Woodbury rows (sd.W_rows) instead: explicit, they had pumped energy into every
-// such loop at any step (outside probe BY: a tapped loop from 1e-4 J to 0.09 J in 5 s, a damped
-// parallel robot released from rest to 10.8 J, all without a warning). Without these terms a wire of short sections lying on a floor split every step
-// (outside probe AA: 300 corrections and 15 splits per 1 ms step under trapezoidal, midpoint and
-// genalpha; now 27 and 1).
+// strain dofs (rows on rigid bodies alone keep the previous iteration; with them the shipped
+// octopus arm's object on its table took twice the corrections). Elliptic cones' rows (their
+// state is the cone's) stay out. A row that ties two branches of the tree, which qM's pattern
+// cannot hold, is a Woodbury row (sd.W_rows): an equality closing a loop of rods (two rods
+// clamped to two walls and welded tip to tip, a parallel robot's platform; the linearised steps
+// too: explicit, such rows had pumped energy into every loop at any step, outside probe BY: a
+// tapped loop from 1e-4 J to 0.09 J in 5 s, a damped parallel robot released from rest to
+// 10.8 J, all without a warning), and under the Newton schemes any row, a rod pressing a free
+// object (without it, a stiffly welded loop took twice the corrections, and a box on a free wire
+// split 91 of 20 steps: none now). Should the Woodbury rows be full (room_for_woodbury_row), the
+// terms would be partial: none are taken. Without these terms a wire of short sections lying on
+// a floor split every step (outside probe AA: 300 corrections and 15 splits per 1 ms step under
+// trapezoidal, midpoint and genalpha; now 27 and 1).
 void add_constraint_terms(const mjModel* m, const char* strain, SceneData& sd, mjtNum* A, double hD, double hK,
                           FrozenRows which) {
   const bool equalities_only = which == FrozenRows::Equalities;
@@ -2981,7 +3007,6 @@ void add_constraint_terms(const mjModel* m, const char* strain, SceneData& sd, m
   std::vector<int>& nz = sd.tree_nz;
   mjtNum* row = sd.frozen_row.data();
   const int w0 = sd.W_nrows;  // the Woodbury rows of tendons and actuators (add_row_terms)
-  const int w_room = static_cast<int>(sd.W_coef.size());
   sd.frozen_D.clear();
   sd.frozen_c.clear();
   sd.frozen_kI.clear();
@@ -3015,9 +3040,9 @@ void add_constraint_terms(const mjModel* m, const char* strain, SceneData& sd, m
     }
     int n = branch_dofs(m, u, last, count, nz);
     bool across = n < 0;
-    // an equality row closing a loop, held by the linearised steps: a Woodbury row
-    const bool woodbury = across && which != FrozenRows::All && d->efc_type[i] == mjCNSTR_EQUALITY &&
-                          sd.W_nrows < w_room;
+    // a row closing a loop: a Woodbury row (the linearised steps: equality rows only)
+    const bool woodbury = across && (which == FrozenRows::All || d->efc_type[i] == mjCNSTR_EQUALITY) &&
+                          room_for_woodbury_row(m, sd);
     if (woodbury) {
       n = 0;
       for (int k = 0; k <= last; ++k)
