@@ -1207,7 +1207,7 @@ int cmd_linearize(int argc, char** argv) {
                  "coordinates y of the motions they leave free, dq = basis y, and K includes the stiffness of\n"
                  "the loads they carry. Contacts and limits are left out (a warning says when they carry load).\n"};
   cl.options.push_back(text_option("--json", "F", "write {frequencies_hz: [ascending; undamped, sqrt(omega2) / 2 pi: a mode of damping ratio z rings at sqrt(1 - z^2) of it], damping_ratios, omega2, unstable_modes, nv, coordinates, equality_rows, equilibrium, warnings, ...} ('-': stdout)", json_path));
-  cl.options.push_back(flag_option("--matrices", "include M, D, K and Bu in the JSON (and the basis of the coordinates)", matrices));
+  cl.options.push_back(flag_option("--matrices", "include M, D, K and Bu in the JSON (and the basis of the coordinates), and the state-space A and B of x = [dq; dq'] (with actuators that have activation dynamics, filters, integrators, muscles: x = [dq; dq'; dact], and \"activations\": Fa, Bd, Ga, Gu of M ddq + D dq' + K dq = Fa dact + Bd du, dact' = Ga dact + Gu du; M, D, K and Bu keep the activations at their steady state, Bu the static gain)", matrices));
   mj::SceneLinearizeOptions lopt;
   bool without_equalities = false;
   double relaxation_time = 30.0;
@@ -1350,6 +1350,13 @@ int cmd_linearize(int argc, char** argv) {
       j["D"] = matrix_json(lin.D);
       j["K"] = matrix_json(lin.Kt);
       j["Bu"] = matrix_json(lin.Bu);
+      if (lin.Fa.cols() > 0) {  // actuator activations as states (x = [dq; dv; dact])
+        j["activations"] = {{"Fa", matrix_json(lin.Fa)}, {"Bd", matrix_json(lin.Bd)}, {"Ga", matrix_json(lin.Ga)},
+                            {"Gu", matrix_json(lin.Gu)}};
+        if (lin.Gq.size()) j["activations"]["Gq"] = matrix_json(lin.Gq), j["activations"]["Gv"] = matrix_json(lin.Gv);
+      }
+      j["A"] = matrix_json(lin.A);
+      j["B"] = matrix_json(lin.B);
       if (lin.constraint_rows > 0) j["basis"] = matrix_json(lin.basis);  // dq = basis y
     }
     write_json(json_path, j);

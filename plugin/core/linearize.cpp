@@ -108,6 +108,20 @@ void state_space(Linearization& L) {
   L.A = state_matrix(lu, L.Kt, L.D);
   L.B = MatX::Zero(2 * n, nu);
   L.B.bottomRows(n) = lu.solve(L.Bu);
+  const MatX A_settled = L.A;  // (the structure's, for the growth of its modes below)
+  if (const int na = static_cast<int>(L.Fa.cols()); na > 0) {
+    MatX A = MatX::Zero(2 * n + na, 2 * n + na);
+    A.topLeftCorner(2 * n, 2 * n) =
+        state_matrix(lu, L.dKt.size() ? MatX(L.Kt + L.dKt) : L.Kt, L.dD.size() ? MatX(L.D + L.dD) : L.D);
+    A.block(n, 2 * n, n, na) = lu.solve(L.Fa);
+    if (L.Gq.size()) A.block(2 * n, 0, na, n) = L.Gq;
+    if (L.Gv.size()) A.block(2 * n, n, na, n) = L.Gv;
+    A.bottomRightCorner(na, na) = L.Ga;
+    L.A = A;
+    L.B = MatX::Zero(2 * n + na, nu);
+    L.B.middleRows(n, n) = lu.solve(L.Bd);
+    L.B.bottomRows(na) = L.Gu;
+  }
 
   // Kt is symmetric for conservative loads; follower loads make it slightly unsymmetric.
   const MatX Ks = 0.5 * (L.Kt + L.Kt.transpose());
@@ -168,7 +182,7 @@ void state_space(Linearization& L) {
       L.diverging_modes = L.unstable_modes;
       return;
     }
-    const GrowthModes g = growth_modes(L.A, std::sqrt(std::max(L.neutral_omega2, 0.0)));
+    const GrowthModes g = growth_modes(A_settled, std::sqrt(std::max(L.neutral_omega2, 0.0)));
     L.diverging_modes = g.diverging;
     L.unstable_modes = g.diverging + g.growing_pairs;
     L.flutter_rate = g.rate;

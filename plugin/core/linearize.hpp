@@ -11,8 +11,20 @@
 namespace cosserat {
 
 struct Linearization {
-  MatX A, B;            // state-space matrices (2 nv x 2 nv, 2 nv x nu)
-  MatX M, D, Kt, Bu;    // second-order form
+  MatX A, B;            // state-space matrices (2 nv x 2 nv, 2 nv x nu; with activations, below,
+                        // (2 nv + na) x (2 nv + na) and (2 nv + na) x nu)
+  MatX M, D, Kt, Bu;    // second-order form (activations at their steady state under the controls)
+  // Actuator activations (MuJoCo's act: filters, integrators, muscles), na of them, as states of
+  // their own where Fa has columns: x = [dq; dv; dact], and
+  //   M dqacc + (D + dD) dv + (Kt + dKt) dq = Fa dact + Bd du,
+  //   dact_dot = Gq dq + Gv dv + Ga dact + Gu du,
+  // Fa = d force / d act and Bd = d force / d ctrl at fixed activations, Ga, Gu the activation
+  // dynamics' derivatives, and where a control law sets the controls from the state, Gq, Gv its
+  // dependence through the activations' inputs and dKt, dD the dependence the second-order form
+  // took through activations settled at once (empty: zero). The second-order form above keeps
+  // the activations at their steady state (act = ctrl for filters and muscles): its Bu is the
+  // static gain, its frequencies those of the structure.
+  MatX Fa, Bd, Ga, Gu, Gq, Gv, dKt, dD;
   VecX frequencies_hz;  // undamped natural frequencies, ascending (from Kt x = w^2 M x; an unstable
                         // mode, w^2 < 0, shows as 0 Hz: see omega2 and unstable_modes)
   VecX omega2;          // the eigenvalues w^2 [1/s^2], ascending, signed (real parts if Kt is unsymmetric)

@@ -507,6 +507,72 @@ class StaticProblem {
     return Bu;
   }
 
+  // Actuator activations (MuJoCo's act) as states of their own, at the current qpos, at rest, by
+  // central differences (actuation is affine in act and ctrl but for muscles): Fa = d qfrc_actuator
+  // / d act and Bd = d qfrc_actuator / d ctrl at fixed act, Ga = d act_dot / d act, Gu = d act_dot /
+  // d ctrl; with a control callback also Cq, Cv = d ctrl / d qpos, d qvel (the callback's controls,
+  // by differences of the position and velocity stages; empty without one). The activations start
+  // from their steady state (act = ctrl for filters and muscles), as the second-order form has them.
+  void activation_terms(MatrixXd& Fa, MatrixXd& Bd, MatrixXd& Ga, MatrixXd& Gu, MatrixXd& Cq, MatrixXd& Cv) {
+    const int n = m_->nv, nu = m_->nu, na = m_->na;
+    const double h = 1e-6;
+    Fa.resize(n, na), Bd.resize(n, nu), Ga.resize(na, na), Gu.resize(na, nu);
+    set_loads(1.0);
+    mju_zero(d_->qvel, n);
+    fwd_position(s_, sd_, Need::SmoothStaticForces);
+    fwd_velocity(s_, sd_);
+    control_callback(1.0);
+    auto column = [&](mjtNum* x, int k, MatrixXd& F, MatrixXd& G) {  // central differences in x[k]
+      VectorXd fp(n), gp(na);
+      for (const double sign : {1.0, -1.0}) {
+        x[k] += sign * h;
+        mj_fwdActuation(m_, d_);
+        x[k] -= sign * h;
+        const VectorXd f = Eigen::Map<const VectorXd>(d_->qfrc_actuator, n);
+        const VectorXd g = Eigen::Map<const VectorXd>(d_->act_dot, na);
+        if (sign > 0) fp = f, gp = g;
+        else F.col(k) = (fp - f) / (2 * h), G.col(k) = (gp - g) / (2 * h);
+      }
+    };
+    for (int k = 0; k < na; ++k) column(d_->act, k, Fa, Ga);
+    for (int k = 0; k < nu; ++k) column(d_->ctrl, k, Bd, Gu);
+    Cq.resize(0, 0), Cv.resize(0, 0);
+    if (mjcb_control) {
+      Cq.resize(nu, n), Cv.resize(nu, n);
+      const std::vector<mjtNum> q0(d_->qpos, d_->qpos + m_->nq);
+      std::vector<mjtNum> e(n, 0.0);
+      auto ctrl_at = [&](VectorXd& c) {
+        fwd_position(s_, sd_, Need::SmoothStaticForces);
+        fwd_velocity(s_, sd_);
+        control_callback(1.0);
+        c = Eigen::Map<const VectorXd>(d_->ctrl, nu);
+      };
+      VectorXd cp(nu), cm(nu);
+      for (int j = 0; j < n; ++j) {
+        e[j] = 1.0;
+        for (const double sign : {1.0, -1.0}) {
+          set_qpos(q0);
+          mj_integratePos(m_, d_->qpos, e.data(), sign * h);
+          ctrl_at(sign > 0 ? cp : cm);
+        }
+        e[j] = 0.0;
+        set_qpos(q0);
+        Cq.col(j) = (cp - cm) / (2 * h);
+        d_->qvel[j] = h;
+        ctrl_at(cp);
+        d_->qvel[j] = -h;
+        ctrl_at(cm);
+        d_->qvel[j] = 0.0;
+        Cv.col(j) = (cp - cm) / (2 * h);
+      }
+    }
+    set_loads(1.0);
+    fwd_position(s_, sd_, Need::SmoothStaticForces);
+    fwd_velocity(s_, sd_);
+    control_callback(1.0);
+    mj_fwdActuation(m_, d_);
+  }
+
   // The dofs of the floating free joints (floating_joints): Newton keeps them where they are
   // (hold_floating) and the stability test leaves them out, their stiffness being round-off.
   const std::vector<int>& floating() const { return floating_; }
@@ -1773,6 +1839,23 @@ SceneLinearization linearize(const Scene& s, SceneData& sd, const SceneLinearize
   for (int i = 0; i < n; ++i)
     for (int j = 0; j < n; ++j) L.M(i, j) = full[static_cast<size_t>(i) * n + j];
   L.Bu = p.actuation_matrix();
+  MatrixXd Cq, Cv;
+  if (m->na > 0) {
+    p.activation_terms(L.Fa, L.Bd, L.Ga, L.Gu, Cq, Cv);
+    if (Cq.size()) {
+      // a control law's dependence on the state reaches the filters' and muscles' forces through
+      // their activations (S: d act_steady / d ctrl), not at once as the second-order form has it
+      MatrixXd S = MatrixXd::Zero(m->na, nu);
+      for (int k = 0; k < m->na; ++k) {
+        const int a = nu - m->na + k, t = m->actuator_dyntype[a];
+        if (t == mjDYN_FILTER || t == mjDYN_MUSCLE) S(k, a) = 1.0;
+      }
+      L.dKt = L.Fa * S * Cq;
+      L.dD = L.Fa * S * Cv;
+      L.Gq = L.Gu * Cq;
+      L.Gv = L.Gu * Cv;
+    }
+  }
 
   if (opt.rigid_equalities || opt.rigid_contacts) {
     // the equality constraints that act (and with rigid_contacts the contacts and limits), held
@@ -1796,6 +1879,12 @@ SceneLinearization linearize(const Scene& s, SceneData& sd, const SceneLinearize
       L.D = N.transpose() * L.D * N;
       L.M = N.transpose() * L.M * N;
       L.Bu = N.transpose() * L.Bu;
+      if (m->na > 0) {
+        L.Fa = N.transpose() * L.Fa;
+        L.Bd = N.transpose() * L.Bd;
+        if (L.dKt.size()) L.dKt = N.transpose() * L.dKt * N, L.dD = N.transpose() * L.dD * N;
+        if (L.Gq.size()) L.Gq = L.Gq * N, L.Gv = L.Gv * N;
+      }
       L.basis = N;
       L.constraint_rows = static_cast<int>(J.rows());
     }

@@ -106,6 +106,10 @@ struct SceneLinearizeOptions {
 // tendon damping, Kt the tangent stiffness. With a control callback (mjcb_control, called at every
 // force evaluation), D and Kt hold its dependence on the state (the closed loop), and Bu =
 // d qfrc_actuator / d ctrl at its controls: the input matrix of a perturbation added to them.
+// Actuators with activation dynamics (filters, integrators, muscles: MuJoCo's act) add their
+// activations to the state, x = [dq; dqvel; dact] (L.Fa, L.Ga, ... in linearize.hpp): A and B are
+// then (2 nv + na) square and (2 nv + na) x nu, with the dynamics of act and a control callback's
+// dependence on the state through them; M, D, Kt and Bu keep the activations at their steady state.
 // Constraint forces: equality constraints, contacts and limits as opt says (with rows held rigid,
 // every matrix is in the coordinates y, dq = L.basis y, and L.constraint_rows counts the rows).
 // Throws std::runtime_error where a contact held rigid comes and goes under the finite

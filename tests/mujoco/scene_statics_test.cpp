@@ -1726,7 +1726,8 @@ TEST(SceneStatics, AFailedRelaxationReportsNewtonsLastLoadStep) {
 namespace {
 double g_kp = 0.0, g_target = 0.0;
 int g_dof = -1;
-void feedback(const mjModel*, mjData* d) { d->ctrl[0] = g_kp * (g_target - d->qpos[g_dof]); }
+int g_ctrl = 0;
+void feedback(const mjModel*, mjData* d) { d->ctrl[g_ctrl] = g_kp * (g_target - d->qpos[g_dof]); }
 }  // namespace
 
 TEST(SceneStatics, EquilibriumTakesTheControlCallback) {
@@ -1745,6 +1746,55 @@ TEST(SceneStatics, EquilibriumTakesTheControlCallback) {
   mjcb_control = nullptr;
   EXPECT_TRUE(r.converged);
   EXPECT_NEAR(sd.d->qpos[g_dof], g_kp * g_target / (EI * l + g_kp), 1e-9);
+}
+
+// Actuator activations are states of the linearisation: a filter (time constant tau) between the
+// control and a motor on the rod's first section puts act_dot = (ctrl - act) / tau into A and B,
+// and a control law's dependence on the state reaches the force through the activation, not at
+// once. Outside probe CF: A stayed 2 nv x 2 nv with B the static gain, and an LQR gain designed on
+// it, stable there (-1.96 1/s), made the filtered soft pendulum fall (+8.8 1/s at tau = 10 ms).
+TEST(SceneStatics, LinearizeTakesActuatorActivationsAsStates) {
+  const double tau = 0.05;
+  auto s = load_scene_string(R"(<mujoco><option gravity="0 0 0"/>
+    <worldbody><cosserat name="rod" pos="0 0 1" length="0.5" sections="4" strain="kl" radius="0.01"
+      density="1000" young="1e8" poisson="0.5" viscosity="1e6" contype="0" conaffinity="0"/></worldbody>
+    <actuator><motor joint="rod/s1/ky"/>
+      <general joint="rod/s0/ky" dyntype="filter" dynprm="0.05" gear="2"/></actuator></mujoco>)", "filter.xml");
+  const int n = s->m->nv;
+  const int dof = s->m->jnt_dofadr[mj_name2id(s->m, mjOBJ_JOINT, "rod/s0/ky")];
+  const int dof1 = s->m->jnt_dofadr[mj_name2id(s->m, mjOBJ_JOINT, "rod/s1/ky")];
+  ASSERT_EQ(s->m->na, 1);
+  const int filtered = 1;  // (MuJoCo 2.2 wants stateful actuators last)
+  ASSERT_EQ(s->m->actuator_dyntype[filtered], mjDYN_FILTER);
+  SceneData sd(*s);
+  SceneLinearization open = linearize(*s, sd);
+  ASSERT_EQ(open.A.rows(), 2 * n + 1);
+  ASSERT_EQ(open.B.rows(), 2 * n + 1);
+  EXPECT_NEAR(open.A(2 * n, 2 * n), -1.0 / tau, 1e-6 / tau);
+  EXPECT_NEAR(open.B(2 * n, filtered), 1.0 / tau, 1e-6 / tau);
+  EXPECT_NEAR(open.B(2 * n, 1 - filtered), 0.0, 1e-9);
+  for (int i = 0; i < n; ++i) {
+    EXPECT_NEAR(open.Fa(i, 0), i == dof ? 2.0 : 0.0, 1e-8) << i;  // the gear
+    EXPECT_NEAR(open.Bd(i, filtered), 0.0, 1e-8) << i;             // no force without the activation
+    EXPECT_NEAR(open.Bd(i, 1 - filtered), i == dof1 ? 1.0 : 0.0, 1e-8) << i;
+    EXPECT_NEAR(open.Bu(i, filtered), i == dof ? 2.0 : 0.0, 1e-8) << i;  // the static gain as before
+  }
+  // M v_dot = ... + Fa act: A's column of the activation is M^-1 Fa
+  EXPECT_LT((open.M * open.A.block(n, 2 * n, n, 1) - open.Fa).norm(), 1e-9 * open.Fa.norm());
+  // a feedback law on the filtered motor: ctrl = kp (target - q)
+  const int j = mj_name2id(s->m, mjOBJ_JOINT, "rod/s0/ky");
+  g_dof = s->m->jnt_qposadr[j];
+  g_kp = 3.0;
+  g_target = 0.0;
+  g_ctrl = filtered;
+  mjcb_control = feedback;
+  SceneLinearization closed = linearize(*s, sd);
+  mjcb_control = nullptr;
+  g_ctrl = 0;
+  // the law's stiffness reaches the structure through the filter: in the activation's row, not at once
+  EXPECT_NEAR(closed.A(2 * n, dof), -g_kp / tau, 1e-5 * g_kp / tau);
+  EXPECT_NEAR(closed.Kt(dof, dof) - open.Kt(dof, dof), 2.0 * g_kp, 1e-5 * g_kp);  // the quasi-static form's
+  EXPECT_LT((closed.A.topRows(2 * n) - open.A.topRows(2 * n)).norm(), 1e-6 * open.A.topRows(2 * n).norm());
 }
 
 namespace {
