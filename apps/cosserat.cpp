@@ -1060,11 +1060,23 @@ struct Equilibrium {
   mj::SceneStaticsResult result;
   std::vector<mjtNum> start_xpos;  // bodies' and sites' positions at the start (displacement())
 
-  // stable = false: any equilibrium, stable or not (SceneStaticsOptions::stable)
-  Equilibrium(const std::string& path, const StateOptions& state, double relaxation_time = 30.0, bool stable = true)
+  // stable = false: any equilibrium, stable or not (SceneStaticsOptions::stable); search = false:
+  // no search, the start state as it is (its residual force measured: linearize --at-start)
+  Equilibrium(const std::string& path, const StateOptions& state, double relaxation_time = 30.0, bool stable = true,
+              bool search = true)
       : scene(load(path)), data(std::make_unique<mj::SceneData>(*scene)) {
     state.apply(*scene, *data);
     start_xpos = positions();
+    if (!search) {
+      Eigen::VectorXd f;
+      mju_zero(data->d->qvel, scene->m->nv);
+      const double scale = mj::static_force(*scene, *data, 1.0, f);
+      result.converged = true;
+      result.method = "none (the start state)";
+      result.residual = scale > 0 ? f.norm() / scale : f.norm();
+      mj::forward(*scene, *data);
+      return;
+    }
     Progress progress("equilibrium", 1);
     mj::SceneStaticsOptions opt;
     opt.relaxation_time = relaxation_time;
@@ -1227,6 +1239,13 @@ int cmd_linearize(int argc, char** argv) {
                                    "hold every contact rigid as a pin (with its friction), and the limits that act: the "
                                    "frequencies of a rod resting on its supports (default: contacts and limits left out)",
                                    contacts_as_pins));
+  bool at_start = false;
+  cl.options.push_back(flag_option(
+      "--at-start",
+      "linearise at the start state (the model's, or --key's) at rest, without searching for an equilibrium: an "
+      "unstable one (an inverted pendulum, a column past buckling) for a controller's model; warned where the start "
+      "is not an equilibrium (A then lacks the motion's term dM/dq qacc: exact only at an equilibrium)",
+      at_start));
   state.add_to(cl);
   const auto pos = cl.parse(argc, argv);
   if (!pos) return 0;
@@ -1236,7 +1255,9 @@ int cmd_linearize(int argc, char** argv) {
   lopt.rigid_contacts = contacts_as_pins;
   if (contacts_as_pins && without_equalities)
     fail("--contacts-as-pins holds the equality constraints rigid too: it cannot go with --without-equalities");
-  std::unique_ptr<Equilibrium> found = std::make_unique<Equilibrium>(pos->front(), state, relaxation_time);
+  std::unique_ptr<Equilibrium> found = std::make_unique<Equilibrium>(pos->front(), state, relaxation_time, true, !at_start);
+  // (the start's residual force relative to the forces' scale; Newton's tolerance is 1e-10)
+
   // no stable equilibrium, where the search found unstable ones (a column past its flutter load):
   // linearised at an equilibrium found without the stability test, whose instability the modes
   // then show (outside probe BT: Beck's column past its flutter load read "no static equilibrium")
@@ -1263,6 +1284,38 @@ int cmd_linearize(int argc, char** argv) {
     }
   }();
   const mjModel* m = eq.scene->m;
+  // --at-start: how far the start is from an equilibrium, as the largest move of a body or site
+  // under one Newton step from it (Kt dq = f, in the coordinates the linearisation holds free):
+  // the residual force alone would flag a stiff rod's axial strain of 1e-12 under its weight
+  std::string not_at_rest;
+  if (at_start && lin.M.rows() > 0) {
+    mjData* d = eq.data->d;
+    const std::vector<mjtNum> q0(d->qpos, d->qpos + m->nq);
+    Eigen::VectorXd f;
+    mj::static_force(*eq.scene, *eq.data, 1.0, f);
+    const Eigen::VectorXd fy = lin.basis.size() ? Eigen::VectorXd(lin.basis.transpose() * f) : f;
+    const Eigen::VectorXd dy = lin.Kt.completeOrthogonalDecomposition().solve(fy);
+    const Eigen::VectorXd dq = lin.basis.size() ? Eigen::VectorXd(lin.basis * dy) : dy;
+    const std::vector<mjtNum> x0 = eq.positions();
+    mj_integratePos(m, d->qpos, dq.data(), 1.0);
+    const std::vector<mjtNum> x1 = eq.positions();
+    std::copy(q0.begin(), q0.end(), d->qpos);
+    mju_zero(d->qvel, m->nv);
+    mj::forward(*eq.scene, *eq.data);
+    double move = 0.0;
+    for (size_t i = 0; i + 2 < x0.size(); i += 3)
+      move = std::max(move, std::hypot(x1[i] - x0[i], x1[i + 1] - x0[i + 1], x1[i + 2] - x0[i + 2]));
+    if (!(move <= 1e-6 * std::max(m->stat.extent, 1e-3))) {
+      char buf[500];
+      std::snprintf(buf, sizeof buf,
+                    "the start state is not an equilibrium (the equilibrium nearest it, by one Newton step, moves a "
+                    "body or site %.3g m; residual force %.3g of the forces' scale): the linearisation holds the "
+                    "forces' derivatives there, at rest, but not the term of the motion the unbalanced forces drive "
+                    "(dM/dq qacc): A is exact only at an equilibrium",
+                    move, found->result.residual);
+      not_at_rest = buf;
+    }
+  }
   // equality constraints are held rigid (unless --without-equalities); the constraints that are
   // left out and carry load at the equilibrium (a floor, a limit) make the frequencies those of
   // the system without them
@@ -1313,6 +1366,7 @@ int cmd_linearize(int argc, char** argv) {
     j["nu"] = m->nu;
     j["equilibrium"] = eq.report();
     json warnings = json::array();
+    if (!not_at_rest.empty()) warnings.push_back(not_at_rest);
     if (!constraint_warning.empty()) warnings.push_back(constraint_warning);
     for (const auto& w : open_warnings) warnings.push_back(w);
     if (!unstable_note.empty()) warnings.push_back(unstable_note);
@@ -1365,6 +1419,7 @@ int cmd_linearize(int argc, char** argv) {
     eq.print();
     if (!constraint_note.empty()) std::printf("%s\n", constraint_note.c_str());
     if (!constraint_warning.empty()) std::printf("warning: %s\n", constraint_warning.c_str());
+    if (!not_at_rest.empty()) std::printf("warning: %s\n", not_at_rest.c_str());
     for (const auto& w : open_warnings) std::printf("warning: %s\n", w.c_str());
     if (!unstable_note.empty()) std::printf("warning: %s\n", unstable_note.c_str());
     if (divergent > 0)

@@ -717,6 +717,42 @@ TEST_F(Cli, EquilibriumAndLinearizeJson) {
 // beam's 56 Hz behind a warning only in the JSON, and only when relaxation had been used).
 // linearize holds equality constraints rigid (a note says how many coordinates remain) and says
 // which constraints it leaves out: equalities with --without-equalities, and contacts always.
+// linearize --at-start linearises at the start state without searching for an equilibrium: an
+// upright pendulum (a stiff rod with a tip mass on a hinge) for a controller's model. Its unstable
+// mode against the rigid pendulum's omega^2 = -g sum(m z) / I (rod 0.12566 kg at 0.2 m, I = m L^2 / 3
+// + m r^2 / 4; tip sphere 0.05 kg at 0.4 m, I = m l^2 + 2/5 m rho^2; hub 1e-4 kg m^2). Outside probe
+// CF: the command always searched, found the hanging pendulum, and no option kept the upright. A
+// tilted start is not an equilibrium: warned.
+TEST_F(Cli, LinearizeAtTheStartStateKeepsAnUnstableEquilibrium) {
+  const fs::path model = scratch() / "upright.xml";
+  std::ofstream(model) << R"(<mujoco><option gravity="0 0 -9.81"/><worldbody>
+    <body name="hub" pos="0 0 0.2"><joint name="hinge" type="hinge" axis="0 1 0"/>
+      <inertial pos="0 0 0" mass="0.1" diaginertia="1e-4 1e-4 1e-4"/>
+      <cosserat name="rod" euler="0 -90 0" length="0.4" sections="4" strain="kl" radius="0.01" density="1000"
+                young="1e12" poisson="0.5" contype="0" conaffinity="0">
+        <body name="tip"><geom type="sphere" size="0.015" mass="0.05" contype="0" conaffinity="0"/></body>
+      </cosserat></body></worldbody>
+    <keyframe><key name="tilted" qpos="0.3 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0"/></keyframe></mujoco>)";
+  const double m_rod = M_PI * 1e-4 * 0.4 * 1000, m_tip = 0.05, g = 9.81;
+  const double I = m_rod * 0.16 / 3 + m_rod * 1e-4 / 4 + m_tip * 0.16 + 0.4 * m_tip * 0.015 * 0.015 + 1e-4;
+  const double omega2 = -g * (m_rod * 0.2 + m_tip * 0.4) / I;
+  const fs::path out = scratch() / "upright.json";
+  Result r = cosserat("linearize '" + model.string() + "' --at-start --json '" + out.string() + "'");
+  ASSERT_EQ(r.status, 0) << r.err;
+  json j = json::parse(read_text(out));
+  EXPECT_EQ(j["unstable_modes"], 1);
+  EXPECT_NEAR(j["omega2"][0].get<double>(), omega2, 1e-3 * std::abs(omega2));
+  for (const auto& w : j["warnings"]) EXPECT_EQ(w.get<std::string>().find("not an equilibrium"), std::string::npos) << w;
+  // without it, the search finds the pendulum hanging: stable
+  r = cosserat("linearize '" + model.string() + "' --json '" + out.string() + "'");
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_EQ(json::parse(read_text(out))["unstable_modes"], 0);
+  // tilted: not an equilibrium, and said so
+  r = cosserat("linearize '" + model.string() + "' --at-start --key tilted");
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.out.find("warning: the start state is not an equilibrium"), std::string::npos) << r.out;
+}
+
 TEST_F(Cli, LinearizeHoldsEqualitiesRigidAndSaysWhatItLeavesOut) {
   const fs::path model = scratch() / "weld.xml";
   std::ofstream(model) << R"(<mujoco><option gravity="0 0 -9.81"/><worldbody>
