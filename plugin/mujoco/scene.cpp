@@ -1181,6 +1181,41 @@ void warn_pyramidal_torsion(Scene& s) {
                             "(--newton 10, trapezoidal, genalpha, midpoint) with either cone");
 }
 
+// Frictionless contacts written as friction 0 with condim 3 or more under the pyramidal cone: the
+// pyramid's edges J_n +- 0 J_t all equal the normal row, a degenerate set MuJoCo's solver stops on
+// unconverged (outside probe CE: a soft gripper's touch sensors read up to 8.7e4 N on a 20 g box
+// at rest, and the motion differed from condim 1's and the elliptic cone's, which agree). A pair
+// contact's friction and condim are the larger of its geoms' (or a <pair>'s own).
+void warn_frictionless_pyramid(Scene& s) {
+  const mjModel* m = s.m;
+  if (m->opt.cone != mjCONE_PYRAMIDAL || !s.may_collide) return;
+  auto collidable = [&](int g) { return m->geom_contype[g] || m->geom_conaffinity[g]; };
+  const RodBinding* rod = nullptr;
+  for (int g = 0; g < m->ngeom && !rod; ++g) {
+    if (s.geom_rod[g] < 0 || !collidable(g) || m->geom_friction[3 * g] != 0.0) continue;
+    for (int g2 = 0; g2 < m->ngeom && !rod; ++g2) {
+      // (a rod's own capsules: only with selfcollide, rarely frictionless)
+      if (s.geom_rod[g2] == s.geom_rod[g] || m->geom_friction[3 * g2] != 0.0 ||
+          std::max(m->geom_condim[g], m->geom_condim[g2]) < 3)
+        continue;
+      if ((m->geom_contype[g] & m->geom_conaffinity[g2]) || (m->geom_contype[g2] & m->geom_conaffinity[g]))
+        rod = &s.rods[s.geom_rod[g]];
+    }
+  }
+  for (int p = 0; p < m->npair && !rod; ++p)
+    if (m->pair_friction[5 * p] == 0.0 && m->pair_dim[p] >= 3) {
+      const int g = s.geom_rod[m->pair_geom1[p]] >= 0 ? m->pair_geom1[p] : m->pair_geom2[p];
+      if (s.geom_rod[g] >= 0) rod = &s.rods[s.geom_rod[g]];
+    }
+  if (!rod) return;
+  s.load_warnings.push_back(rod->decl.file + ":" + std::to_string(rod->decl.line) + ": <cosserat name=\"" +
+                            rod->decl.name + "\">: contacts with friction 0 and condim 3 or more under the pyramidal "
+                            "cone: the pyramid's edges all equal the normal row, a degenerate set on which MuJoCo's "
+                            "solver stops unconverged (contact forces and touch sensors off by orders of magnitude, the "
+                            "motion changed); for frictionless contacts write condim=\"1\" (or <option "
+                            "cone=\"elliptic\">)");
+}
+
 // A load warning for two rods whose capsules overlap in the model's reference configuration where
 // MuJoCo would collide them: rods mounted at one point of one body (or of the world) overlap at
 // their bases, which the proxies' exclusions (parent body, tip bodies) do not cover, and push each
@@ -2757,6 +2792,7 @@ std::unique_ptr<Scene> compile(const Preprocessed& pre) {
     recompute_qpos0_constants(*s, at_qpos0);
     warn_overlapping_rods(*s, at_qpos0);  // (before anything else moves the rod capsules' sizes)
     warn_pyramidal_torsion(*s);
+    warn_frictionless_pyramid(*s);
     warn_one_capsule_sections(*s);
     warn_gvs_capsules(*s);
     avoid_sparse_newton_on_small_pivots(*s, at_qpos0);

@@ -1742,7 +1742,7 @@ SceneStaticsResult equilibrium_of_held(const Scene& s, SceneData& sd, const Scen
         char b[240];
         std::snprintf(b, sizeof b,
                       "the equilibria the load continuation found flutter (at load factor %s an oscillation of %.4g Hz "
-                      "grows at %.4g 1/s, fed by loads that turn with the scene; more damping or less load holds it); ",
+                      "grows at %.4g 1/s, fed by non-conservative loads; more damping or less load holds it); ",
                       cosserat::load_factor_text(unstable.lambda).c_str(), unstable.flutter.hz, unstable.flutter.rate);
         res.message = b + res.message;
       }
@@ -1806,7 +1806,7 @@ SceneStaticsResult equilibrium_of_held(const Scene& s, SceneData& sd, const Scen
     // 1.50e-14)" led a 600-character line that came to the instability at its end)
     char w2_text[160];
     if (flutter.rate > 0)
-      std::snprintf(w2_text, sizeof w2_text, "flutter: an oscillation of %.4g Hz grows at %.4g 1/s, fed by loads that turn with the scene", flutter.hz, flutter.rate);
+      std::snprintf(w2_text, sizeof w2_text, "flutter: an oscillation of %.4g Hz grows at %.4g 1/s, fed by non-conservative loads", flutter.hz, flutter.rate);
     else
       std::snprintf(w2_text, sizeof w2_text, "omega^2_min = %.6g 1/s^2: the scene would fall away from it", w2);
     res.message = std::string("the search settled in an unstable equilibrium (") + w2_text +

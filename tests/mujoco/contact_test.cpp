@@ -790,6 +790,27 @@ TEST(Contact, ASoftRodBouncesAsItsRigidTwinUnderTheDefaultStep) {
 // spring's implicit response) where the native twin turns 0.008 rad in 3 s and the Newton schemes
 // 0.027 rad; its elliptic cones' friction rows are now frozen with its matrix as the Newton
 // schemes' rows are.
+// Frictionless contacts written as friction 0 with condim 3 under the pyramidal cone are warned
+// about at load (the pyramid degenerates: outside probe CE's gripper read touch forces up to
+// 8.7e4 N on a 20 g box); condim 1, the elliptic cone, or friction on either geom are not.
+TEST(Contact, FrictionZeroOnAPyramidIsWarnedAbout) {
+  auto scene = [](const std::string& rod, const std::string& floor, const std::string& option) {
+    return load_scene_string(R"(<mujoco><option )" + option + R"(/><worldbody><geom type="plane" size="1 1 0.1" )" + floor +
+                                 R"(/><cosserat name="r" pos="0 0 0.01" length="0.5" sections="4" radius="0.01" )" + rod +
+                                 R"(/></worldbody></mujoco>)",
+                             kPath);
+  };
+  auto warned = [](const std::unique_ptr<Scene>& s) {
+    for (const auto& w : s->load_warnings)
+      if (w.find("friction 0 and condim 3 or more under the pyramidal cone") != std::string::npos) return true;
+    return false;
+  };
+  EXPECT_TRUE(warned(scene(R"(friction="0 0 0")", R"(friction="0 0 0")", "")));
+  EXPECT_FALSE(warned(scene(R"(friction="0 0 0" condim="1")", R"(friction="0 0 0" condim="1")", "")));
+  EXPECT_FALSE(warned(scene(R"(friction="0 0 0")", R"(friction="0 0 0")", R"(cone="elliptic")")));
+  EXPECT_FALSE(warned(scene(R"(friction="0 0 0")", "", "")));  // the floor's friction 1 is the pair's
+}
+
 TEST(Contact, TorsionalFrictionAtASoftRodsEndHoldsUnderEveryIntegrator) {
   const std::string xml = R"(<mujoco>
   <option timestep="0.001" cone="CONE"/>

@@ -322,9 +322,15 @@ TEST(MjcfErrors, ImplausibleValuesAreWarnedAbout) {
       {in_world(rod + R"( strain="rigid"/>)"), ""},
       {in_world(rod + R"( strain="icc"/>)"), ""},  // one arc: the constant-curvature model chosen
       // a rest curvature tighter than the rod is thick (outside probe BL: degrees for radians per metre)
-      {in_world(rod4 + R"( radius="0.012" reststrain="0 0 90 1 0 0"/>)"),
+      {in_world(rod + R"( sections="8" radius="0.012" reststrain="0 0 90 1 0 0"/>)"),
        "inline.xml:3: <cosserat>: reststrain bends the rod with curvature 90 1/m, a radius 0.0111111 m below the rod's radius 0.012 m"},
-      {in_world(rod4 + R"( radius="0.01" reststrain="0 0 90 1 0 0"/>)"), ""},
+      {in_world(rod + R"( sections="8" radius="0.01" reststrain="0 0 90 1 0 0"/>)"), ""},
+      // a coil in one section (outside probe CD: a 5-turn helix in one section, its frequencies
+      // 23-49% off); a turn and a half per section of twist alone, or 0.9 turn of bending, are not
+      {in_world(rod + R"( sections="2" radius="0.001" reststrain="0 0 60 1 0 0"/>)"),
+       "inline.xml:3: <cosserat>: 2 sections (the first: 0) coil through up to 1.43 turns at rest"},
+      {in_world(rod + R"( sections="2" radius="0.001" reststrain="60 0 0 1 0 0"/>)"), ""},
+      {in_world(rod + R"( sections="2" radius="0.001" reststrain="0 0 37.7 1 0 0"/>)"), ""},
       {in_world(rod + R"( strain="spring"/>)"), ""},
       {in_world(rod4 + R"( radius="0.005" young="1e6" density="1000"/>)"), ""},
       {in_world(rod4 + R"( radius="0.005" young="1e12" density="22000"/>)"), ""},
