@@ -2894,8 +2894,11 @@ std::string divergence_hint(const Scene& s, const SceneData& sd, Integrator in, 
   // buffers a quarter full, filled them in its last steps, and was told to raise nconmax first)
   const int full = full_buffer_count(d);
   const std::string raise = raise_buffers_advice(m);
-  const double steps_before = (d->time - sd.buffers_full_at) / m->opt.timestep;
-  if (full > 0 && steps_before < 20 && d->time - sd.buffers_full_at < 0.05 * (d->time - sd.run_start))
+  // (not yet recorded: they filled inside the diverging step; outside probe CE's gripper under rk4
+  // blew up in its first step and was told to raise nconmax first)
+  const double full_at = std::isnan(sd.buffers_full_at) ? d->time : sd.buffers_full_at;
+  const double steps_before = (d->time - full_at) / m->opt.timestep;
+  if (full > 0 && steps_before < 20 && d->time - full_at <= 0.05 * (d->time - sd.run_start))
     hint += "; MuJoCo's contact buffers also filled (" + std::to_string(full) + " times), first " +
             std::to_string(std::max(0L, std::lround(steps_before))) +
             " steps before the divergence, likely as the state blew up; if contacts were dropped before that, " + raise;

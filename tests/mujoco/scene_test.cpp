@@ -1732,6 +1732,13 @@ TEST(Scene, FullContactBuffersLeadTheAdviceOnlyWhenTheyCameFirst) {
   sd.buffers_full_at = t - 0.5;  // long before: contacts were dropped, bodies passed through
   const std::string early = divergence_hint(*s, sd, Integrator::RK4, Vocabulary::CommandLine);
   EXPECT_EQ(early.rfind("MuJoCo's contact buffers were full 3 times and contacts were dropped: raise <size", 0), 0u) << early;
+  // filled inside the diverging step (not yet recorded), in a run's first steps: a consequence too
+  // (outside probe CE: a gripper under rk4 blew up in its first step and was told to raise nconmax)
+  sd.buffers_full_at = std::numeric_limits<double>::quiet_NaN();
+  sd.run_start = t - s->m->opt.timestep;
+  const std::string inside = divergence_hint(*s, sd, Integrator::RK4, Vocabulary::CommandLine);
+  EXPECT_EQ(inside.rfind("try a smaller --timestep", 0), 0u) << inside;
+  EXPECT_NE(inside.find("first 0 steps before the divergence"), std::string::npos) << inside;
   sd.d->warning[mjWARN_CONTACTFULL].number = 0;
 }
 
