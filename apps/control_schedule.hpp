@@ -19,10 +19,12 @@ namespace cosserat::cli {
 
 // Knots (time, controls of some actuators): between two knots the controls are interpolated
 // linearly in d->time, before the first and after the last they are the first's and the last's.
-// Actuators without a column keep their controls (--key, --ctrl).
+// Two knots at one time make a step change: the first's value up to it, the second's from it on
+// (upper_bound picks the second at that time). Actuators without a column keep their controls
+// (--key, --ctrl).
 struct ControlSchedule {
   std::vector<int> actuators;          // the columns' actuator ids
-  std::vector<double> times;           // strictly increasing
+  std::vector<double> times;           // increasing, at most two knots at one time
   std::vector<std::vector<double>> u;  // per knot, per column
 
   void apply(mjData* d) const {
@@ -102,8 +104,12 @@ inline ControlSchedule read_control_schedule(const std::string& path, const mjMo
       if (!(std::abs(v) < mjMAXVAL)) fail(where() + "'" + x + "' is not below 1e10 in magnitude (MuJoCo ignores such controls)");
       row.push_back(v);
     }
-    if (!s.times.empty() && !(row[0] > s.times.back()))
-      fail(where() + "time " + format_g(row[0]) + " does not follow " + format_g(s.times.back()) + ": times must increase");
+    // two rows at one time: a step change there (the second row's from that time on); not three
+    const size_t n = s.times.size();
+    const bool jump = n > 0 && row[0] == s.times.back() && !(n > 1 && s.times[n - 2] == s.times.back());
+    if (n > 0 && !(row[0] > s.times.back()) && !jump)
+      fail(where() + "time " + format_g(row[0]) + " does not follow " + format_g(s.times.back()) +
+           ": times must increase (two rows at one time make a step change there)");
     s.times.push_back(row[0]);
     s.u.emplace_back(row.begin() + 1, row.end());
   }

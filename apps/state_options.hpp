@@ -69,8 +69,9 @@ struct StateOptions {
           "--ctrl-file", "F",
           "controls that change over the run: a CSV file, its header time,<actuator>,... and rows of numbers (# lines "
           "skipped); at every evaluation each named actuator's control is interpolated linearly in the simulated time "
-          "between the rows (before the first and after the last: theirs); actuators without a column keep --key's "
-          "and --ctrl's",
+          "between the rows (before the first and after the last: theirs); two rows at one time make a step change "
+          "there (the second row's values from that time on, at an evaluation exactly then too: rk4's and "
+          "rosenbrock's last stage of the step ending there); actuators without a column keep --key's and --ctrl's",
           ctrl_file));
   }
 

@@ -1047,11 +1047,21 @@ TEST_F(Cli, ControlsChangeOverTheRunFromACtrlFile) {
     ASSERT_EQ(r.status, 0) << r.err;
     EXPECT_NEAR(json::parse(r.out)["bodies"]["b"][0].get<double>(), x, 1e-9) << duration;
   }
+  // two rows at one time: a step change (outside probe CF: refused, so a per-step control sequence
+  // could not be replayed). u = 0 up to 0.5 s, then 1: x(1) = (1 - 0.5)^2 / 2 = 0.125, to O(h)
+  // (rk4's last stage of the step ending at 0.5 s sees the new value); a ramp over 0.1 s instead
+  // would end at 0.1217
+  const fs::path jump = scratch() / "jump.csv";
+  std::ofstream(jump) << "time,m\n0,0\n0.5,0\n0.5,1\n2,1\n";
+  const Result stepped = cosserat("run '" + m.string() + "' --integrator rk4 --duration 1 --ctrl-file '" + jump.string() + "' --json -");
+  ASSERT_EQ(stepped.status, 0) << stepped.err;
+  EXPECT_NEAR(json::parse(stepped.out)["bodies"]["b"][0].get<double>(), 0.125, 2e-4);
   const struct {
     std::string text, error;
   } bad[] = {
       {"time,mm\n0,0\n", ":1: no actuator 'mm' in the model (actuators: still, m)"},
-      {"time,m\n0,0\n0,1\n", ":3: time 0 does not follow 0: times must increase"},
+      {"time,m\n0,0\n0,1\n0,2\n", ":4: time 0 does not follow 0: times must increase (two rows at one time make a step change there)"},
+      {"time,m\n1,0\n0.5,1\n", ":3: time 0.5 does not follow 1: times must increase"},
       {"time,m\n0,0,3\n", ":2: 3 values, the header has 2"},
       {"t,m\n0,0\n", ":1: the first line names the columns: time,<actuator>,..."},
       {"time,m,m\n0,0,0\n", ":1: actuator 'm' has two columns"},
