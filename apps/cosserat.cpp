@@ -1298,9 +1298,17 @@ int cmd_linearize(int argc, char** argv) {
     mjData* d = eq.data->d;
     const std::vector<mjtNum> q0(d->qpos, d->qpos + m->nq);
     Eigen::VectorXd f;
-    mj::static_force(*eq.scene, *eq.data, 1.0, f);
+    const double scale = mj::static_force(*eq.scene, *eq.data, 1.0, f);
     const Eigen::VectorXd fy = lin.basis.size() ? Eigen::VectorXd(lin.basis.transpose() * f) : f;
     const Eigen::VectorXd dy = lin.Kt.completeOrthogonalDecomposition().solve(fy);
+    // the force no stiffness balances (a torque on a free hinge: the step above moves nothing
+    // there, re-check probe CG), relative to the forces' scale
+    const double unbalanced = (fy - lin.Kt * dy).norm() / (scale > 0 ? scale : 1.0);
+    // activations that keep changing (an integrator under a control): not at rest either
+    double act_rate = 0.0;
+    mj::forward(*eq.scene, *eq.data);
+    for (int k = 0; k < m->na; ++k)
+      if (m->actuator_dyntype[m->nu - m->na + k] == mjDYN_INTEGRATOR) act_rate = std::max(act_rate, std::abs(d->act_dot[k]));
     const Eigen::VectorXd dq = lin.basis.size() ? Eigen::VectorXd(lin.basis * dy) : dy;
     const std::vector<mjtNum> x0 = eq.positions();
     mj_integratePos(m, d->qpos, dq.data(), 1.0);
@@ -1311,14 +1319,15 @@ int cmd_linearize(int argc, char** argv) {
     double move = 0.0;
     for (size_t i = 0; i + 2 < x0.size(); i += 3)
       move = std::max(move, std::hypot(x1[i] - x0[i], x1[i + 1] - x0[i + 1], x1[i + 2] - x0[i + 2]));
-    if (!(move <= 1e-6 * std::max(m->stat.extent, 1e-3))) {
-      char buf[500];
+    if (!(move <= 1e-6 * std::max(m->stat.extent, 1e-3)) || !(unbalanced <= 1e-6) || act_rate > 0) {
+      char buf[700];
       std::snprintf(buf, sizeof buf,
                     "the start state is not an equilibrium (the equilibrium nearest it, by one Newton step, moves a "
-                    "body or site %.3g m; residual force %.3g of the forces' scale): the linearisation holds the "
-                    "forces' derivatives there, at rest, but not the term of the motion the unbalanced forces drive "
-                    "(dM/dq qacc): A is exact only at an equilibrium",
-                    move, found->result.residual);
+                    "body or site %.3g m; residual force %.3g of the forces' scale, %.3g along motions without "
+                    "stiffness%s): the linearisation holds the forces' derivatives there, at rest, but not the "
+                    "term of the motion the unbalanced forces drive (dM/dq qacc): A is exact only at an equilibrium",
+                    move, found->result.residual, unbalanced,
+                    act_rate > 0 ? "; an integrator actuator's activation changes under its control" : "");
       not_at_rest = buf;
     }
   }
@@ -1361,7 +1370,14 @@ int cmd_linearize(int argc, char** argv) {
   // highest modes the sections resolve (outside probe CD: a rod under a fixed-direction end moment
   // read 0.78, 1.40, 2.06 1/s at 8, 16, 32 sections against 0.08 1/s for its resolved modes,
   // which a light viscosity shows to 1e-3)
-  if (lin.flutter_rate > 0 && lin.D.size() > 0 && lin.D.cwiseAbs().maxCoeff() == 0.0)
+  if (lin.flutter_rate > 0 && !not_at_rest.empty()) {
+    // (re-check probe CG: a free rod falling under gravity was told of non-conservative loads)
+    std::snprintf(flutter_buf, sizeof flutter_buf,
+                  "an oscillation of %.4g Hz grows at %.4g 1/s in the linearisation, which is at a start that is not "
+                  "an equilibrium (above): its growth may be no property of the scene",
+                  lin.flutter_hz, lin.flutter_rate);
+    flutter_text = flutter_buf;
+  } else if (lin.flutter_rate > 0 && lin.D.size() > 0 && lin.D.cwiseAbs().maxCoeff() == 0.0)
     flutter_text += " (undamped: this growth may be that of the highest modes the sections resolve, which grows with "
                     "them; a light `viscosity` on the rods leaves the resolved modes' growth)";
   if (!json_path.empty()) {

@@ -2033,6 +2033,7 @@ SceneData::SceneData(const Scene& s) : owner(&s) {
   rk_dx.assign(nv, 0);
   ros_M0.assign(s.m->nM, 0);
   for (auto* v : {&ros_sq, &ros_sv, &ros_rhs}) v->assign(nv, 0);
+  ros_ja.assign(s.m->na, 0);
   A_LD.assign(s.m->nM, 0);
   A_LDiagInv.assign(nv, 0);
   joint_K.assign(nv, 0);
@@ -3031,8 +3032,8 @@ bool room_for_woodbury_row(const mjModel* m, SceneData& sd) {
 // clamped to two walls and welded tip to tip, a parallel robot's platform; the linearised steps
 // too: explicit, such rows had pumped energy into every loop at any step, outside probe BY: a
 // tapped loop from 1e-4 J to 0.09 J in 5 s, a damped parallel robot released from rest to
-// 10.8 J, all without a warning), and under the Newton schemes any row, a rod pressing a free
-// object (without it, a stiffly welded loop took twice the corrections, and a box on a free wire
+// 10.8 J, all without a warning), and under the Newton schemes any row but an elliptic cone's, a
+// rod pressing a free object (without it, a stiffly welded loop took twice the corrections, and a box on a free wire
 // split 91 of 20 steps: none now). Should the Woodbury rows be full (room_for_woodbury_row), the
 // terms would be partial: none are taken. Without these terms a wire of short sections lying on
 // a floor split every step (outside probe AA: 300 corrections and 15 splits per 1 ms step under
@@ -3080,7 +3081,12 @@ void add_constraint_terms(const mjModel* m, const char* strain, SceneData& sd, m
     int n = branch_dofs(m, u, last, count, nz);
     bool across = n < 0;
     // a row closing a loop: a Woodbury row (the linearised steps: equality rows only)
-    const bool woodbury = across && (which == FrozenRows::All || d->efc_type[i] == mjCNSTR_EQUALITY) &&
+    // (an elliptic cone's rows, which leave its quadratic zone for the cone's as the iterate moves,
+    // stay out: held across two branches, they made the shipped octopus arm's object under
+    // `implicit --newton 10` take 50.8 corrections a step where it took 32.9, re-check probe CG)
+    const bool woodbury = across &&
+                          (d->efc_type[i] == mjCNSTR_EQUALITY ||
+                           (which == FrozenRows::All && d->efc_type[i] != mjCNSTR_CONTACT_ELLIPTIC)) &&
                           room_for_woodbury_row(m, sd);
     if (woodbury) {
       n = 0;
@@ -4299,18 +4305,37 @@ void rk4_step(const Scene& s, SceneData& sd) {
 
 // One step of the Rosenbrock-W method ROS34PW2 (cosserat::ros34pw2, integrators.hpp) on
 // y = (q, v, act) with F = (v, qacc, act_dot) (our forward, constraints included) and
-// W = [0 I 0; -M0^-1 K  -M0^-1 D  0; 0 0 0]: M0 the mass matrix at the step's start, K and D the
+// W = [0 I 0; -M0^-1 K  -M0^-1 D  0; 0 0 Ja]: M0 the mass matrix at the step's start, K and D the
 // implicit step's stiffness and damping (factor_implicit: the rods', the joints' springs and
 // damping, tendon springs and damping, the position and velocity gains of servos, the fluid's
-// damping). What W leaves out (gravity, Coriolis, geometric stiffness, a stretched cable's turning,
-// tendon forces set by controls, contacts, activation dynamics) is integrated as by an explicit
+// damping), Ja the activations' own decay (activation_jacobian: filters and muscles; before, their
+// dynamics were explicit, and a filter of tau = h / 2.5 diverged where rk4 holds it: outside
+// probe CF). What W leaves out (gravity, Coriolis, geometric stiffness, a stretched cable's turning,
+// tendon forces set by controls, contacts, the activations' forces) is integrated as by an explicit
 // method: there an undamped oscillation of
 // frequency w gains energy by a factor 1 + O((h w)^4) per step (outside probe S), and the step
 // limit is about RK4's. Eliminating u_q, each stage solves the implicit step's matrix A = M0 + gamma h D +
 // gamma^2 h^2 K (factorised once per step):
-//   A u_v = h gamma (M0 r_v - h gamma K r_q),   u_q = h gamma (r_q + u_v),   u_act = h gamma r_act,
+//   A u_v = h gamma (M0 r_v - h gamma K r_q),   u_q = h gamma (r_q + u_v),
+//   u_act = h gamma r_act / (1 - h gamma Ja),
 // with r the stage's right-hand side F(Y_i) + sum_j C_ij / h u_j. Positions are integrated with
 // mj_integratePos (as rk4_step does: on free and ball joints the quaternions then lose the third order).
+// d act_dot / d act of activation j at the current state, for Rosenbrock's W (any W keeps the
+// method's order): a filter's -1/tau, a muscle's by central differences of mju_muscleDynamics
+// (its time constant changes with act), 0 for integrators and user dynamics (left explicit).
+double activation_jacobian(const mjModel* m, const mjData* d, int j) {
+  if (m->opt.disableflags & mjDSBL_ACTUATION) return 0.0;
+  const int a = m->nu - m->na + j, type = m->actuator_dyntype[a];
+  const mjtNum* prm = m->actuator_dynprm + mjNDYN * a;
+  if (type == mjDYN_FILTER) return -1.0 / std::max(mjMINVAL, prm[0]);
+  if (type != mjDYN_MUSCLE) return 0.0;
+  double ctrl = d->ctrl[a];
+  if (m->actuator_ctrllimited[a] && !(m->opt.disableflags & mjDSBL_CLAMPCTRL))
+    ctrl = mju_clip(ctrl, m->actuator_ctrlrange[2 * a], m->actuator_ctrlrange[2 * a + 1]);
+  const double x = d->act[j], e = 1e-7;
+  return std::min(0.0, (mju_muscleDynamics(ctrl, x + e, prm) - mju_muscleDynamics(ctrl, x - e, prm)) / (2 * e));
+}
+
 void rosenbrock_step(const Scene& s, SceneData& sd) {
   namespace R = ros34pw2;
   const mjModel* m = s.m;
@@ -4342,6 +4367,7 @@ void rosenbrock_step(const Scene& s, SceneData& sd) {
     if (st == 0) {
       std::copy(d->qM, d->qM + m->nM, sd.ros_M0.begin());
       factor_implicit(s, sd, true, R::gamma, R::gamma * R::gamma);
+      for (int j = 0; j < na; ++j) sd.ros_ja[j] = activation_jacobian(m, d, j);
     }
     // r_q = v + sum_j C_stj / h u_q,j (in sq), r_v = qacc + sum_j C_stj / h u_v,j (in sv)
     mju_copy(sq.data(), d->qvel, nv);
@@ -4362,7 +4388,7 @@ void rosenbrock_step(const Scene& s, SceneData& sd) {
     mjtNum* uq_st = uq.data() + st * nv;
     solve_implicit(s, sd, uv_st, rhs.data());
     for (int i = 0; i < nv; ++i) uq_st[i] = hg * (sq[i] + uv_st[i]);
-    if (na) mju_scl(ua_st, ua_st, hg, na);
+    for (int j = 0; j < na; ++j) ua_st[j] *= hg / (1.0 - hg * sd.ros_ja[j]);
   }
   std::fill(dx.begin(), dx.end(), 0.0);
   mju_copy(d->qvel, v0.data(), nv);

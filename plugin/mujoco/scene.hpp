@@ -351,7 +351,7 @@ struct SceneData {
   bool callback_threw = false;
   // the 4 stages of RK4 and of the Rosenbrock-W method: kq, kv, ka hold one row of nv (na) per stage
   std::vector<mjtNum> rk_q0, rk_v0, rk_a0, rk_kq, rk_kv, rk_ka, rk_dx;
-  std::vector<mjtNum> ros_M0, ros_sq, ros_sv, ros_rhs;  // Rosenbrock-W: M at the step's start, sums
+  std::vector<mjtNum> ros_M0, ros_sq, ros_sv, ros_rhs, ros_ja;  // Rosenbrock-W: M at the step's start, sums
   struct RodScratch {
     std::vector<int> anc;  // MuJoCo dofs above the rod's base, nearest first
     Mat6X C;               // their base-frame columns (6 x anc.size())

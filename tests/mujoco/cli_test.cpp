@@ -751,6 +751,22 @@ TEST_F(Cli, LinearizeAtTheStartStateKeepsAnUnstableEquilibrium) {
   r = cosserat("linearize '" + model.string() + "' --at-start --key tilted");
   ASSERT_EQ(r.status, 0) << r.err;
   EXPECT_NE(r.out.find("warning: the start state is not an equilibrium"), std::string::npos) << r.out;
+  // a torque on a hinge without stiffness: no Newton step balances it (re-check probe CG: silent);
+  // an integrator actuator under a control: its activation keeps changing
+  const fs::path free = scratch() / "free_hinge.xml";
+  std::ofstream(free) << R"(<mujoco><option gravity="0 0 0"/><worldbody>
+    <body name="hub"><joint name="hinge" type="hinge" axis="0 1 0"/>
+      <inertial pos="0 0 0" mass="0.1" diaginertia="1e-4 1e-4 1e-4"/>
+      <cosserat name="rod" length="0.4" sections="2" strain="kl" radius="0.01" contype="0" conaffinity="0"/></body>
+    </worldbody><actuator><motor joint="hinge"/><general joint="hinge" dyntype="integrator"/></actuator></mujoco>)";
+  for (const std::string ctrl : {"0.3,0", "0,0.3"}) {
+    r = cosserat("linearize '" + free.string() + "' --at-start --ctrl " + ctrl);
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_NE(r.out.find("warning: the start state is not an equilibrium"), std::string::npos) << ctrl << r.out;
+  }
+  r = cosserat("linearize '" + free.string() + "' --at-start --ctrl 0,0");
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_EQ(r.out.find("not an equilibrium"), std::string::npos) << r.out;
 }
 
 TEST_F(Cli, LinearizeHoldsEqualitiesRigidAndSaysWhatItLeavesOut) {

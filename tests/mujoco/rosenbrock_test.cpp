@@ -107,6 +107,28 @@ TEST(Rosenbrock, IsThirdOrderOnARodRidingAHingeWithAnActivation) {
   expect_third_order(kCoupled, 0.2, 0.04, {1e-3, 5e-4, 2.5e-4});
 }
 
+// A filter's decay is in the method's W (activation_jacobian): a filter faster than the step
+// (tau = h / 2.5 and h / 100) settles on its control as the exact act = ctrl (1 - exp(-t / tau))
+// does, and the rod it bends follows. Outside probe CF: the activation was explicit, and tau =
+// h / 2.5 diverged (at 10 ms) where rk4 holds it.
+TEST(Rosenbrock, FiltersFasterThanTheStepSettle) {
+  for (const double ratio : {2.5, 100.0}) {
+    SCOPED_TRACE(ratio);
+    const double h = 1e-3, tau = h / ratio, u = 0.01;
+    auto s = load_scene_string(R"(<mujoco><option gravity="0 0 0" timestep="0.001"/><worldbody>
+      <cosserat name="r" length="0.3" sections="2" strain="kl" radius="0.01" young="1e7" viscosity="3e5" contype="0" conaffinity="0"/>
+      </worldbody><actuator><general joint="r/s0/ky" dyntype="filter" dynprm=")" + std::to_string(tau) + R"("/></actuator></mujoco>)",
+                               kPath);
+    SceneData sd(*s);
+    sd.d->ctrl[0] = u;
+    for (int k = 0; k < 1000; ++k) ASSERT_EQ(step(*s, sd, Integrator::Rosenbrock), Status::Ok) << k;
+    EXPECT_NEAR(sd.d->act[0], u, 1e-12);
+    // the bend the constant torque u holds on the first section, damped to rest: EI k l = u (l = 0.15 m)
+    const double EI = 1e7 * M_PI * 1e-8 / 4;
+    EXPECT_NEAR(sd.d->qpos[s->m->jnt_qposadr[mj_name2id(s->m, mjOBJ_JOINT, "r/s0/ky")]], u / (EI * 0.15), 1e-3 * u / (EI * 0.15));
+  }
+}
+
 // L-stability: an undamped stiff rod (E = 1e9 Pa, L/r = 100, 8 sections) released under gravity at
 // h = 5 ms, where its stiffest modes have h w >> 1: RK4 diverges, the Rosenbrock step damps those
 // modes and runs 2000 steps without gaining energy (the total energy may only fall), and the rod
