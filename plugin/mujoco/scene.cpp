@@ -1156,6 +1156,11 @@ void warn_gvs_capsules(Scene& s) {
   }
 }
 
+// A rod's element in its file, for load warnings: FILE:LINE: <cosserat name="NAME">
+std::string rod_element(const RodBinding& rb) {
+  return rb.decl.file + ":" + std::to_string(rb.decl.line) + ": <cosserat name=\"" + rb.decl.name + "\">";
+}
+
 // Torsional and rolling friction (condim 4, 6) on soft rods' contacts under the pyramidal cone: the
 // linearised steps hold an elliptic cone's friction rows with their matrix, not the pyramid's edges
 // (outside probe BO: held, those braked and blew up rolling rods), and a soft rod's end twisted by
@@ -1173,8 +1178,7 @@ void warn_pyramidal_torsion(Scene& s) {
   }
   for (int p = 0; p < m->npair && !torsion; ++p) torsion = m->pair_dim[p] >= 4;
   if (!rod || !torsion) return;
-  s.load_warnings.push_back(rod->decl.file + ":" + std::to_string(rod->decl.line) + ": <cosserat name=\"" +
-                            rod->decl.name + "\">: contacts of condim 4 or 6 (torsional, rolling friction) with the "
+  s.load_warnings.push_back(rod_element(*rod) + ": contacts of condim 4 or 6 (torsional, rolling friction) with the "
                             "pyramidal cone: the default linearised step does not hold a soft rod's twist by them (a "
                             "rod's end twisted by 16% of its torsional friction limit turned 4.7 rad on a floor); "
                             "<option cone=\"elliptic\"> holds it under every integrator, the Newton schemes "
@@ -1208,8 +1212,7 @@ void warn_frictionless_pyramid(Scene& s) {
       if (s.geom_rod[g] >= 0) rod = &s.rods[s.geom_rod[g]];
     }
   if (!rod) return;
-  s.load_warnings.push_back(rod->decl.file + ":" + std::to_string(rod->decl.line) + ": <cosserat name=\"" +
-                            rod->decl.name + "\">: contacts with friction 0 and condim 3 or more under the pyramidal "
+  s.load_warnings.push_back(rod_element(*rod) + ": contacts with friction 0 and condim 3 or more under the pyramidal "
                             "cone: the pyramid's edges all equal the normal row, a degenerate set on which MuJoCo's "
                             "solver stops unconverged (contact forces and touch sensors off by orders of magnitude, the "
                             "motion changed); for frictionless contacts write condim=\"1\" (or <option "
