@@ -658,6 +658,11 @@ void Preprocessor::check_class(const Reader& r) const {
 // --- rods: reading ------------------------------------------------------------------------------
 
 // Checks everything a <cosserat> says and collects it; no MuJoCo element is generated here.
+// How to put a body partway along a rod (outside probe CE: the workaround gives the same motion).
+constexpr const char* kMidRodBody =
+    "For a body partway along a rod, split the rod there: the first part's <cosserat> carries a <body> at its "
+    "tip, which holds the body's geoms, joints or sites and a second <cosserat> for the rest of the rod";
+
 RodInput Preprocessor::read_rod(XMLElement* cosserat, const std::string& parent_body) {
   const Reader r = reader(cosserat);
   r.allow_attributes({"name", "pos", "quat", "euler", "axisangle", "xyaxes", "zaxis", "length",
@@ -765,8 +770,13 @@ RodInput Preprocessor::read_rod(XMLElement* cosserat, const std::string& parent_
 
   // children: sites, bodies (sections were read above)
   read_sites(r, rod);
-  for (XMLElement* c = cosserat->FirstChildElement("body"); c; c = c->NextSiblingElement("body"))
+  for (XMLElement* c = cosserat->FirstChildElement("body"); c; c = c->NextSiblingElement("body")) {
+    // (outside probe CE: MuJoCo's "unrecognized attribute: 'at'" did not say what to do)
+    if (c->Attribute("at"))
+      reader(c).fail_attr("at", std::string("is not accepted on a <body>: a body inside <cosserat> is carried at the "
+                                            "rod's tip. ") + kMidRodBody);
     rod.bodies.push_back(c);
+  }
   return rod;
 }
 
@@ -790,6 +800,8 @@ void Preprocessor::read_sections(const Reader& r, RodInput& rod) {
     const Reader s = reader(c);
     s.allow_attributes({"length", "strain", "dofs", "order", "reststrain", "density", "young", "poisson", "shear",
                         "viscosity", "hollow", "quadrature", "strainrange"});
+    if (const XMLElement* b = c->FirstChildElement("body"))
+      reader(b).fail(std::string("a <body> inside a <section> is not supported. ") + kMidRodBody);
     s.allow_children({});
     SectionSpec ss = read_section_spec(s, spec.section);
     // the rod's strain range reaches the components this section has; its own is checked against it

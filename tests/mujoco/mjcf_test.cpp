@@ -238,6 +238,12 @@ std::vector<BadCase> bad_cases() {
        "makes this a GVS section, which the rod's strainrange cannot limit"},
       {"solreflimit without a strainrange", in_world(rod + R"( solreflimit="0.01 1"/>)"), 3,
        "'solreflimit' is given, but no strain is limited"},
+      // a body partway along a rod: the messages say how (outside probe CE)
+      {"a body inside a section", in_world(rod + ">\n<section>\n<body/>\n</section>\n</cosserat>"), 5,
+       "a <body> inside a <section> is not supported. For a body partway along a rod, split the rod there"},
+      {"a rod body with 'at'", in_world(rod + ">\n<body at=\"0.1\"/>\n</cosserat>"), 4,
+       "attribute 'at' is not accepted on a <body>: a body inside <cosserat> is carried at the rod's tip. For a body "
+       "partway along a rod, split the rod there"},
       {"user data beyond a gigabyte", "<mujoco>\n<size nuser_site=\"100000000\"/>\n<worldbody>\n" + rod + "/>\n</worldbody>\n</mujoco>\n", 2,
        "'nuser_site' is 100000000: MuJoCo would allocate 1.6 GB of user data for the model's 2 sites"},
       {"keyframes beyond a gigabyte", "<mujoco>\n<size nkey=\"999999999\"/>\n</mujoco>\n", 2,
