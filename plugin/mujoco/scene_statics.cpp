@@ -1680,7 +1680,8 @@ SceneStaticsResult equilibrium_of_held(const Scene& s, SceneData& sd, const Scen
                       std::to_string(static_cast<int>(std::lround(100 * where))) + "% of the way)"
       : opens ? "the way from the start to the smooth equilibrium, which ignores equality constraints, opens one (at " +
                     std::to_string(static_cast<int>(std::lround(100 * where_open))) + "% of the way)"
-              : "Newton failed (" + res.message + ")";
+              // (outside probe CE: "Newton failed" read like an error for a starfish resting on a floor)
+              : "the smooth equilibrium search (Newton, contacts ignored) found none (" + res.message + ")";
   res.converged = false;
   if (!opt.relaxation) {
     res.message = why;
