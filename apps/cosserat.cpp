@@ -1262,8 +1262,6 @@ int cmd_linearize(int argc, char** argv) {
   if (contacts_as_pins && without_equalities)
     fail("--contacts-as-pins holds the equality constraints rigid too: it cannot go with --without-equalities");
   std::unique_ptr<Equilibrium> found = std::make_unique<Equilibrium>(pos->front(), state, relaxation_time, true, !at_start);
-  // (the start's residual force relative to the forces' scale; Newton's tolerance is 1e-10)
-
   // no stable equilibrium, where the search found unstable ones (a column past its flutter load):
   // linearised at an equilibrium found without the stability test, whose instability the modes
   // then show (outside probe BT: Beck's column past its flutter load read "no static equilibrium")
@@ -1304,11 +1302,6 @@ int cmd_linearize(int argc, char** argv) {
     // the force no stiffness balances (a torque on a free hinge: the step above moves nothing
     // there, re-check probe CG), relative to the forces' scale
     const double unbalanced = (fy - lin.Kt * dy).norm() / (scale > 0 ? scale : 1.0);
-    // activations that keep changing (an integrator under a control): not at rest either
-    double act_rate = 0.0;
-    mj::forward(*eq.scene, *eq.data);
-    for (int k = 0; k < m->na; ++k)
-      if (m->actuator_dyntype[m->nu - m->na + k] == mjDYN_INTEGRATOR) act_rate = std::max(act_rate, std::abs(d->act_dot[k]));
     const Eigen::VectorXd dq = lin.basis.size() ? Eigen::VectorXd(lin.basis * dy) : dy;
     const std::vector<mjtNum> x0 = eq.positions();
     mj_integratePos(m, d->qpos, dq.data(), 1.0);
@@ -1316,6 +1309,10 @@ int cmd_linearize(int argc, char** argv) {
     std::copy(q0.begin(), q0.end(), d->qpos);
     mju_zero(d->qvel, m->nv);
     mj::forward(*eq.scene, *eq.data);
+    // activations that keep changing (an integrator under a control): not at rest either
+    double act_rate = 0.0;
+    for (int k = 0; k < m->na; ++k)
+      if (m->actuator_dyntype[m->nu - m->na + k] == mjDYN_INTEGRATOR) act_rate = std::max(act_rate, std::abs(d->act_dot[k]));
     double move = 0.0;
     for (size_t i = 0; i + 2 < x0.size(); i += 3)
       move = std::max(move, std::hypot(x1[i] - x0[i], x1[i + 1] - x0[i + 1], x1[i + 2] - x0[i + 2]));

@@ -50,6 +50,9 @@ constexpr int kMaxNewtonMemory = 4;  // Scene::newton_memory is clamped to this
 // correction would cost more than a dense factorisation: the iteration matrix takes none of the
 // constraint rows, add_constraint_terms).
 constexpr int kLoopContactRows = 48;
+// The Woodbury rows a scene's elements can need: one per tendon and actuator (its damping and
+// spring together: add_row_terms), six per equality constraint (add_constraint_terms).
+size_t woodbury_rows_of_elements(const mjModel* m) { return static_cast<size_t>(m->ntendon + m->nu + 6 * m->neq); }
 
 using Vec3m = Eigen::Map<Vec3>;
 using Mat3r = Eigen::Matrix<double, 3, 3, Eigen::RowMajor>;  // MuJoCo's xmat layout
@@ -2042,10 +2045,8 @@ SceneData::SceneData(const Scene& s) : owner(&s) {
   joint_K.assign(nv, 0);
   K_rows.assign(static_cast<size_t>(s.m->ntendon + s.m->nu) * nv, 0);
   K_row_coef.assign(s.m->ntendon + s.m->nu, 0);
-  {  // one row per tendon and actuator (its damping and spring together: add_row_terms), six per
-     // equality constraint and kLoopContactRows for contact rows across branches (add_constraint_terms)
-    const size_t r = static_cast<size_t>(s.m->ntendon + s.m->nu + 6 * s.m->neq +
-                                         (s.may_collide && !s.rods.empty() ? kLoopContactRows : 0));
+  {  // the elements' Woodbury rows, and kLoopContactRows for contact rows across branches
+    const size_t r = woodbury_rows_of_elements(s.m) + (s.may_collide && !s.rods.empty() ? kLoopContactRows : 0);
     W_rows.assign(r * nv, 0);
     W_Z.assign(r * nv, 0);
     W_coef.assign(r, 0);
@@ -3009,7 +3010,7 @@ bool elliptic_friction_row(const mjData* d, int i) {
 bool room_for_woodbury_row(const mjModel* m, SceneData& sd) {
   const size_t have = sd.W_coef.size(), nv = static_cast<size_t>(m->nv);
   if (static_cast<size_t>(sd.W_nrows) < have) return true;
-  const size_t cap = static_cast<size_t>(m->ntendon + m->nu + 6 * m->neq) + nv;
+  const size_t cap = woodbury_rows_of_elements(m) + nv;
   if (have >= cap) return false;
   const size_t r = std::min(cap, std::max<size_t>(2 * have, kLoopContactRows));
   sd.W_rows.resize(r * nv, 0.0);
@@ -3372,6 +3373,14 @@ void subtract_stiffness(const Scene& s, SceneData& sd, double c, const mjtNum* x
 // (mjcb_act_dyn, of unknown form: f(act) reads the activation from d->act, the rest of the state
 // as the step left it) are solved by the secant method from Euler's update, to round-off; where it
 // does not converge in 50 iterations (dynamics that are far from monotone), Euler's update stays.
+// Actuator a's control as MuJoCo's actuation takes it: clamped to its range where it is limited.
+double clamped_ctrl(const mjModel* m, const mjData* d, int a) {
+  double ctrl = d->ctrl[a];
+  if (m->actuator_ctrllimited[a] && !(m->opt.disableflags & mjDSBL_CLAMPCTRL))
+    ctrl = mju_clip(ctrl, m->actuator_ctrlrange[2 * a], m->actuator_ctrlrange[2 * a + 1]);
+  return ctrl;
+}
+
 void filter_activations(const Scene& s, SceneData& sd, const mjtNum* act0, const mjtNum* act_dot0, double theta) {
   const mjModel* m = s.m;
   mjData* d = sd.d;
@@ -3381,9 +3390,7 @@ void filter_activations(const Scene& s, SceneData& sd, const mjtNum* act0, const
     const int type = m->actuator_dyntype[a];
     if (type != mjDYN_FILTER && type != mjDYN_MUSCLE && !(type == mjDYN_USER && mjcb_act_dyn)) continue;
     const int j = a - (m->nu - m->na);
-    double ctrl = d->ctrl[a];
-    if (m->actuator_ctrllimited[a] && !(m->opt.disableflags & mjDSBL_CLAMPCTRL))
-      ctrl = mju_clip(ctrl, m->actuator_ctrlrange[2 * a], m->actuator_ctrlrange[2 * a + 1]);
+    const double ctrl = clamped_ctrl(m, d, a);
     const mjtNum* prm = m->actuator_dynprm + mjNDYN * a;
     const double rest = act0[j] + h * (1.0 - theta) * act_dot0[j];  // act+ = rest + h theta f(act+)
     double act;
@@ -4306,6 +4313,20 @@ void rk4_step(const Scene& s, SceneData& sd) {
   d->time = t0 + h;
 }
 
+// d act_dot / d act of activation j at the current state, for Rosenbrock's W (any W keeps the
+// method's order): a filter's -1/tau, a muscle's by central differences of mju_muscleDynamics
+// (its time constant changes with act), 0 for integrators and user dynamics (left explicit).
+double activation_jacobian(const mjModel* m, const mjData* d, int j) {
+  if (m->opt.disableflags & mjDSBL_ACTUATION) return 0.0;
+  const int a = m->nu - m->na + j, type = m->actuator_dyntype[a];
+  const mjtNum* prm = m->actuator_dynprm + mjNDYN * a;
+  if (type == mjDYN_FILTER) return -1.0 / std::max(mjMINVAL, prm[0]);
+  if (type != mjDYN_MUSCLE) return 0.0;
+  const double ctrl = clamped_ctrl(m, d, a);
+  const double x = d->act[j], e = 1e-7;
+  return std::min(0.0, (mju_muscleDynamics(ctrl, x + e, prm) - mju_muscleDynamics(ctrl, x - e, prm)) / (2 * e));
+}
+
 // One step of the Rosenbrock-W method ROS34PW2 (cosserat::ros34pw2, integrators.hpp) on
 // y = (q, v, act) with F = (v, qacc, act_dot) (our forward, constraints included) and
 // W = [0 I 0; -M0^-1 K  -M0^-1 D  0; 0 0 Ja]: M0 the mass matrix at the step's start, K and D the
@@ -4323,22 +4344,6 @@ void rk4_step(const Scene& s, SceneData& sd) {
 //   u_act = h gamma r_act / (1 - h gamma Ja),
 // with r the stage's right-hand side F(Y_i) + sum_j C_ij / h u_j. Positions are integrated with
 // mj_integratePos (as rk4_step does: on free and ball joints the quaternions then lose the third order).
-// d act_dot / d act of activation j at the current state, for Rosenbrock's W (any W keeps the
-// method's order): a filter's -1/tau, a muscle's by central differences of mju_muscleDynamics
-// (its time constant changes with act), 0 for integrators and user dynamics (left explicit).
-double activation_jacobian(const mjModel* m, const mjData* d, int j) {
-  if (m->opt.disableflags & mjDSBL_ACTUATION) return 0.0;
-  const int a = m->nu - m->na + j, type = m->actuator_dyntype[a];
-  const mjtNum* prm = m->actuator_dynprm + mjNDYN * a;
-  if (type == mjDYN_FILTER) return -1.0 / std::max(mjMINVAL, prm[0]);
-  if (type != mjDYN_MUSCLE) return 0.0;
-  double ctrl = d->ctrl[a];
-  if (m->actuator_ctrllimited[a] && !(m->opt.disableflags & mjDSBL_CLAMPCTRL))
-    ctrl = mju_clip(ctrl, m->actuator_ctrlrange[2 * a], m->actuator_ctrlrange[2 * a + 1]);
-  const double x = d->act[j], e = 1e-7;
-  return std::min(0.0, (mju_muscleDynamics(ctrl, x + e, prm) - mju_muscleDynamics(ctrl, x - e, prm)) / (2 * e));
-}
-
 void rosenbrock_step(const Scene& s, SceneData& sd) {
   namespace R = ros34pw2;
   const mjModel* m = s.m;

@@ -380,9 +380,9 @@ struct SceneData {
   int K_nrows = 0;
   // A's terms c u u' whose dofs lie on two branches of the tree (a tendon tying two arms), which
   // qM's pattern cannot hold: A = A_tree + U C U', solved by the Woodbury identity with
-  // Z = A_tree^-1 U and the Cholesky factor of S = C^-1 + U' Z (W_nrows rows of nv, at most
-  // ntendon + nu + 6 neq: a tendon's or actuator's damping and spring in one row, and the
-  // linearised steps' held equality rows that close a loop; solve_implicit)
+  // Z = A_tree^-1 U and the Cholesky factor of S = C^-1 + U' Z (W_nrows rows of nv: a tendon's or
+  // actuator's damping and spring in one row, and the held constraint rows that tie two branches,
+  // grown on demand for contacts up to nv more rows; solve_implicit)
   std::vector<mjtNum> W_rows, W_coef, W_Z, W_S, W_t;
   int W_nrows = 0;
   std::vector<int> tree_nz;  // scratch of add_outer_in_tree (nv)
@@ -391,8 +391,8 @@ struct SceneData {
   // it: row r has D = frozen_D[r], its coefficient in the matrix frozen_c[r] (D (1 + h B + h^2 K I))
   // and the entries frozen_val at dofs frozen_dof, from frozen_begin[r] to frozen_begin[r + 1]
   // (deepest dof first). frozen_row: scratch (nv). frozen_across[r]: the row ties two branches
-  // (an equality row closing a loop, held by the linearised steps): its term is one of the
-  // Woodbury rows W_rows, its dofs in increasing order.
+  // (an equality row closing a loop; under the Newton schemes also a contact row, a rod pressing a
+  // free object): its term is one of the Woodbury rows W_rows, its dofs in increasing order.
   std::vector<mjtNum> frozen_D, frozen_c, frozen_val, frozen_row;
   std::vector<mjtNum> frozen_kI;  // D K I of each row (the linearised step's right-hand side)
   std::vector<int> frozen_begin, frozen_dof;

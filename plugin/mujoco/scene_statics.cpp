@@ -210,6 +210,14 @@ class StaticProblem {
     settle_activations(m_, d_);
   }
 
+  // The position and velocity stages at the current qpos and qvel, and the control callback's
+  // controls there under load factor lambda: what a force evaluation starts from.
+  void stages_and_controls(Need need, double lambda = 1.0) {
+    fwd_position(s_, sd_, need);
+    fwd_velocity(s_, sd_);
+    control_callback(lambda);
+  }
+
   // MuJoCo's control callback (mjcb_control), called where a step's evaluation calls it (after
   // the velocities), from the controls the statics started with: the controls it sets are scaled by
   // the load factor with the other loads (a feedback law is then the step's at the full loads, and
@@ -235,9 +243,7 @@ class StaticProblem {
   double force(double lambda, VectorXd& f, bool mass = true, VectorXd* row_scale = nullptr, VectorXd* tree_scale = nullptr) {
     set_loads(lambda);
     mju_zero(d_->qvel, m_->nv);
-    fwd_position(s_, sd_, mass ? Need::Forces : Need::SmoothStaticForces);
-    fwd_velocity(s_, sd_);
-    control_callback(lambda);
+    stages_and_controls(mass ? Need::Forces : Need::SmoothStaticForces, lambda);
     mj_fwdActuation(m_, d_);
     if (sd_.forces_only)
       smooth_forces(m_, d_);  // qfrc_smooth = passive - bias + applied + actuator + J^T xfrc
@@ -342,9 +348,7 @@ class StaticProblem {
   // rows solved), with the constraint solver's tolerance tightened to round-off for the call.
   void total_force(VectorXd& F) {
     set_loads(1.0);
-    fwd_position(s_, sd_, Need::Acceleration);
-    fwd_velocity(s_, sd_);
-    control_callback(1.0);
+    stages_and_controls(Need::Acceleration);
     mj_fwdActuation(m_, d_);
     mj_fwdAcceleration(m_, d_);
     const mjtNum tolerance = m_->opt.tolerance;
@@ -519,9 +523,7 @@ class StaticProblem {
     Fa.resize(n, na), Bd.resize(n, nu), Ga.resize(na, na), Gu.resize(na, nu);
     set_loads(1.0);
     mju_zero(d_->qvel, n);
-    fwd_position(s_, sd_, Need::SmoothStaticForces);
-    fwd_velocity(s_, sd_);
-    control_callback(1.0);
+    stages_and_controls(Need::SmoothStaticForces);
     auto column = [&](mjtNum* x, int k, MatrixXd& F, MatrixXd& G) {  // central differences in x[k]
       VectorXd fp(n), gp(na);
       for (const double sign : {1.0, -1.0}) {
@@ -542,9 +544,7 @@ class StaticProblem {
       const std::vector<mjtNum> q0(d_->qpos, d_->qpos + m_->nq);
       std::vector<mjtNum> e(n, 0.0);
       auto ctrl_at = [&](VectorXd& c) {
-        fwd_position(s_, sd_, Need::SmoothStaticForces);
-        fwd_velocity(s_, sd_);
-        control_callback(1.0);
+        stages_and_controls(Need::SmoothStaticForces);
         c = Eigen::Map<const VectorXd>(d_->ctrl, nu);
       };
       VectorXd cp(nu), cm(nu);
@@ -567,9 +567,7 @@ class StaticProblem {
       }
     }
     set_loads(1.0);
-    fwd_position(s_, sd_, Need::SmoothStaticForces);
-    fwd_velocity(s_, sd_);
-    control_callback(1.0);
+    stages_and_controls(Need::SmoothStaticForces);
     mj_fwdActuation(m_, d_);
   }
 
