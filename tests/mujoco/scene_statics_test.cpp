@@ -446,6 +446,63 @@ TEST(SceneStatics, AFreeBodyFallingWithNothingUnderItIsNamed) {
   EXPECT_NEAR(body_pos(*high, sd, "box").z(), 0.05, 2e-3);
 }
 
+// A free body that nothing but contacts holds, its weight on them: the smooth problem (contacts left
+// out) has no equilibrium, whatever the placement, and the relaxation starts at once. (Outside
+// probe CE: a starfish of 646 dofs on a floor spent 80 of 110 s in the smooth search's load
+// continuation, halving its step at load factor 0.) A five-armed starfish of soft rods on a floor
+// rests with the floor carrying its weight; the same disk held up by an applied force equal to
+// its weight (a thruster) has a smooth equilibrium, which Newton finds.
+TEST(SceneStatics, ABodyOnContactsAloneGoesStraightToTheRelaxation) {
+  std::string arms;
+  for (int k = 0; k < 5; ++k) {
+    const double a = 2 * M_PI * k / 5;
+    arms += "<cosserat name=\"a" + std::to_string(k) + "\" pos=\"" + full_precision(0.04 * std::cos(a)) + " " +
+            full_precision(0.04 * std::sin(a)) + " 0\" euler=\"0 0 " + full_precision(72.0 * k) +
+            "\" length=\"0.15\" sections=\"4\" strain=\"kl\" radius=\"0.012 0.004\" density=\"1100\" young=\"2e5\" "
+            "viscosity=\"5\"/>";
+  }
+  const std::string xml = R"(<mujoco><option timestep="0.001"/><worldbody><geom name="floor" type="plane" size="1 1 0.1"/>
+    <body name="disk" pos="0 0 0.013"><freejoint/><geom type="cylinder" size="0.045 0.012" density="1100"/>)" +
+                          arms + "</body></worldbody></mujoco>";
+  auto s = load_scene_string(xml, kPath);
+  const int disk = body(*s, "disk");
+  // the disk's and the five tapered arms' (pi L (r0^2 + r0 r1 + r1^2) / 3 each) weight
+  const double weight = 9.81 * 1100 * M_PI * (0.045 * 0.045 * 0.024 + 5 * 0.15 * (1.44e-4 + 0.48e-4 + 0.16e-4) / 3);
+  {
+    SceneData sd(*s);
+    std::vector<std::string> heard;
+    SceneStaticsOptions opt;
+    opt.progress = [&heard](const std::string& where) { heard.push_back(where); };
+    const SceneStaticsResult r = equilibrium(*s, sd, opt);
+    ASSERT_TRUE(r.converged) << r.message;
+    EXPECT_EQ(r.method, "dynamic relaxation");
+    EXPECT_NE(r.message.find("relaxation used because 'disk' (free joint) is held by nothing but contacts: nothing "
+                             "else balances the net force of " +
+                             cosserat::testing::full_precision(weight).substr(0, 4)),
+              std::string::npos)
+        << r.message << " (weight " << weight << " N)";
+    EXPECT_EQ(r.load_steps, 0);
+    for (const std::string& h : heard) EXPECT_NE(h.rfind("Newton, load step", 0), 0u) << h;
+    // the floor carries the weight
+    double normal = 0.0;
+    for (int c = 0; c < sd.d->ncon; ++c) {
+      mjtNum f[6];
+      mj_contactForce(s->m, sd.d, c, f);
+      normal += f[0];
+    }
+    EXPECT_NEAR(normal / weight, 1.0, 1e-3);
+  }
+  {
+    SceneData sd(*s);
+    sd.d->qpos[2] = 0.5;  // well above the floor, held up by its thruster
+    sd.d->xfrc_applied[6 * disk + 2] = weight;
+    const SceneStaticsResult r = equilibrium(*s, sd);
+    ASSERT_TRUE(r.converged) << r.message;
+    EXPECT_EQ(r.method, "newton");
+    EXPECT_EQ(sd.d->ncon, 0);
+  }
+}
+
 // A free body held by a force that grows with its displacement has an equilibrium (outside probe
 // AR: refused as free-floating): a box on a rope (a spatial tendon with a length limit) 12 m below
 // its hook, slack by 8 m at the start; on a tendon spring and on its free joint's spring, whose
