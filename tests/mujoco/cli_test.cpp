@@ -1302,6 +1302,24 @@ TEST_F(Cli, NumericalDampingIsWarnedAboutInAFreeSceneMovingAsAWhole) {
   EXPECT_GT(drifts[1], 0.6 * drifts[0]);
 }
 
+// An actuator counts among what moves energy only where it pushed during the run (outside probe CH:
+// a model whose load motors stayed at 0 read "not conserved here: actuators", and the default
+// step's energy loss went unwarned, where the same model without them was warned).
+TEST_F(Cli, AnActuatorThatNeverPushesMovesNoEnergy) {
+  const fs::path model = scratch() / "motor_cantilever.xml";
+  std::ofstream(model) << R"(<mujoco><option timestep="0.001" gravity="0 0 -9.81"/><worldbody>
+    <cosserat name="beam" length="0.5" sections="8" strain="kl" radius="0.01" density="1000" young="1e8"/></worldbody>
+    <actuator><motor name="load" site="beam/tip" gear="0 0 -1 0 0 0"/></actuator></mujoco>)";
+  const Result idle = cosserat("run '" + model.string() + "' --duration 3");
+  EXPECT_EQ(idle.status, 0) << idle.err;
+  EXPECT_NE(idle.out.find("warning: the energy fell by "), std::string::npos) << idle.out;
+  EXPECT_EQ(idle.out.find("not conserved here"), std::string::npos) << idle.out;
+  const Result pushed = cosserat("run '" + model.string() + "' --duration 3 --ctrl 0.1");
+  EXPECT_EQ(pushed.status, 0) << pushed.err;
+  EXPECT_EQ(pushed.out.find("the energy fell"), std::string::npos) << pushed.out;
+  EXPECT_NE(pushed.out.find("not conserved here: actuators"), std::string::npos) << pushed.out;
+}
+
 // What a batch script relies on (outside probe BV): friction loss and limits are counted among what
 // takes energy (a pendulum slowed by friction loss, or stopped by a joint limit, had been warned
 // about as numerical damping, "--integrator midpoint keeps the energy"); --csv and --json naming one
