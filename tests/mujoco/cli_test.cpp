@@ -1320,6 +1320,26 @@ TEST_F(Cli, AnActuatorThatNeverPushesMovesNoEnergy) {
   EXPECT_NE(pushed.out.find("not conserved here: actuators"), std::string::npos) << pushed.out;
 }
 
+// An equality constraint open at the end of a run is warned about as equilibrium warns (outside
+// probe CH: a weld holding a twisted rod's end, soft by MuJoCo's solref, stayed open through the
+// run without a word): a rod pinned at its tip by a connect, sagging under its weight, with
+// MuJoCo's default solref (open 1 mm of a 16 mm sag) and with the stiffer solref and solimp the
+// warning advises (closed to within 5e-3 of the sag).
+TEST_F(Cli, AnEqualityLeftOpenAtTheEndOfARunIsWarnedAbout) {
+  for (const std::string row : {"", R"(solref="0.002 1" solimp="0.99 0.999 0.001")"}) {
+    SCOPED_TRACE(row);
+    const fs::path model = scratch() / "pinned_rod.xml";
+    std::ofstream(model) << R"(<mujoco><option timestep="0.001" gravity="0 0 -9.81"/><worldbody>
+      <cosserat name="beam" length="0.5" sections="8" strain="kl" radius="0.01" density="1000" young="1e7" viscosity="20"/>
+      <body name="anchor" pos="0.5 0 0"/></worldbody>
+      <equality><connect name="pin" body1="beam/s7" body2="anchor" anchor="0.0625 0 0" )" << row << R"(/></equality></mujoco>)";
+    const Result r = cosserat("run '" + model.string() + "' --duration 2");
+    EXPECT_EQ(r.status, 0) << r.err;
+    EXPECT_EQ(r.out.find("equality constraint 'pin' (connect) is open by ") != std::string::npos, row.empty()) << r.out;
+    if (row.empty()) EXPECT_NE(r.out.find("at the end of the run: MuJoCo's constraints are soft"), std::string::npos) << r.out;
+  }
+}
+
 // What a batch script relies on (outside probe BV): friction loss and limits are counted among what
 // takes energy (a pendulum slowed by friction loss, or stopped by a joint limit, had been warned
 // about as numerical damping, "--integrator midpoint keeps the energy"); --csv and --json naming one
