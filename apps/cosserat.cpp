@@ -1200,6 +1200,9 @@ int cmd_equilibrium(int argc, char** argv) {
   // that of the soft constraint (outside probe AS: a rod twisted between two welds of E = 1e11 Pa
   // opened its weld by 0.37 rad, and held less twist than the scene asked)
   std::vector<std::string> warnings;
+  if (eq.result.buffers_full)
+    warnings.push_back("MuJoCo's contact buffers are full at the equilibrium: it is the one without the contacts beyond "
+                       "them; " + mj::raise_buffers_advice(eq.scene->m));
   if (eq.result.converged)
     for (const std::string& o : mj::open_equalities(*eq.scene, *eq.data, eq.displacement()))
       warnings.push_back(o + " at the equilibrium: MuJoCo's constraints are soft (solref, solimp and the inertia of "

@@ -1633,6 +1633,16 @@ SceneStaticsResult equilibrium(const Scene& s, SceneData& sd, const SceneStatics
   res.message = floating_body_pushed(s, sd, floating, opt.tolerance, "at the start");
   if (!res.message.empty()) return res;
   res = equilibrium_of_held(s, sd, opt);
+  if (res.converged) {
+    // MuJoCo's contact buffers full at the result: the contacts beyond them are missing from it
+    const int before = full_buffer_count(sd.d);
+    forward(s, sd);
+    if (full_buffer_count(sd.d) > before) {
+      res.buffers_full = true;
+      res.message += "; MuJoCo's contact buffers are full at this equilibrium: it is the one without the contacts "
+                     "beyond them; " + raise_buffers_advice(s.m);
+    }
+  }
   if (!res.converged || floating.empty()) return res;
   if (std::string why = floating_body_pushed(s, sd, floating, opt.tolerance, "at the equilibrium found"); !why.empty()) {
     res.converged = false;
@@ -1771,8 +1781,19 @@ SceneStaticsResult equilibrium_of_held(const Scene& s, SceneData& sd, const Scen
   }
   for (int attempt = 0;; ++attempt) {
     sd.compression = {};
+    const int full_before = full_buffer_count(d);
     res.converged = relax(s, sd, q_relax, opt, loose, res);
+    const int dropped = full_buffer_count(d) - full_before;
     res.message = (res.message.empty() ? "" : res.message + "; ") + "relaxation used because " + why + from;
+    // MuJoCo's contact buffers full on the way: the likely reason a relaxation did not settle (bodies
+    // sinking through what should hold them). (Fifty-first session: a 2 m rod of 64 sections lying
+    // on a floor, 128 capsules under MuJoCo's default nconmax of 100, ran the 30 s without settling
+    // and without a word of the buffers.)
+    if (!res.converged && dropped > 0) {
+      res.message = "MuJoCo's contact buffers were full " + std::to_string(dropped) +
+                    " times during the relaxation, which dropped contacts (bodies sink through what should hold them): " +
+                    raise_buffers_advice(m) + ". How: " + res.message;
+    }
     if (!res.converged) {
       // a relaxation that diverged or did not settle leaves a state of no meaning (probe O: inverted
       // sections after a blow-up): report the last equilibrium Newton found instead

@@ -62,6 +62,9 @@ struct SceneStaticsResult {
   // the growth rate [1/s] and frequency [Hz] of its fastest-growing oscillation (0: none)
   double flutter_rate = 0.0, flutter_hz = 0.0;
   int unstable_steps_refused = 0;  // load steps refused because their equilibrium was unstable
+  // MuJoCo's contact buffers (<size nconmax njmax>) full at the equilibrium found: it is the one
+  // without the contacts beyond them (the message says so)
+  bool buffers_full = false;
   std::string message;
 };
 

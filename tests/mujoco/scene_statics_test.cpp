@@ -503,6 +503,45 @@ TEST(SceneStatics, ABodyOnContactsAloneGoesStraightToTheRelaxation) {
   }
 }
 
+// MuJoCo's contact buffers too small for a rod lying on a floor (4 sections, 8 capsules, 8-9
+// contacts): with room for 5 the relaxation settles on the contacts there are, its tip sinking
+// into the floor, and the result says the buffers are full there; with room for 4 it does not
+// settle, and the message leads with the buffers. (Fifty-first session: a 2 m rod of 64 sections
+// on a floor under MuJoCo's default nconmax of 100 ran the 30 s without settling, and nothing
+// said why.)
+TEST(SceneStatics, FullContactBuffersAreNamedByTheRelaxation) {
+  auto rod_on_floor = [](int nconmax) {
+    return load_scene_string(R"(<mujoco><size nconmax=")" + std::to_string(nconmax) + R"("/><option timestep="0.001"/>
+      <worldbody><geom name="floor" type="plane" size="5 5 0.1"/>
+      <body name="hub" pos="0 0 0.011"><freejoint/><geom type="sphere" size="0.011" mass="0.01"/>
+      <cosserat name="r" length="0.5" sections="4" strain="kl" radius="0.01" density="1000" young="1e9" viscosity="500"/>
+      </body></worldbody></mujoco>)",
+                             kPath);
+  };
+  SceneStaticsOptions opt;
+  opt.relaxation_time = 5.0;
+  double tip_z[2];
+  int i = 0;
+  for (const int room : {5, 20}) {
+    auto s = rod_on_floor(room);
+    SceneData sd(*s);
+    const SceneStaticsResult r = equilibrium(*s, sd, opt);
+    ASSERT_TRUE(r.converged) << r.message;
+    EXPECT_EQ(r.buffers_full, room == 5);
+    EXPECT_EQ(r.message.find("MuJoCo's contact buffers are full at this equilibrium") != std::string::npos, room == 5)
+        << r.message;
+    tip_z[i++] = site_pos(*s, sd, "r/tip").z();
+  }
+  EXPECT_LT(tip_z[0], tip_z[1] - 5e-5);  // sunk where its contacts are missing
+  EXPECT_NEAR(tip_z[1], 0.01, 2e-4);     // on the floor (MuJoCo's soft contact: a little in)
+  auto s = rod_on_floor(4);
+  SceneData sd(*s);
+  const SceneStaticsResult r = equilibrium(*s, sd, opt);
+  EXPECT_FALSE(r.converged);
+  EXPECT_EQ(r.message.rfind("MuJoCo's contact buffers were full ", 0), 0u) << r.message;
+  EXPECT_NE(r.message.find("raise <size nconmax=\"...\" njmax=\"...\"> (now 4 and "), std::string::npos) << r.message;
+}
+
 // A free body held by a force that grows with its displacement has an equilibrium (outside probe
 // AR: refused as free-floating): a box on a rope (a spatial tendon with a length limit) 12 m below
 // its hook, slack by 8 m at the start; on a tendon spring and on its free joint's spring, whose
