@@ -376,7 +376,8 @@ class StaticProblem {
     for (int j = 0; j < n; ++j) {
       // (outside probe BB: a 1620-dof scene's columns took 35 s without a word)
       if (progress_ && j % 16 == 0)
-        progress_("tangent stiffness by central differences, column " + std::to_string(j + 1) + " of " + std::to_string(n));
+        progress_((phase.empty() ? "" : phase + ": ") + "tangent stiffness by central differences, column " +
+                  std::to_string(j + 1) + " of " + std::to_string(n));
       const double h = step_size(q0, j);
       e(j) = 1.0;
       move(q0, e, h);
@@ -622,6 +623,14 @@ class StaticProblem {
   double weight_scale() const { return weight_force_scale(s_, d_, gravity_.data()); }
 
   std::function<void(const std::string&)> progress_;
+
+ public:
+  // What the solve is doing, ahead of the stiffness's progress notes (outside probe CJ: 280 s of
+  // "tangent stiffness by central differences, column k of 362" said nothing of the load step or
+  // the iteration).
+  std::string phase;
+
+ private:
   const Scene& s_;
   SceneData& sd_;
   mjModel* m_;
@@ -676,12 +685,17 @@ bool newton(StaticProblem& p, double lambda, const SceneStaticsOptions& opt, Sce
   const double scale_start = 1e-3 * scale;
   const VectorXd trees_start = 1e-3 * trees;
   auto residual = [&] { return std::max(f.norm() / std::max(scale, scale_start), p.tree_residual(f, trees.cwiseMax(trees_start))); };
+  const std::string phase = p.phase;
   for (int it = 0; it < opt.max_iterations; ++it) {
     res.residual = residual();
     res.scale = scale;
     if (res.residual <= opt.tolerance) return true;
     ++res.iterations;
+    char at[96];
+    std::snprintf(at, sizeof at, "iteration %d (residual %.3g)", it + 1, res.residual);
+    p.phase = (phase.empty() ? "Newton" : phase) + ", " + at;
     p.stiffness(lambda, Kt);
+    p.phase = phase;
     VectorXd fh = f;
     p.hold_floating(Kt, fh);
     const std::vector<mjtNum> q0 = p.qpos();
@@ -847,7 +861,10 @@ bool stable_equilibrium(StaticProblem& p, const Scene& s, SceneData& sd, double 
   if (flutter) *flutter = {};
   if (n == 0) return true;
   MatrixXd Kt, J, Kc, noise, Kc_noise;
+  const std::string phase = p.phase;
+  p.phase = "stability check";
   p.stiffness(lambda, Kt, &noise);
+  p.phase = phase;
   // loads that turn with the structure make the stiffness at a smooth equilibrium unsymmetric
   // (where constraint rows carry load the smooth forces are not in balance, and their stiffness is
   // unsymmetric whatever the loads: judged as before, from the symmetric part and the noise)
@@ -951,6 +968,7 @@ bool switch_branch(StaticProblem& p, const Scene& s, SceneData& sd, const SceneS
   const SceneStaticsResult before = res;
   for (const double amount : {1e-2, 1e-1, 1.0}) {
     p.set_qpos(along_mode(s.m, unstable.qpos, unstable.mode, amount));
+    p.phase = "Newton past the bifurcation, from the unstable equilibrium moved along its mode";
     double w2 = 0.0;
     if (newton(p, 1.0, opt, res) && stable_equilibrium(p, s, sd, 1.0, w2)) {
       ++res.load_steps;
@@ -979,9 +997,8 @@ bool solve_smooth(StaticProblem& p, const Scene& s, SceneData& sd, const SceneSt
   int halvings = 0;
   while (lam < 1.0) {
     const double target = std::min(1.0, lam + dlam);
-    if (opt.progress)
-      opt.progress("Newton, load step " + std::to_string(res.load_steps + 1) + " to load factor " +
-                   cosserat::load_factor_text(target) + ", " + std::to_string(res.iterations) + " iterations so far");
+    p.phase = "Newton, load step " + std::to_string(res.load_steps + 1) + " to load factor " + cosserat::load_factor_text(target);
+    if (opt.progress) opt.progress(p.phase + ", " + std::to_string(res.iterations) + " iterations so far");
     double w2 = 0.0;
     VectorXd mode;
     cosserat::GrowthModes flutter;
@@ -1830,6 +1847,7 @@ SceneStaticsResult equilibrium_of_held(const Scene& s, SceneData& sd, const Scen
     if (res.converged && !rows && m->nv > 0) {
       const std::vector<mjtNum> q_relaxed(d->qpos, d->qpos + m->nq);
       StaticProblem pp(s, sd, opt.progress);
+      pp.phase = "Newton from the state the relaxation settled in";
       SceneStaticsResult polished = res;
       polished.iterations = 0;
       double where = 0.0;
