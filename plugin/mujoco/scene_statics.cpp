@@ -1397,6 +1397,27 @@ std::string dof_name(const mjModel* m, int dof) {
   return out;
 }
 
+// What to do where the relaxation diverged: it runs the scene's own dynamics (its integrator and
+// time step), so what lets a run through lets it through; an equality constraint open at the start
+// pulls what it joins together within a few steps (outside probe CJ: a weld 0.3 m open at a
+// keyframe broke MuJoCo's constraint solver in the relaxation's eleventh step, "Rank-defficient
+// Hessian", and the message said nothing of the cause or the remedy). Leaves qpos at q_start.
+std::string relaxation_divergence_hint(const Scene& s, SceneData& sd, const std::vector<mjtNum>& q_start) {
+  std::string hint = divergence_hint(s, sd, s.integrator);
+  std::copy(q_start.begin(), q_start.end(), sd.d->qpos);
+  mju_zero(sd.d->qvel, s.m->nv);
+  std::string open;
+  try {
+    forward(s, sd);
+    const std::vector<std::string> gaps = open_equalities(s, sd);
+    if (!gaps.empty()) open = "; at the start " + gaps.front() + ", which pulls what it joins together within a few steps: start nearer to it closed (a keyframe)";
+  } catch (const std::exception&) {
+  }
+  char b[200];
+  std::snprintf(b, sizeof b, " (the relaxation runs the scene's own dynamics, its integrator and <option timestep> of %g s: ", s.m->opt.timestep);
+  return b + hint + ")" + open;
+}
+
 // Dynamic relaxation with kinetic damping from qpos = q_start: the scene's own dynamics, with all
 // velocities zeroed whenever the kinetic energy passes a peak; converged when |M qacc| at rest is
 // below the tolerance. Contacts, limits and equality constraints take part exactly as in a run.
@@ -1450,7 +1471,7 @@ bool relax_once(const Scene& s, SceneData& sd, const std::vector<mjtNum>& q_star
     const Status status = step_or_abandon(s, sd);
     if (status != Status::Ok) {
       diverged = true;
-      res.message = "dynamic relaxation diverged: " + sd.warning;
+      res.message = "dynamic relaxation diverged: " + sd.warning + relaxation_divergence_hint(s, sd, q_start);
       break;
     }
     ++res.iterations;
