@@ -1270,7 +1270,8 @@ int cmd_linearize(int argc, char** argv) {
       "--at-start",
       "linearise at the start state (the model's, or --key's) at rest, without searching for an equilibrium: an "
       "unstable one (an inverted pendulum, a column past buckling) for a controller's model; warned where the start "
-      "is not an equilibrium (A then lacks the motion's term dM/dq qacc: exact only at an equilibrium)",
+      "is not an equilibrium (A is then the dynamics' Jacobian there at rest, the mass matrix's turning times the "
+      "unbalanced forces' acceleration included, except with equality constraints held rigid)",
       at_start));
   state.add_to(cl);
   const auto pos = cl.parse(argc, argv);
@@ -1337,14 +1338,20 @@ int cmd_linearize(int argc, char** argv) {
     for (size_t i = 0; i + 2 < x0.size(); i += 3)
       move = std::max(move, std::hypot(x1[i] - x0[i], x1[i + 1] - x0[i + 1], x1[i + 2] - x0[i + 2]));
     if (!(move <= 1e-6 * std::max(m->stat.extent, 1e-3)) || !(unbalanced <= 1e-6) || act_rate > 0) {
-      char buf[700];
+      char buf[900];
       std::snprintf(buf, sizeof buf,
                     "the start state is not an equilibrium (the equilibrium nearest it, by one Newton step, moves a "
                     "body or site %.3g m; residual force %.3g of the forces' scale, %.3g along motions without "
-                    "stiffness%s): the linearisation holds the forces' derivatives there, at rest, but not the "
-                    "term of the motion the unbalanced forces drive (dM/dq qacc): A is exact only at an equilibrium",
+                    "stiffness%s): %s",
                     move, found->result.residual, unbalanced,
-                    act_rate > 0 ? "; an integrator actuator's activation changes under its control" : "");
+                    act_rate > 0 ? "; an integrator actuator's activation changes under its control" : "",
+                    lin.constraint_rows > 0
+                        ? "with equality constraints held rigid the linearisation holds the forces' derivatives there, "
+                          "at rest, but not the term of the constrained motion the unbalanced forces drive: A is exact "
+                          "only at an equilibrium"
+                        : "A is the dynamics' Jacobian there, at rest (the mass matrix's turning with the motion the "
+                          "unbalanced forces drive included), and the modes and frequencies are the stiffness's, of no "
+                          "motion about a rest");
       not_at_rest = buf;
     }
   }

@@ -105,14 +105,16 @@ void state_space(Linearization& L) {
     return;
   }
   Eigen::PartialPivLU<MatX> lu(L.M);
-  L.A = state_matrix(lu, L.Kt, L.D);
+  const MatX K_motion = L.dMa.size() ? MatX(L.Kt + L.dMa) : L.Kt;  // (the motion's stiffness in A)
+  L.A = state_matrix(lu, K_motion, L.D);
   L.B = MatX::Zero(2 * n, nu);
   L.B.bottomRows(n) = lu.solve(L.Bu);
-  const MatX A_settled = L.A;  // (the structure's, for the growth of its modes below)
+  // (the structure's, for the growth of its modes below: without the motion's dMa)
+  const MatX A_settled = L.dMa.size() ? state_matrix(lu, L.Kt, L.D) : L.A;
   if (const int na = static_cast<int>(L.Fa.cols()); na > 0) {
     MatX A = MatX::Zero(2 * n + na, 2 * n + na);
     A.topLeftCorner(2 * n, 2 * n) =
-        state_matrix(lu, L.dKt.size() ? MatX(L.Kt + L.dKt) : L.Kt, L.dD.size() ? MatX(L.D + L.dD) : L.D);
+        state_matrix(lu, L.dKt.size() ? MatX(K_motion + L.dKt) : K_motion, L.dD.size() ? MatX(L.D + L.dD) : L.D);
     A.block(n, 2 * n, n, na) = lu.solve(L.Fa);
     if (L.Gq.size()) A.block(2 * n, 0, na, n) = L.Gq;
     if (L.Gv.size()) A.block(2 * n, n, na, n) = L.Gv;

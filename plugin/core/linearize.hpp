@@ -25,6 +25,11 @@ struct Linearization {
   // the activations at their steady state (act = ctrl for filters and muscles): its Bu is the
   // static gain, its frequencies those of the structure.
   MatX Fa, Bd, Ga, Gu, Gq, Gv, dKt, dD;
+  // At a state that is no equilibrium (forces unbalanced at rest, qacc0 != 0): d(M(q) qacc0)/dq,
+  // the mass matrix's turning with the configuration times that acceleration, in A's lower-left
+  // block with Kt, -M^-1 (Kt + dMa) (empty: zero, as at an equilibrium). The modes and frequencies
+  // are Kt's.
+  MatX dMa;
   VecX frequencies_hz;  // undamped natural frequencies, ascending (from Kt x = w^2 M x; an unstable
                         // mode, w^2 < 0, shows as 0 Hz: see omega2 and unstable_modes)
   VecX omega2;          // the eigenvalues w^2 [1/s^2], ascending, signed (real parts if Kt is unsymmetric)

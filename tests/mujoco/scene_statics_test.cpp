@@ -1905,6 +1905,51 @@ TEST(SceneStatics, EquilibriumTakesTheControlCallback) {
 // and a control law's dependence on the state reaches the force through the activation, not at
 // once. Outside probe CF: A stayed 2 nv x 2 nv with B the static gain, and an LQR gain designed on
 // it, stable there (-1.96 1/s), made the filtered soft pendulum fall (+8.8 1/s at tau = 10 ms).
+// At a state that is no equilibrium the linearisation's A is the dynamics' Jacobian there: a soft
+// rod on a hinge, held out horizontally at rest under gravity (it falls and sags), whose mass
+// matrix turns with the hinge and the rod's bending; A's lower blocks against central differences
+// of MuJoCo's qacc (forward at rest) in q and in v. Until the fifty-first session A lacked
+// d(M(q) qacc)/dq there (outside probe CF), exact only at an equilibrium.
+TEST(SceneStatics, LinearizeAwayFromEquilibriumIsTheDynamicsJacobian) {
+  auto s = load_scene_string(R"(<mujoco><option gravity="0 0 -9.81"/><worldbody>
+    <body name="hub" pos="0 0 1"><joint name="hinge" type="hinge" axis="0 1 0" damping="0.01"/>
+      <inertial pos="0 0 0" mass="0.05" diaginertia="1e-5 1e-5 1e-5"/>
+      <cosserat name="rod" pos="0.02 0 0" length="0.4" sections="4" strain="kl" radius="0.01" density="1000"
+                young="2e6" viscosity="50" contype="0" conaffinity="0"/></body></worldbody>
+    <keyframe><key qpos="0.3 0 0.8 0 0.01 0 -0.5 0 0 0 0.4 0 0 0 0 0 0"/></keyframe></mujoco>)",
+                             kPath);
+  const mjModel* m = s->m;
+  const int n = m->nv;
+  ASSERT_EQ(m->nq, 17);
+  SceneData sd(*s);
+  mj_resetDataKeyframe(m, sd.d, 0);
+  const std::vector<mjtNum> q0(sd.d->qpos, sd.d->qpos + m->nq);
+  const SceneLinearization L = linearize(*s, sd);
+  ASSERT_EQ(L.A.rows(), 2 * n);
+  ASSERT_GT(L.dMa.size(), 0);  // (the start is no equilibrium)
+  auto qacc_at = [&](const Eigen::VectorXd& dq, const Eigen::VectorXd& v) {
+    std::copy(q0.begin(), q0.end(), sd.d->qpos);
+    mj_integratePos(m, sd.d->qpos, dq.data(), 1.0);
+    for (int i = 0; i < n; ++i) sd.d->qvel[i] = v(i);
+    forward(*s, sd);
+    return Eigen::VectorXd(Eigen::Map<const Eigen::VectorXd>(sd.d->qacc, n));
+  };
+  const Eigen::VectorXd zero = Eigen::VectorXd::Zero(n);
+  Eigen::MatrixXd Aq(n, n), Av(n, n);
+  for (int j = 0; j < n; ++j) {
+    const double h = 1e-6;
+    Eigen::VectorXd e = zero;
+    e(j) = h;
+    Aq.col(j) = (qacc_at(e, zero) - qacc_at(-e, zero)) / (2 * h);
+    Av.col(j) = (qacc_at(zero, e) - qacc_at(zero, -e)) / (2 * h);
+  }
+  EXPECT_LT((L.A.bottomLeftCorner(n, n) - Aq).norm(), 1e-5 * Aq.norm()) << "\n" << L.A.bottomLeftCorner(n, n) << "\n\n" << Aq;
+  EXPECT_LT((L.A.bottomRightCorner(n, n) - Av).norm(), 1e-5 * Av.norm());
+  // without the term, A would be off by more than that
+  const Eigen::MatrixXd without = -L.M.partialPivLu().solve(L.Kt);
+  EXPECT_GT((without - Aq).norm(), 1e-3 * Aq.norm());
+}
+
 TEST(SceneStatics, LinearizeTakesActuatorActivationsAsStates) {
   const double tau = 0.05;
   auto s = load_scene_string(R"(<mujoco><option gravity="0 0 0"/>
