@@ -4,6 +4,7 @@
 // Every command declares its options in one table (CommandLine) that parses them strictly and
 // prints its --help. Failures throw Failure; main prints a one-line reason on stderr and exits
 // with status 1 (LoadError as "file:line: message").
+#include <signal.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -11,6 +12,7 @@
 #include <cerrno>
 #include <chrono>
 #include <cmath>
+#include <csignal>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -128,7 +130,12 @@ void write_json(const std::string& path, const json& report) {
     if (!std::cout.flush()) fail("--json: cannot write stdout");
     return;
   }
-  std::ofstream f = open_output(path);
+  // a regular file is written whole under another name and renamed over it: a program killed while
+  // writing leaves no half report (outside probe CL); a pipe or device is written in place
+  std::error_code ec;
+  const bool in_place = std::filesystem::exists(path, ec) && !std::filesystem::is_regular_file(path, ec);
+  const std::string written = in_place ? path : path + ".part";
+  std::ofstream f = open_output(written);
   // (the reason from the write that failed: a report larger than the stream's buffer fails while
   // written, a smaller one at the close)
   errno = 0;
@@ -139,6 +146,11 @@ void write_json(const std::string& path, const json& report) {
     f.close();
     reason = errno;
   }
+  if (f && !in_place) {
+    std::filesystem::rename(written, path, ec);
+    if (ec) f.setstate(std::ios::failbit), reason = ec.value();
+  }
+  if (!f && !in_place) std::filesystem::remove(written, ec);
   // (the option named: outside probe BB)
   if (!f) fail("--json: cannot write " + path + (reason ? " (" + std::string(std::strerror(reason)) + ")" : ""));
 }
@@ -674,6 +686,45 @@ std::vector<double> displacement_from(const mjModel* m, const std::vector<mjtNum
   return out;
 }
 
+// SIGINT (Ctrl-C), SIGTERM (a batch system's time limit, `timeout`) and SIGHUP during `run`: the run
+// stops at the end of its step, writes its CSV and JSON up to there (the JSON's "interrupted"),
+// says so and exits with 128 + the signal; a third one ends it at once (GNU timeout delivers its
+// signal twice, to the program and to its process group). (Outside probe CL: a signal killed the
+// program outright, with no JSON, nothing said and the CSV cut mid-row, the last value parsing
+// 1e5 too large.)
+volatile std::sig_atomic_t g_stop_signal = 0, g_stop_count = 0;
+extern "C" void note_stop_signal(int sig) {
+  g_stop_signal = sig;
+  if (++g_stop_count >= 3) {
+    signal(sig, SIG_DFL);
+    raise(sig);
+  }
+}
+class StopOnSignals {
+ public:
+  StopOnSignals() {
+    struct sigaction a {};
+    a.sa_handler = note_stop_signal;
+    sigemptyset(&a.sa_mask);
+    a.sa_flags = 0;
+    for (int i = 0; i < 3; ++i) {
+      sigaction(kSignals[i], &a, &old_[i]);
+      // a signal the caller ignores stays ignored (nohup; a shell script's background job and SIGINT)
+      if (old_[i].sa_handler == SIG_IGN) sigaction(kSignals[i], &old_[i], nullptr);
+    }
+  }
+  ~StopOnSignals() {
+    for (int i = 0; i < 3; ++i) sigaction(kSignals[i], &old_[i], nullptr);
+  }
+  StopOnSignals(const StopOnSignals&) = delete;
+  StopOnSignals& operator=(const StopOnSignals&) = delete;
+  static const char* name(int sig) { return sig == SIGINT ? "SIGINT" : sig == SIGTERM ? "SIGTERM" : "SIGHUP"; }
+
+ private:
+  static constexpr int kSignals[3] = {SIGINT, SIGTERM, SIGHUP};
+  struct sigaction old_[3];
+};
+
 int cmd_run(int argc, char** argv) {
   SimOptions sim;
   StateOptions state;
@@ -711,6 +762,13 @@ int cmd_run(int argc, char** argv) {
 
   Simulation s(pos->front(), sim, state);
   if (every == 0) every = csv.empty() ? static_cast<int>(std::max(1L, s.steps() / 1000)) : 1;
+  // an earlier run's JSON goes now, as its CSV does when opened: a report on disk is this run's
+  // (outside probe CL: a re-run killed partway left the old JSON, "steps": 1000, beside the new
+  // CSV, and a batch script taking "the JSON exists" for "done" skipped the job)
+  if (!json_path.empty() && json_path != "-" && std::filesystem::is_regular_file(json_path)) {
+    std::error_code ec;
+    std::filesystem::remove(json_path, ec);
+  }
   const Outputs& out = s.outputs();
   const std::vector<SensorOutput> sensors = with_sensors ? sensor_outputs(s.scene().m) : std::vector<SensorOutput>{};
   std::ofstream file;
@@ -733,9 +791,15 @@ int cmd_run(int argc, char** argv) {
     f << "\n";
     f.precision(10);
   }
+  // the CSV's rows are flushed every 64 (a killed run loses at most those), and a write that fails
+  // (a full disk) stops the run there, with the reason (outside probe CL: a CSV on a full disk ran
+  // the whole 300 000 steps to fail at the end, saying only "cannot write")
+  int rows_unflushed = 0, csv_errno = 0;
+  bool csv_failed = false;
   auto write_row = [&](double e) {
-    if (!csv_out) return;
+    if (!csv_out || csv_failed) return;
     std::ostream& f = *csv_out;
+    errno = 0;
     f << s.time() << "," << e;
     for (const auto& n : out.sites) {
       const Vec3 p = site_position(s.data(), n.id);
@@ -748,6 +812,14 @@ int cmd_run(int argc, char** argv) {
     for (const auto& c : sensors)
       for (int k = 0; k < c.dim; ++k) f << "," << s.data().d->sensordata[c.adr + k];
     f << "\n";
+    if (f && ++rows_unflushed >= 64) {
+      rows_unflushed = 0;
+      f.flush();
+    }
+    if (!f) {
+      csv_failed = true;
+      csv_errno = errno;
+    }
   };
 
   EnergyTracker energy;
@@ -759,6 +831,20 @@ int cmd_run(int argc, char** argv) {
   energy.add(s.energy());
   write_row(energy.final());
   const std::vector<mjtNum> start_positions = scene_positions(s.scene(), s.data());
+  // per body, the largest displacement of it and its sites from the start at the samples (the
+  // scene's poses after each observation): the open-equality warning's measure of the motion
+  // (re-check CK: from the end state alone, a pendulum back at its start after two periods had a
+  // 2e-7 m gap of a stiff connect warned about as 2.6% of it)
+  std::vector<double> moved_max(s.scene().m->nbody, 0.0);
+  auto track_moved = [&] {
+    if (s.scene().m->neq == 0) return;
+    const mjModel* m = s.scene().m;
+    const mjData* d = s.data().d;
+    std::vector<mjtNum> x(d->xpos, d->xpos + 3 * m->nbody);
+    x.insert(x.end(), d->site_xpos, d->site_xpos + 3 * m->nsite);
+    const std::vector<double> now = displacement_from(m, start_positions, x);
+    for (int b = 0; b < m->nbody; ++b) moved_max[b] = std::max(moved_max[b], now[b]);
+  };
   // how deep the start puts bodies into each other: what MuJoCo's soft contacts give back from
   // there is energy energy() does not count
   // (the pair's geoms kept: outside probe BB, the warning named the pair at the same index of the
@@ -793,7 +879,8 @@ int cmd_run(int argc, char** argv) {
   // vibration undamped (friction_on_stretching_rods_warning)
   const std::vector<char> stretching = undamped_stretching_capsules(s.scene(), s.integrator());
   bool rubbed = false;
-  while (k < s.steps()) {
+  const StopOnSignals stop_on_signals;
+  while (k < s.steps() && !g_stop_signal && !csv_failed) {
     if (!s.step()) {
       diverged = true;
       break;
@@ -818,6 +905,7 @@ int cmd_run(int argc, char** argv) {
       motion.add(s.scene().m, s.data().d);
       write_row(energy.final());
       last_row = k;
+      track_moved();
     }
     progress.update(k, s.time());
   }
@@ -827,7 +915,17 @@ int cmd_run(int argc, char** argv) {
     if (last_row != k) write_row(energy.final());
   }
   const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  if (csv_out && !csv_out->flush()) fail("--csv: cannot write " + (csv == "-" ? std::string("stdout") : csv));
+  const int interrupted = g_stop_signal;
+  if (csv_out && !csv_failed) {
+    errno = 0;
+    if (!csv_out->flush()) csv_failed = true, csv_errno = errno;
+  }
+  // (reported after the JSON, which a healthy disk still takes)
+  const std::string csv_failure =
+      csv_failed ? "--csv: cannot write " + (csv == "-" ? std::string("stdout") : csv) +
+                       (csv_errno ? " (" + std::string(std::strerror(csv_errno)) + ")" : std::string()) +
+                       ", at t = " + format_g(s.time()) + " s: the run stopped there"
+                 : std::string();
 
   std::vector<std::string> warnings = collect_warnings(s.scene(), s.data());
   if (s.scene().newton_for(s.integrator()) > 0 && k > 0) {
@@ -903,10 +1001,12 @@ int cmd_run(int argc, char** argv) {
   // an equality constraint open at the end, judged as equilibrium judges one (outside probe CH: a weld
   // of solref 0.002 held a twisted rod's end 4.6 mm from where servos put it, 15% of the slack they
   // prescribed, without a word)
+  if (!diverged && s.scene().m->neq > 0) {
+    const std::vector<double> end = displacement_from(s.scene().m, start_positions, scene_positions(s.scene(), s.data()));
+    for (size_t b = 0; b < end.size(); ++b) moved_max[b] = std::max(moved_max[b], end[b]);
+  }
   if (!diverged && s.scene().m->neq > 0)
-    for (const std::string& o :
-         mj::open_equalities(s.scene(), s.data(),
-                             displacement_from(s.scene().m, start_positions, scene_positions(s.scene(), s.data()))))
+    for (const std::string& o : mj::open_equalities(s.scene(), s.data(), moved_max))
       warnings.push_back(o + " at the end of the run: MuJoCo's constraints are soft (solref, solimp and the inertia of "
                              "what it joins), and the run moved with it open; " + kCloseIt);
   if (diverged) warnings.insert(warnings.begin(), "diverged: " + s.data().warning);
@@ -1051,6 +1151,8 @@ int cmd_run(int argc, char** argv) {
     if (with_sensors) add_sensors(j, sensors, s.data().d);
     j["diverged"] = diverged;
     if (diverged) j["reason"] = s.data().warning;  // also the first warning
+    // stopped by a signal or a CSV that could not be written: the report covers the run up to there
+    j["interrupted"] = interrupted ? json(StopOnSignals::name(interrupted)) : csv_failed ? json("csv write failed") : json(nullptr);
     j["warnings"] = report_warnings(warnings);
     if (adaptive)
       j["adaptive"] = {{"step_tol", s.scene().step_tol}, {"substeps", as.substeps}, {"rejected", as.rejected},
@@ -1089,6 +1191,12 @@ int cmd_run(int argc, char** argv) {
     print_warnings(stdout, warnings, s.scene().load_warnings);
   } else {  // (outside probe AL: with --csv - the warnings had gone nowhere)
     print_warnings(stderr, warnings, s.scene().load_warnings);
+  }
+  if (!csv_failure.empty()) fail(csv_failure);
+  if (interrupted) {
+    std::fprintf(stderr, "run: interrupted by %s at t = %s s after %ld of %ld steps; the outputs cover the run up to there\n",
+                 StopOnSignals::name(interrupted), format_g(s.time()).c_str(), k, s.steps());
+    return 128 + interrupted;
   }
   if (diverged) fail("simulation diverged: " + s.data().warning + " (" + divergence_hint(s) + ")");
   return 0;

@@ -1318,13 +1318,18 @@ bool actuated(const mjModel* m, int b) {
 }
 
 // A free joint of `loose` (only a contact can hold it) that no actuator acts on and whose subtree
-// carries a net force at the start under the full loads (its weight, buoyancy, applied forces):
-// no placement changes that force (everything else on the subtree is internal to it, and contacts
-// are what the smooth problem leaves out), so the smooth problem has no equilibrium. A message
-// naming it, empty if none. (Outside probe CE: a starfish of 646 dofs on a floor spent 80 of 110 s
-// in the smooth search's continuation, halving its load step at load factor 0, before the
-// relaxation that found its rest.)
+// carries a net force at the start under the full loads (its weight, applied forces): no placement
+// changes that force (everything else on the subtree is internal to it, and contacts are what the
+// smooth problem leaves out), so the smooth problem has no equilibrium. A message naming it, empty
+// if none. Not where forces at rest can depend on the placement otherwise: MuJoCo's fluid in a
+// wind (re-check CK: a plate held up by an updraft's drag when flat, which Newton had found, was
+// sent to the relaxation and fell), or a passive callback of the user's. (Outside probe CE: a
+// starfish of 646 dofs on a floor spent 80 of 110 s in the smooth search's continuation, halving
+// its load step at load factor 0, before the relaxation that found its rest.)
 std::string weight_on_contacts_alone(const mjModel* m, const std::vector<int>& loose, const VectorXd& f, double scale) {
+  const bool passive = !(m->opt.disableflags & mjDSBL_PASSIVE);
+  const bool wind = passive && (m->opt.density > 0 || m->opt.viscosity > 0) && mju_norm3(m->opt.wind) > 0;
+  if (wind || (passive && mjcb_passive)) return {};
   for (int j : loose) {
     const int b = m->jnt_bodyid[j];
     if (actuated(m, b)) continue;
@@ -1424,8 +1429,9 @@ std::string dof_name(const mjModel* m, int dof) {
 // pulls what it joins together within a few steps (outside probe CJ: a weld 0.3 m open at a
 // keyframe broke MuJoCo's constraint solver in the relaxation's eleventh step, "Rank-defficient
 // Hessian", and the message said nothing of the cause or the remedy). Leaves qpos at q_start.
+// (Not the run's remedies, which name options of a step, not of equilibrium: re-check CK.)
 std::string relaxation_divergence_hint(const Scene& s, SceneData& sd, const std::vector<mjtNum>& q_start) {
-  std::string hint = divergence_hint(s, sd, s.integrator);
+  const std::string hint = "a smaller timestep in the model lets it through where the motion outran the step";
   std::copy(q_start.begin(), q_start.end(), sd.d->qpos);
   mju_zero(sd.d->qvel, s.m->nv);
   std::string open;
@@ -2075,7 +2081,9 @@ std::vector<std::string> open_equalities(const Scene& s, const SceneData& sd, co
       const int r1 = m->body_rootid[m->eq_obj1id[e]], r2 = m->body_rootid[m->eq_obj2id[e]];
       for (int b = 1; b < m->nbody; ++b)
         if (m->body_rootid[b] == r1 || m->body_rootid[b] == r2) moved[e] = std::max(moved[e], displacement[b]);
-      if (moved[e] > 0 && 5e-3 * moved[e] < absolute) length[e] = std::max(5e-3 * moved[e], 1e-12);
+      // (not below 1e-6 of the extent: re-check CK's box welded at rest, whose joined bodies moved
+      // only by the weld's own give, was warned of a gap of 4e-9 m, "100%" of that)
+      if (moved[e] > 0 && 5e-3 * moved[e] < absolute) length[e] = std::max(5e-3 * moved[e], 1e-3 * absolute);
     }
   for (int i = 0; i < d->nefc; ++i) {
     if (d->efc_type[i] != mjCNSTR_EQUALITY) continue;

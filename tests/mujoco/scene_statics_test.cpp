@@ -501,6 +501,20 @@ TEST(SceneStatics, ABodyOnContactsAloneGoesStraightToTheRelaxation) {
     EXPECT_EQ(r.method, "newton");
     EXPECT_EQ(sd.d->ncon, 0);
   }
+  // a plate above a floor held up by an updraft (MuJoCo's fluid, wind along z) whose drag balances
+  // its weight when it lies flat: the force at rest turns with the plate, and Newton finds it flat
+  // from 5 degrees off (re-check CK: it had been sent to the relaxation, and fell)
+  auto plate = load_scene_string(R"(<mujoco><option timestep="0.001" density="1.2" wind="0 0 4.043513323831146"/>
+    <worldbody><geom name="floor" type="plane" size="5 5 0.1"/>
+    <body name="plate" pos="0 0 0.5" euler="5 0 0"><freejoint/><geom type="box" size="0.1 0.1 0.005" density="100"/></body>
+    </worldbody></mujoco>)",
+                                 kPath);
+  SceneData pd(*plate);
+  const SceneStaticsResult r = equilibrium(*plate, pd);
+  ASSERT_TRUE(r.converged) << r.message;
+  EXPECT_EQ(r.method, "newton");
+  EXPECT_NEAR(pd.d->qpos[2], 0.5, 1e-6);
+  EXPECT_NEAR(std::abs(pd.d->qpos[3]), 1.0, 1e-9);  // flat
 }
 
 // MuJoCo's contact buffers too small for a rod lying on a floor (4 sections, 8 capsules, 8-9
