@@ -1509,6 +1509,16 @@ int cmd_linearize(int argc, char** argv) {
                   "an equilibrium (above): its growth may be no property of the scene",
                   lin.flutter_hz, lin.flutter_rate);
     flutter_text = flutter_buf;
+  } else if (lin.flutter_rate > 0 && left_out > 0) {
+    // (re-check CK: a hub and rod lying on a floor, the contacts left out, read flutter "fed by
+    // non-conservative loads" where there are none: the smooth forces it keeps are out of balance
+    // there, their stiffness unsymmetric; with the contacts held as pins it reads none)
+    std::snprintf(flutter_buf, sizeof flutter_buf,
+                  "an oscillation of %.4g Hz grows at %.4g 1/s in the linearisation, which leaves out %d constraint "
+                  "rows that carry load here: the forces it keeps are out of balance, and the growth may be no "
+                  "property of the scene (--contacts-as-pins holds them)",
+                  lin.flutter_hz, lin.flutter_rate, left_out);
+    flutter_text = flutter_buf;
   } else if (lin.flutter_rate > 0 && lin.D.size() > 0 && lin.D.cwiseAbs().maxCoeff() == 0.0)
     flutter_text += " (undamped: this growth may be that of the highest modes the sections resolve, which grows with "
                     "them; a light `viscosity` on the rods leaves the resolved modes' growth)";
