@@ -29,13 +29,22 @@ class Progress {
       if (pct == shown_) return;
       shown_ = pct;
       const int w = 30, filled = w * pct / 100;
-      std::fprintf(stderr, "\r%s [%.*s%*s] %3d%%%s  t = %.3f s", label_.c_str(), filled, "##############################",
-                   w - filled, "", pct, counted(done).c_str(), t);
+      // (the wall time left on the bar too: outside probe CL)
+      const double wall = std::chrono::duration<double>(Clock::now() - start_).count();
+      const double left = done > 0 ? wall * static_cast<double>(total_ - done) / static_cast<double>(done) : 0.0;
+      std::fprintf(stderr, "\r%s [%.*s%*s] %3d%%%s  t = %.3f s, about %.0f s left ", label_.c_str(), filled,
+                   "##############################", w - filled, "", pct, counted(done).c_str(), t, left);
       std::fflush(stderr);
       return;
     }
-    if ((done & 63) != 0 && done != total_) return;  // the clock read every 64 updates
+    // the clock read every 64 updates where they come fast (a run's steps), at each where they come
+    // more than 1 ms apart (render's frames: outside probe CL, a 3000-frame render's first pass was
+    // silent for 15-18 s at every 64th)
+    if (++since_read_ < stride_ && done != total_) return;
+    since_read_ = 0;
     const double wall = std::chrono::duration<double>(Clock::now() - start_).count();
+    stride_ = wall - last_read_ > 1e-3 * stride_ ? 1 : 64;
+    last_read_ = wall;
     if (wall < next_line_) return;
     next_line_ = wall + kLineInterval;
     const double left = done > 0 ? wall * static_cast<double>(total_ - done) / static_cast<double>(done) : 0.0;
@@ -76,6 +85,8 @@ class Progress {
   Clock::time_point start_;
   double next_line_;
   int shown_ = -1;
+  long since_read_ = 0, stride_ = 1;  // updates since the clock was read, and how many between reads
+  double last_read_ = 0.0;
 };
 
 }  // namespace cosserat::cli
