@@ -1149,6 +1149,7 @@ int cmd_run(int argc, char** argv) {
                    {"max_rel_drift", energy.max_rel_drift()}, {"exchanged_by", exchanges}};
     add_positions(j, out, s.data());
     if (with_sensors) add_sensors(j, sensors, s.data().d);
+    j["state"] = state_json(s.scene().m, s.data().d);  // (where it ended: --state continues from it)
     j["diverged"] = diverged;
     if (diverged) j["reason"] = s.data().warning;  // also the first warning
     // stopped by a signal or a CSV that could not be written: the report covers the run up to there
@@ -1321,6 +1322,8 @@ int cmd_equilibrium(int argc, char** argv) {
     j["warnings"] = report_warnings(warnings);
     add_positions(j, out, *eq.data);
     if (with_sensors) add_sensors(j, sensors, eq.data->d);
+    // (at rest where it converged; where not, the positions reported: --state starts from either)
+    j["state"] = state_json(eq.scene->m, eq.data->d);
     write_json(json_path, j);
   }
   if (json_path != "-") {

@@ -5,9 +5,12 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <fstream>
 #include <sstream>
 #include <string>
 #include <vector>
+
+#include <nlohmann/json.hpp>
 
 #include "cli.hpp"
 #include "control_schedule.hpp"
@@ -56,13 +59,65 @@ inline void apply_key_and_ctrl(const mjModel* m, mjData* d, const std::string& k
   }
 }
 
+// The state a report carries ("state" in run's and equilibrium's JSON): time, qpos, qvel, act, ctrl.
+inline nlohmann::ordered_json state_json(const mjModel* m, const mjData* d) {
+  return {{"time", d->time},
+          {"qpos", std::vector<double>(d->qpos, d->qpos + m->nq)},
+          {"qvel", std::vector<double>(d->qvel, d->qvel + m->nv)},
+          {"act", std::vector<double>(d->act, d->act + m->na)},
+          {"ctrl", std::vector<double>(d->ctrl, d->ctrl + m->nu)}};
+}
+
+// --state F: the "state" of a report F (state_json) into d, refused where F is no such report or
+// its sizes are not the model's. (Outside probes CJ and CL: an interrupted run could not be
+// continued, and an equilibrium or a run's end state could not be started from without writing a
+// keyframe by hand.)
+inline void apply_state_file(const mjModel* m, mjData* d, const std::string& path) {
+  std::ifstream f(path);
+  if (!f) fail("--state: cannot read " + path);
+  nlohmann::json j;
+  try {
+    j = nlohmann::json::parse(f);
+  } catch (const std::exception& e) {
+    fail("--state: " + path + " is not JSON (" + e.what() + ")");
+  }
+  if (!j.is_object() || !j.contains("state") || !j["state"].is_object())
+    fail("--state: " + path + " has no \"state\" (the JSON of run --json or equilibrium --json has one)");
+  const nlohmann::json& st = j["state"];
+  auto take = [&](const char* name, int size, mjtNum* into) {
+    if (!st.contains(name) || !st[name].is_array()) fail("--state: " + path + ": \"state\" has no array \"" + name + "\"");
+    const auto& a = st[name];
+    if (static_cast<int>(a.size()) != size)
+      fail("--state: " + path + ": " + name + " has " + std::to_string(a.size()) + " values where the model has " +
+           std::to_string(size) + " (a report of another model?)");
+    for (int i = 0; i < size; ++i) {
+      if (!a[i].is_number() || !std::isfinite(a[i].get<double>()))
+        fail("--state: " + path + ": " + name + "[" + std::to_string(i) + "] is not a finite number");
+      into[i] = a[i].get<double>();
+    }
+  };
+  mj_resetData(m, d);
+  take("qpos", m->nq, d->qpos);
+  take("qvel", m->nv, d->qvel);
+  take("act", m->na, d->act);
+  take("ctrl", m->nu, d->ctrl);
+  if (!st.contains("time") || !st["time"].is_number() || !std::isfinite(st["time"].get<double>()))
+    fail("--state: " + path + ": \"state\" has no finite \"time\"");
+  d->time = st["time"].get<double>();
+}
+
 // The initial state and the controls: a keyframe (qpos, qvel, act, ctrl) and/or explicit controls.
 struct StateOptions {
-  std::string key, ctrl, ctrl_file;
+  std::string key, ctrl, ctrl_file, state_file;
 
   // schedule: the command takes --ctrl-file too (the ones that simulate a run: run, render, snapshot)
   void add_to(CommandLine& c, bool schedule = false) {
     c.options.push_back(text_option("--key", "K", "start from keyframe K (name or index): qpos, qvel, act, ctrl", key));
+    c.options.push_back(text_option(
+        "--state", "F",
+        "start from the \"state\" (time, qpos, qvel, act, ctrl) of a JSON report F that run --json or equilibrium "
+        "--json wrote for this model: continue a run where it ended or was interrupted, or run from an equilibrium",
+        state_file));
     c.options.push_back(text_option("--ctrl", "U", "actuator controls: nu numbers separated by commas (applied after --key)", ctrl));
     if (schedule)
       c.options.push_back(text_option(
@@ -76,6 +131,10 @@ struct StateOptions {
   }
 
   void apply(const mj::Scene& s, mj::SceneData& sd) const {
+    if (!state_file.empty()) {
+      if (!key.empty()) fail("--state and --key both set the initial state: give one");
+      apply_state_file(s.m, sd.d, state_file);
+    }
     apply_key_and_ctrl(s.m, sd.d, key, ctrl);
     if (!ctrl_file.empty()) install_schedule_file(ctrl_file, s.m, sd.d);
   }

@@ -1411,6 +1411,36 @@ TEST_F(Cli, AnInterruptedRunWritesItsOutputsUpToThere) {
   EXPECT_LT(j["steps"].get<long>(), 1000);
 }
 
+// --state starts from the "state" a report carries (outside probes CJ and CL: an interrupted run
+// could not be continued, nor a run started from an equilibrium without a keyframe written by
+// hand): a run of 0.2 s continued for 0.2 s ends where one run of 0.4 s ends, to the bit; a run
+// from equilibrium's state stays at rest; --state with --key, and another model's report, are
+// refused.
+TEST_F(Cli, AStateFromAReportContinuesTheRun) {
+  const fs::path a = scratch() / "a.json", b = scratch() / "b.json", c = scratch() / "c.json", e = scratch() / "e.json";
+  ASSERT_EQ(cosserat("run '" + kCantilever + "' --duration 0.2 --json '" + a.string() + "'").status, 0);
+  const Result cont = cosserat("run '" + kCantilever + "' --state '" + a.string() + "' --duration 0.2 --json '" + b.string() + "'");
+  ASSERT_EQ(cont.status, 0) << cont.err;
+  ASSERT_EQ(cosserat("run '" + kCantilever + "' --duration 0.4 --json '" + c.string() + "'").status, 0);
+  const json jb = json::parse(read_text(b)), jc = json::parse(read_text(c));
+  EXPECT_NEAR(jb["sim_time"].get<double>(), 0.4, 1e-12);
+  EXPECT_EQ(jb["state"]["qpos"], jc["state"]["qpos"]);
+  EXPECT_EQ(jb["state"]["qvel"], jc["state"]["qvel"]);
+  ASSERT_EQ(cosserat("equilibrium '" + kCantilever + "' --json '" + e.string() + "'").status, 0);
+  const fs::path r = scratch() / "rest.json";
+  ASSERT_EQ(cosserat("run '" + kCantilever + "' --state '" + e.string() + "' --duration 0.1 --json '" + r.string() + "'").status, 0);
+  const json je = json::parse(read_text(e)), jr = json::parse(read_text(r));
+  const auto qe = je["state"]["qpos"].get<std::vector<double>>(), qr = jr["state"]["qpos"].get<std::vector<double>>();
+  ASSERT_EQ(qe.size(), qr.size());
+  for (size_t i = 0; i < qe.size(); ++i) EXPECT_NEAR(qr[i], qe[i], 1e-6) << i;
+  const Result both = cosserat("run '" + kCantilever + "' --state '" + e.string() + "' --key 0");
+  EXPECT_EQ(both.status, 1);
+  EXPECT_NE(both.err.find("--state and --key both set the initial state"), std::string::npos) << both.err;
+  const Result other = cosserat("run '" COSSERAT_SOURCE_DIR "/models/hybrid_arm.xml' --state '" + e.string() + "'");
+  EXPECT_EQ(other.status, 1);
+  EXPECT_NE(other.err.find("values where the model has"), std::string::npos) << other.err;
+}
+
 // What a batch script relies on (outside probe BV): friction loss and limits are counted among what
 // takes energy (a pendulum slowed by friction loss, or stopped by a joint limit, had been warned
 // about as numerical damping, "--integrator midpoint keeps the energy"); --csv and --json naming one
