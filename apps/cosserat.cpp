@@ -664,15 +664,18 @@ const std::string kCloseIt =
     "a stiffer solref (its time constant down to twice the step, e.g. solref=\"0.002 1\" at 1 ms) or a "
     "solimp nearer 1 (e.g. solimp=\"0.99 0.999 0.001\") closes it, and where it joins bodies, heavier ones";
 
-// The bodies' and sites' positions (the rods' proxies at their section ends, their sites where the
-// rods put them: the scene's poses, not mj_kinematics', which takes the strain joints for slides).
-std::vector<mjtNum> scene_positions(const mj::Scene& sc, mj::SceneData& sd) {
-  const mjModel* m = sc.m;
-  mjData* d = sd.d;
-  mj::fwd_inertia(sc, sd, false);
+// The bodies' and then the sites' positions as d holds them (after an evaluation of the scene).
+std::vector<mjtNum> body_and_site_positions(const mjModel* m, const mjData* d) {
   std::vector<mjtNum> x(d->xpos, d->xpos + 3 * m->nbody);
   x.insert(x.end(), d->site_xpos, d->site_xpos + 3 * m->nsite);
   return x;
+}
+
+// The bodies' and sites' positions (the rods' proxies at their section ends, their sites where the
+// rods put them: the scene's poses, not mj_kinematics', which takes the strain joints for slides).
+std::vector<mjtNum> scene_positions(const mj::Scene& sc, mj::SceneData& sd) {
+  mj::fwd_inertia(sc, sd, false);
+  return body_and_site_positions(sc.m, sd.d);
 }
 
 // Per body, the largest displacement of it and its sites between two scene_positions.
@@ -836,14 +839,9 @@ int cmd_run(int argc, char** argv) {
   // (re-check CK: from the end state alone, a pendulum back at its start after two periods had a
   // 2e-7 m gap of a stiff connect warned about as 2.6% of it)
   std::vector<double> moved_max(s.scene().m->nbody, 0.0);
-  auto track_moved = [&] {
-    if (s.scene().m->neq == 0) return;
-    const mjModel* m = s.scene().m;
-    const mjData* d = s.data().d;
-    std::vector<mjtNum> x(d->xpos, d->xpos + 3 * m->nbody);
-    x.insert(x.end(), d->site_xpos, d->site_xpos + 3 * m->nsite);
-    const std::vector<double> now = displacement_from(m, start_positions, x);
-    for (int b = 0; b < m->nbody; ++b) moved_max[b] = std::max(moved_max[b], now[b]);
+  auto track_moved = [&](const std::vector<mjtNum>& x) {
+    const std::vector<double> now = displacement_from(s.scene().m, start_positions, x);
+    for (size_t b = 0; b < now.size(); ++b) moved_max[b] = std::max(moved_max[b], now[b]);
   };
   // how deep the start puts bodies into each other: what MuJoCo's soft contacts give back from
   // there is energy energy() does not count
@@ -905,7 +903,7 @@ int cmd_run(int argc, char** argv) {
       motion.add(s.scene().m, s.data().d);
       write_row(energy.final());
       last_row = k;
-      track_moved();
+      if (s.scene().m->neq > 0) track_moved(body_and_site_positions(s.scene().m, s.data().d));
     }
     progress.update(k, s.time());
   }
@@ -1002,13 +1000,11 @@ int cmd_run(int argc, char** argv) {
   // of solref 0.002 held a twisted rod's end 4.6 mm from where servos put it, 15% of the slack they
   // prescribed, without a word)
   if (!diverged && s.scene().m->neq > 0) {
-    const std::vector<double> end = displacement_from(s.scene().m, start_positions, scene_positions(s.scene(), s.data()));
-    for (size_t b = 0; b < end.size(); ++b) moved_max[b] = std::max(moved_max[b], end[b]);
-  }
-  if (!diverged && s.scene().m->neq > 0)
+    track_moved(scene_positions(s.scene(), s.data()));  // (the end state, sampled or not: an interrupted run)
     for (const std::string& o : mj::open_equalities(s.scene(), s.data(), moved_max))
       warnings.push_back(o + " at the end of the run: MuJoCo's constraints are soft (solref, solimp and the inertia of "
                              "what it joins), and the run moved with it open; " + kCloseIt);
+  }
   if (diverged) warnings.insert(warnings.begin(), "diverged: " + s.data().warning);
   if (const std::string w = motion.warning(s.scene().m, energy); !w.empty() && !diverged) warnings.push_back(w);
   // bodies that start deep in each other (outside fuzzing: a 100 m leg through a floor went from

@@ -139,16 +139,18 @@ struct Simulation {
   }
 
   // Steps until `t` after the start (to the nearest step) and brings the kinematics up to date.
-  // (with `progress`, its steps counted there: snapshot's simulation up to its picture, which outside
-  // probe CL found silent for 18 s at --time 500)
-  void advance_to(double t, Progress* progress = nullptr) {
+  // With `progress_label`, the steps shown as a command's progress (snapshot's simulation up to its
+  // picture, which outside probe CL found silent for 18 s at --time 500).
+  void advance_to(double t, const char* progress_label = nullptr) {
     const long target = step_count(t, scene->m->opt.timestep, "the simulated time (--time, --duration)");
-    for (; steps < target; ++steps) {
+    std::optional<Progress> progress;
+    if (progress_label) progress.emplace(progress_label, target - steps, "step");
+    for (const long first = steps; steps < target; ++steps) {
       if (mj::step(*scene, *data, integrator) != cosserat::Status::Ok) {
         const std::string c = mj::collapse_warning(*scene, *data);
         fail("the simulation diverged: " + data->warning + (c.empty() ? "" : " (after a rod section collapsed: " + c + ")"));
       }
-      if (progress) progress->update(steps + 1, time());
+      if (progress) progress->update(steps + 1 - first, time());
     }
     mj::fwd_position(*scene, *data);
   }
@@ -387,10 +389,7 @@ int snapshot_command(int argc, char** argv) {
     Simulation sim((*pos)[0], o);
     rd::Renderer renderer(*sim.scene, o.render);
     warn_renderer(renderer);
-    {
-      Progress progress("snapshot", step_count(time, sim.scene->m->opt.timestep, "the simulated time (--time)"), "step");
-      sim.advance_to(time, &progress);  // the picture's directory: check_writable's
-    }
+    sim.advance_to(time, "snapshot");  // the picture's directory: check_writable's
     rd::write_png(o.out, renderer.render(*sim.data));
     std::printf("snapshot: %s %dx%d at t = %g s\n", o.out.c_str(), renderer.width(), renderer.height(), sim.time());
     sim.warn();

@@ -1431,19 +1431,23 @@ std::string dof_name(const mjModel* m, int dof) {
 // Hessian", and the message said nothing of the cause or the remedy). Leaves qpos at q_start.
 // (Not the run's remedies, which name options of a step, not of equilibrium: re-check CK.)
 std::string relaxation_divergence_hint(const Scene& s, SceneData& sd, const std::vector<mjtNum>& q_start) {
-  const std::string hint = "a smaller timestep in the model lets it through where the motion outran the step";
+  char b[240];
+  std::snprintf(b, sizeof b,
+                " (the relaxation runs the scene's own dynamics, its integrator and <option timestep> of %g s: a "
+                "smaller timestep in the model lets it through where the motion outran the step)",
+                s.m->opt.timestep);
+  std::string hint = b;
   std::copy(q_start.begin(), q_start.end(), sd.d->qpos);
   mju_zero(sd.d->qvel, s.m->nv);
-  std::string open;
   try {
     forward(s, sd);
     const std::vector<std::string> gaps = open_equalities(s, sd);
-    if (!gaps.empty()) open = "; at the start " + gaps.front() + ", which pulls what it joins together within a few steps: start nearer to it closed (a keyframe)";
+    if (!gaps.empty())
+      hint += "; at the start " + gaps.front() +
+              ", which pulls what it joins together within a few steps: start nearer to it closed (a keyframe)";
   } catch (const std::exception&) {
   }
-  char b[200];
-  std::snprintf(b, sizeof b, " (the relaxation runs the scene's own dynamics, its integrator and <option timestep> of %g s: ", s.m->opt.timestep);
-  return b + hint + ")" + open;
+  return hint;
 }
 
 // Dynamic relaxation with kinetic damping from qpos = q_start: the scene's own dynamics, with all
